@@ -1,0 +1,21 @@
+"""ROS-free planning core: robot model, state, kinematics, planning scene, planners, timing.
+
+Import from here in user code: ``from mycobot_planning.core import RobotModel, RobotState``.
+Nothing in this package imports rclpy.
+"""
+from .errors import KinematicsError, PlanningError, RobotModelError, SceneError, StateError
+from .robot_model import EndEffector, JointInfo, JointModelGroup, RobotModel
+from .robot_state import RobotState
+
+__all__ = [
+    "EndEffector",
+    "JointInfo",
+    "JointModelGroup",
+    "KinematicsError",
+    "PlanningError",
+    "RobotModel",
+    "RobotModelError",
+    "RobotState",
+    "SceneError",
+    "StateError",
+]

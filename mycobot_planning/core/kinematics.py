@@ -1,0 +1,280 @@
+"""Inverse kinematics for any planning group: damped Gauss-Newton on Pinocchio with random restarts.
+
+Why numerical: the package must work for any URDF + SRDF arm, so no closed form. Each iteration is
+one Pinocchio call for kinematics and joint Jacobians plus a 6x6 solve; restarts from uniform random
+states inside the limits give the distinct solutions MTC's ComputeIK asks for. The iteration loop
+is hand-written in Python (Pinocchio ships no IK solver); it stays short because Gauss-Newton
+converges quadratically near a solution and steps are clamped far from one.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Callable, Protocol
+
+import numpy as np
+import pinocchio as pin
+from scipy.spatial import cKDTree
+
+from .errors import KinematicsError
+from .robot_model import RobotModel
+from .robot_state import RobotState
+from .transforms import check_pose, inverse
+
+
+class StateValidity(Protocol):
+    def is_state_valid(self, state: RobotState) -> bool: ...
+
+
+@dataclass(frozen=True)
+class IKOptions:
+    """Solver knobs; the defaults solve the myCobot and the Panda in a handful of iterations."""
+
+    position_tolerance: float = 1e-5  # metres
+    orientation_tolerance: float = 1e-4  # radians
+    max_iterations: int = 20
+    damping: float = 1e-6
+    max_step: float = 1.0  # radians (or metres) per joint per iteration, keeps steps in the linear regime
+    max_iterations_restart: int = 15  # descents from table or random seeds give up sooner
+    seed_table_size: int = 4000  # precomputed FK samples whose nearest poses seed the descents
+    seed_neighbours: int = 8  # table seeds tried before uniform random restarts
+    orientation_weight: float = 0.05  # metres per unit of rotation-matrix difference in the table
+
+
+def state_distance(a: np.ndarray, b: np.ndarray) -> float:
+    """MoveIt's RobotState::distance for single-variable joints: the sum of per-joint distances."""
+    return float(np.sum(np.abs(a - b)))
+
+
+class IKSolver:
+    """IK for one group and one tip frame (optionally an ik_frame rigidly offset from it).
+
+    Built once and reused: it caches the frame id, the Jacobian columns and the limit vectors.
+    """
+
+    def __init__(
+        self,
+        model: RobotModel,
+        group: str,
+        link: str | None = None,
+        ik_frame_offset: np.ndarray | None = None,
+        options: IKOptions = IKOptions(),
+    ) -> None:
+        self.model = model
+        self.group = model.group(group)
+        if not self.group.joint_names:
+            raise KinematicsError(f"group '{group}' has no active joints to solve IK for")
+        self.link = link or self.group.tip_link
+        try:
+            self.frame_id = model.frame_id(self.link)
+        except ValueError as exc:
+            raise KinematicsError(str(exc)) from None
+        self.offset_inv = None
+        if ik_frame_offset is not None:
+            try:
+                self.offset_inv = inverse(check_pose(ik_frame_offset, "ik_frame offset"))
+            except ValueError as exc:
+                raise KinematicsError(str(exc)) from None
+        self.options = options
+        self._indices = self.group.variable_indices
+        self._jmap = model.jacobian_map(self._indices)
+        self._lower = model.lower_limits[self._indices]
+        self._upper = model.upper_limits[self._indices]
+        # Sampling range: infinite limits (rare) are sampled within ±pi.
+        self._sample_lower = np.where(np.isfinite(self._lower), self._lower, -math.pi)
+        self._sample_upper = np.where(np.isfinite(self._upper), self._upper, math.pi)
+        self._continuous = np.array([model.joint(j).type == "continuous" for j in self.group.joint_names])
+        self._has_continuous = bool(self._continuous.any())
+
+    # ------------------------------------------------------------------ one descent
+    def _seed_table(self, position_only: bool) -> tuple[cKDTree, np.ndarray]:
+        """Nearest-pose lookup over random group states, built once per model, group and link.
+
+        Starting Gauss-Newton from the sample whose pose is nearest the target lands in the right
+        IK branch almost always, so most solves take one short descent instead of many restarts.
+        The samples come from a fixed seed so results stay reproducible.
+        """
+        def build() -> tuple[cKDTree, np.ndarray]:
+            rng = np.random.default_rng(12345)
+            size = self.options.seed_table_size
+            samples = rng.uniform(self._sample_lower, self._sample_upper, size=(size, len(self._indices)))
+            full = self.model.default_positions()
+            features = np.empty((size, 3 if position_only else 12))
+            pmodel, pdata = self.model.pin_model, self.model.pin_data
+            for i, x in enumerate(samples):
+                full[self._indices] = x
+                pin.forwardKinematics(pmodel, pdata, self.model.to_q(full))
+                features[i] = self._features(pin.updateFramePlacement(pmodel, pdata, self.frame_id), position_only)
+            return cKDTree(features), samples
+
+        options = self.options
+        key = ("ik_seed_table", self.group.name, self.link, position_only, options.seed_table_size,
+               options.orientation_weight)
+        return self.model.cached(key, build)
+
+    def _features(self, pose: pin.SE3, position_only: bool) -> np.ndarray:
+        if position_only:
+            return np.array(pose.translation)
+        return np.concatenate([pose.translation, self.options.orientation_weight * pose.rotation.reshape(-1)])
+
+    def _start_points(self, base: np.ndarray, target: pin.SE3, position_only: bool, rng: np.random.Generator):
+        """Starting group vectors with their iteration budgets, best first.
+
+        The seed comes first when its pose is at least as near the target as the nearest table
+        sample (consecutive Cartesian steps, small moves: the answer stays on the seed's branch);
+        otherwise the nearest table samples come first and the seed after them. Then uniform
+        random restarts until the caller's timeout.
+        """
+        tree, samples = self._seed_table(position_only)
+        k = min(self.options.seed_neighbours, len(samples))
+        distances, nearest = tree.query(self._features(target, position_only), k=k)
+        distances, nearest = np.atleast_1d(distances), np.atleast_1d(nearest)
+        pmodel, pdata = self.model.pin_model, self.model.pin_data
+        pin.forwardKinematics(pmodel, pdata, self.model.to_q(base))
+        seed_pose = pin.updateFramePlacement(pmodel, pdata, self.frame_id)
+        seed_distance = float(np.linalg.norm(self._features(seed_pose, position_only) - self._features(target, position_only)))
+        seed = (base[self._indices].copy(), self.options.max_iterations)
+        if seed_distance <= distances[0]:
+            yield seed
+        for index in nearest:
+            yield samples[index].copy(), self.options.max_iterations_restart
+        if seed_distance > distances[0]:
+            yield seed
+        while True:
+            yield rng.uniform(self._sample_lower, self._sample_upper), self.options.max_iterations_restart
+
+    def _descend(self, full: np.ndarray, target: pin.SE3, position_only: bool, max_iterations: int) -> bool:
+        """Run damped Gauss-Newton from full[group] in place; True when the tolerance is met."""
+        model, opts = self.model, self.options
+        pmodel, pdata = model.pin_model, model.pin_data
+        idx, jmap, fid = self._indices, self._jmap, self.frame_id
+        x = full[idx].copy()
+        lower, upper = self._lower, self._upper
+        damping = opts.damping * np.eye(3 if position_only else 6)
+        pos_tol2 = opts.position_tolerance**2
+        rot_tol2 = opts.orientation_tolerance**2
+        max_step = opts.max_step
+        wrap = self._has_continuous
+        local = pin.ReferenceFrame.LOCAL
+        world = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+        for _ in range(max_iterations):
+            full[idx] = x
+            pin.computeJointJacobians(pmodel, pdata, model.to_q(full))
+            current = pin.updateFramePlacement(pmodel, pdata, fid)
+            if position_only:
+                err = target.translation - current.translation
+                if err @ err < pos_tol2:
+                    return True
+                jac = pin.getFrameJacobian(pmodel, pdata, fid, world)[:3] @ jmap
+            else:
+                delta = current.actInv(target)
+                err = pin.log6(delta).vector
+                lin, ang = err[:3], err[3:]
+                if lin @ lin < pos_tol2 and ang @ ang < rot_tol2:
+                    return True
+                # d log6(current^-1 target) = -Jlog6(target^-1 current) J_local dq; we solve
+                # J' dq = err with J' = Jlog6(delta^-1) J_local (Pinocchio's IK example).
+                jac = pin.Jlog6(delta.inverse()) @ (pin.getFrameJacobian(pmodel, pdata, fid, local) @ jmap)
+            step = jac.T @ np.linalg.solve(jac @ jac.T + damping, err)
+            largest = max(step.max(), -step.min())
+            if largest > max_step:
+                step *= max_step / largest
+            x += step
+            if wrap:
+                mask = self._continuous
+                x[mask] = (x[mask] + math.pi) % (2 * math.pi) - math.pi
+            np.clip(x, lower, upper, out=x)
+        full[idx] = x
+        return False
+
+    # ------------------------------------------------------------------ public
+    def solve(
+        self,
+        target_pose: np.ndarray,
+        seed: RobotState | None = None,
+        timeout: float | None = None,
+        max_solutions: int = 1,
+        min_solution_distance: float = 0.1,
+        position_only: bool = False,
+        validity: StateValidity | Callable[[RobotState], bool] | None = None,
+        rng: np.random.Generator | int | None = None,
+        attempts: int | None = None,
+    ) -> list[RobotState]:
+        """Up to max_solutions states placing the frame at target_pose, at least min_solution_distance
+        apart (sum of joint distances), first from the seed, then from random restarts until the
+        timeout (kinematics.yaml's kinematics_solver_timeout by default). Variables outside the
+        group keep the seed's values. An empty list means no solution was found in time.
+        """
+        try:
+            target = check_pose(target_pose, "IK target pose")
+        except ValueError as exc:
+            raise KinematicsError(str(exc)) from None
+        if max_solutions < 1:
+            raise KinematicsError(f"max_solutions must be >= 1, got {max_solutions}")
+        if not min_solution_distance >= 0:
+            raise KinematicsError(f"min_solution_distance must be >= 0, got {min_solution_distance}")
+        if self.offset_inv is not None:
+            target = target @ self.offset_inv
+        target_se3 = pin.SE3(target[:3, :3].copy(), target[:3, 3].copy())
+        cfg = self.model.kinematics(self.group.name)
+        if timeout is None:
+            timeout = float(cfg["kinematics_solver_timeout"])
+        if not timeout > 0:
+            raise KinematicsError(f"IK timeout must be > 0, got {timeout}")
+        if seed is not None and seed.model is not self.model:
+            raise KinematicsError("IK seed state belongs to a different robot model")
+        if not isinstance(rng, np.random.Generator):
+            rng = np.random.default_rng(rng)
+        check = validity.is_state_valid if hasattr(validity, "is_state_valid") else validity
+        base = (seed.positions if seed is not None else self.model.default_positions()).copy()
+        solutions: list[RobotState] = []
+        deadline = time.perf_counter() + timeout
+        starts = self._start_points(base, target_se3, position_only, rng)
+        tries = 0
+        while len(solutions) < max_solutions:
+            full = base.copy()
+            full[self._indices], iterations = next(starts)
+            tries += 1
+            if self._descend(full, target_se3, position_only, iterations):
+                x = full[self._indices]
+                distinct = all(
+                    state_distance(x, s.positions[self._indices]) >= min_solution_distance for s in solutions
+                )
+                if distinct:
+                    state = RobotState(self.model, full)
+                    if check is None or check(state):
+                        solutions.append(state)
+            if attempts is not None and tries >= attempts:
+                break
+            if time.perf_counter() > deadline:
+                break
+        return solutions
+
+
+def solve_ik(
+    model: RobotModel,
+    group: str,
+    target_pose: np.ndarray,
+    link: str | None = None,
+    ik_frame_offset: np.ndarray | None = None,
+    seed: RobotState | None = None,
+    timeout: float | None = None,
+    max_solutions: int = 1,
+    min_solution_distance: float = 0.1,
+    position_only: bool = False,
+    scene: StateValidity | None = None,
+    rng: np.random.Generator | int | None = None,
+) -> list[RobotState]:
+    """One-shot IK (builds an IKSolver); keep an IKSolver for repeated queries."""
+    solver = IKSolver(model, group, link, ik_frame_offset)
+    return solver.solve(
+        target_pose,
+        seed=seed,
+        timeout=timeout,
+        max_solutions=max_solutions,
+        min_solution_distance=min_solution_distance,
+        position_only=position_only,
+        validity=scene,
+        rng=rng,
+    )

@@ -1,0 +1,1 @@
+"""Runnable demonstrations used by scripts/demo.sh and the README."""

@@ -1,0 +1,29 @@
+"""ament_python package: builds with colcon on a ROS machine and installs with pip elsewhere."""
+from glob import glob
+
+from setuptools import find_packages, setup
+
+PACKAGE = "mycobot_planning"
+
+setup(
+    name=PACKAGE,
+    version="0.1.0",
+    packages=find_packages(include=[PACKAGE, f"{PACKAGE}.*", "interfaces_py", "interfaces_py.*"]),
+    data_files=[
+        ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
+        (f"share/{PACKAGE}", ["package.xml"]),
+        (f"share/{PACKAGE}/config", sorted(glob("config/*"))),
+    ],
+    install_requires=["setuptools"],
+    zip_safe=True,
+    maintainer="mycobot_planning developers",
+    maintainer_email="dev@mycobot-planning.invalid",
+    description="MoveIt move_group and Task Constructor stand-in for the myCobot 280, in Python.",
+    license="Apache-2.0",
+    python_requires=">=3.10",
+    entry_points={
+        "console_scripts": [
+            f"ik_over_table = {PACKAGE}.demos.ik_over_table:main",
+        ],
+    },
+)

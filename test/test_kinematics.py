@@ -1,0 +1,134 @@
+"""Inverse kinematics: round trips, distinct solutions, ik_frame offsets, limits, bad input."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from mycobot_planning.core import KinematicsError, RobotModel, RobotState
+from mycobot_planning.core.kinematics import IKSolver, solve_ik, state_distance
+from mycobot_planning.core.transforms import make_pose
+
+
+def random_reachable_poses(model: RobotModel, group: str, count: int, seed: int) -> list[np.ndarray]:
+    rng = np.random.default_rng(seed)
+    jmg = model.group(group)
+    poses = []
+    for _ in range(count):
+        state = RobotState(model)
+        state.set_group_positions(group, rng.uniform(model.lower_limits[jmg.variable_indices], model.upper_limits[jmg.variable_indices]))
+        poses.append(state.frame_pose(jmg.tip_link))
+    return poses
+
+
+def test_round_trip_success_rate_on_1000_poses(mycobot: RobotModel):
+    solver = IKSolver(mycobot, "arm")
+    rng = np.random.default_rng(7)
+    poses = random_reachable_poses(mycobot, "arm", 1000, seed=11)
+    solved = 0
+    for pose in poses:
+        solutions = solver.solve(pose, rng=rng)
+        if solutions:
+            solved += 1
+            reached = solutions[0].frame_pose("link6_flange")
+            assert np.allclose(reached[:3, 3], pose[:3, 3], atol=1e-4)
+            assert np.allclose(reached[:3, :3], pose[:3, :3], atol=1e-3)
+            assert solutions[0].satisfies_bounds()
+    assert solved / len(poses) >= 0.995
+
+
+def test_multiple_distinct_solutions(mycobot: RobotModel):
+    pose = random_reachable_poses(mycobot, "arm", 1, seed=4)[0]  # a pose with 8 IK branches in limits
+    solutions = solve_ik(mycobot, "arm", pose, max_solutions=4, min_solution_distance=0.5, timeout=0.5, rng=1)
+    assert len(solutions) >= 2
+    for i, a in enumerate(solutions):
+        assert np.allclose(a.frame_pose("link6_flange"), pose, atol=1e-4)
+        for b in solutions[i + 1 :]:
+            assert state_distance(a.group_positions("arm"), b.group_positions("arm")) >= 0.5
+
+
+def test_seed_is_kept_for_nearby_targets(mycobot: RobotModel):
+    """A small move from the seed must stay on the seed's branch (Cartesian paths rely on it)."""
+    seed = RobotState(mycobot)
+    seed.set_named("ready")
+    seed.set_joint_positions({"link1_to_link2": 0.3, "link5_to_link6": 0.4})
+    target = seed.frame_pose("link6_flange")
+    target[:3, 3] += [0.003, -0.002, 0.001]
+    solution = solve_ik(mycobot, "arm", target, seed=seed, rng=0)[0]
+    assert np.max(np.abs(solution.group_positions("arm") - seed.group_positions("arm"))) < 0.1
+
+
+def test_ik_frame_offset(mycobot: RobotModel):
+    """MTC's ik_frame: solve for a point rigidly attached to the flange (a TCP 10 cm out)."""
+    offset = make_pose([0.0, 0.0, 0.1], rpy=[0.0, 0.0, math.pi / 4])
+    state = RobotState(mycobot)
+    state.set_group_positions("arm", [0.3, -0.4, 0.8, 0.5, -0.3, 0.2])
+    target = state.frame_pose("link6_flange") @ offset
+    solution = solve_ik(mycobot, "arm", target, ik_frame_offset=offset, rng=0)[0]
+    assert np.allclose(solution.frame_pose("link6_flange") @ offset, target, atol=1e-4)
+
+
+def test_position_only(mycobot: RobotModel):
+    state = RobotState(mycobot)
+    state.set_named("ready")
+    target = make_pose(state.frame_pose("link6_flange")[:3, 3] + [0.02, 0.03, -0.02], rpy=[1.0, 2.0, 3.0])
+    solution = solve_ik(mycobot, "arm", target, position_only=True, rng=0)[0]
+    assert np.allclose(solution.frame_pose("link6_flange")[:3, 3], target[:3, 3], atol=1e-4)
+
+
+def test_unreachable_pose_returns_nothing(mycobot: RobotModel):
+    target = make_pose([1.0, 0.0, 0.3])  # far beyond the 0.28 m reach
+    assert solve_ik(mycobot, "arm", target, timeout=0.02, rng=0) == []
+
+
+def test_collision_aware_rejects_invalid_solutions(mycobot: RobotModel):
+    pose = random_reachable_poses(mycobot, "arm", 1, seed=4)[0]
+    all_solutions = solve_ik(mycobot, "arm", pose, max_solutions=4, min_solution_distance=0.5, timeout=0.5, rng=1)
+    forbidden = all_solutions[0].group_positions("arm")
+
+    def validity(state: RobotState) -> bool:
+        return state_distance(state.group_positions("arm"), forbidden) > 0.2
+
+    filtered = solve_ik(mycobot, "arm", pose, max_solutions=4, min_solution_distance=0.5, timeout=0.5, rng=1, scene=validity)
+    assert filtered
+    assert all(validity(s) for s in filtered)
+
+
+def test_reproducible_with_seed(mycobot: RobotModel):
+    pose = random_reachable_poses(mycobot, "arm", 1, seed=9)[0]
+    a = solve_ik(mycobot, "arm", pose, max_solutions=3, min_solution_distance=0.3, rng=42, timeout=1.0)
+    b = solve_ik(mycobot, "arm", pose, max_solutions=3, min_solution_distance=0.3, rng=42, timeout=1.0)
+    assert [s.positions.tolist() for s in a] == [s.positions.tolist() for s in b]
+
+
+def test_panda_ik_round_trip(panda: RobotModel):
+    solver = IKSolver(panda, "arm")
+    rng = np.random.default_rng(0)
+    poses = random_reachable_poses(panda, "arm", 100, seed=1)
+    solved = 0
+    for pose in poses:
+        solutions = solver.solve(pose, rng=rng)
+        if solutions:
+            solved += 1
+            assert np.allclose(solutions[0].frame_pose("panda_hand_tcp"), pose, atol=1e-4)
+    assert solved >= 98
+
+
+@pytest.mark.parametrize(
+    "kwargs,message",
+    [
+        ({"target_pose": np.full((4, 4), np.nan)}, "NaN"),
+        ({"target_pose": np.eye(3)}, "4x4"),
+        ({"group": "legs"}, "unknown planning group 'legs'"),
+        ({"link": "nowhere"}, "unknown link or frame 'nowhere'"),
+        ({"max_solutions": 0}, "max_solutions"),
+        ({"timeout": -1.0}, "timeout"),
+    ],
+)
+def test_bad_requests(mycobot: RobotModel, kwargs: dict, message: str):
+    args = {"model": mycobot, "group": "arm", "target_pose": make_pose([0.1, 0.0, 0.2])}
+    args.update(kwargs)
+    with pytest.raises(KinematicsError if kwargs.get("group") is None else ValueError) as info:
+        solve_ik(**args)
+    assert message in str(info.value)
