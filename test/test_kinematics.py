@@ -132,3 +132,18 @@ def test_bad_requests(mycobot: RobotModel, kwargs: dict, message: str):
     with pytest.raises(KinematicsError if kwargs.get("group") is None else ValueError) as info:
         solve_ik(**args)
     assert message in str(info.value)
+
+
+def test_collision_aware_ik_with_planning_scene(mycobot: RobotModel):
+    """With a scene, every returned solution is collision-free; without, some of them collide."""
+    from interfaces_py.msgs import CollisionObject
+    from mycobot_planning.core import PlanningScene
+
+    scene = PlanningScene(mycobot)
+    scene.add_object(CollisionObject.box("table", [0.10, 0.20, 0.03], make_pose([0.22, 0.12, -0.015])))
+    target = make_pose([0.17, 0.04, 0.16], rpy=[math.pi, 0.0, 0.0])
+    unchecked = solve_ik(mycobot, "arm", target, max_solutions=4, min_solution_distance=0.5, timeout=0.5, rng=0)
+    assert any(not scene.is_state_valid(s) for s in unchecked)
+    checked = solve_ik(mycobot, "arm", target, max_solutions=4, min_solution_distance=0.5, timeout=0.5, rng=0, scene=scene)
+    assert checked
+    assert all(scene.is_state_valid(s) for s in checked)

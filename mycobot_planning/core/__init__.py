@@ -6,8 +6,15 @@ Nothing in this package imports rclpy.
 from .errors import KinematicsError, PlanningError, RobotModelError, SceneError, StateError
 from .robot_model import EndEffector, JointInfo, JointModelGroup, RobotModel
 from .robot_state import RobotState
+from .acm import AllowedCollisionMatrix
+from .planning_scene import CollisionReport, Contact, DistanceReport, PlanningScene
 
 __all__ = [
+    "AllowedCollisionMatrix",
+    "CollisionReport",
+    "Contact",
+    "DistanceReport",
+    "PlanningScene",
     "EndEffector",
     "JointInfo",
     "JointModelGroup",

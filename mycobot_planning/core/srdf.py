@@ -6,11 +6,14 @@ The result is plain data; RobotModel resolves it against the URDF and reports un
 """
 from __future__ import annotations
 
+import logging
 import math
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 
 from .errors import RobotModelError
+
+_LOG = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -99,6 +102,11 @@ def parse_srdf(xml_text: str) -> Srdf:
 
     for element in root.findall("group_state"):
         name = _attr(element, "name", "<robot>")
+        if not element.get("group", "").strip():
+            # Pinocchio-style SRDFs (example-robot-data's z1, kinova) keep reference postures
+            # without a group; MoveIt cannot use them as named states, so they are skipped.
+            _LOG.warning("SRDF group_state '%s' has no group attribute; skipped", name)
+            continue
         group = _attr(element, "group", f"group_state '{name}'")
         values: dict[str, float] = {}
         for joint in element.findall("joint"):
