@@ -147,3 +147,16 @@ def test_collision_aware_ik_with_planning_scene(mycobot: RobotModel):
     checked = solve_ik(mycobot, "arm", target, max_solutions=4, min_solution_distance=0.5, timeout=0.5, rng=0, scene=scene)
     assert checked
     assert all(scene.is_state_valid(s) for s in checked)
+
+
+def test_refine_stays_on_the_seed_branch(mycobot: RobotModel):
+    solver = IKSolver(mycobot, "arm")
+    seed = RobotState(mycobot)
+    seed.set_group_positions("arm", [0.3, -0.4, 0.8, 0.5, -0.3, 0.2])
+    target = seed.frame_pose("link6_flange")
+    target[:3, 3] += [0.002, 0.001, -0.002]
+    refined = solver.refine(target, seed)
+    assert refined is not None
+    assert np.allclose(refined.frame_pose("link6_flange"), target, atol=1e-5)
+    assert np.max(np.abs(refined.positions - seed.positions)) < 0.05
+    assert solver.refine(make_pose([2.0, 0.0, 0.0]), seed) is None

@@ -8,6 +8,10 @@ import numpy as np
 from interfaces_py.msgs import CollisionObject
 from mycobot_planning.core import PlanningScene, RobotModel, RobotState
 from mycobot_planning.core.kinematics import IKSolver
+from mycobot_planning.core.ompl_planner import OmplPlanner
+from mycobot_planning.core.planning_interface import JointGoal, MotionPlanRequest, PoseGoal
+from mycobot_planning.core.transforms import quat_to_matrix
+from mycobot_planning.paths import example_robot_data_dir
 from mycobot_planning.core.transforms import make_pose
 
 from .common import emit, machine, spread, stats, timed
@@ -105,8 +109,106 @@ def bench_ik(repeat: int, seed: int) -> None:
     emit({**summary, **spread(medians), **machine()})
 
 
+def fallback_case_c(model: RobotModel) -> tuple[PlanningScene, RobotState, dict[str, float]]:
+    """The seeds' fallbacks_move_to case (c): ready with link1_to_link2 = -tau/8 to ready with
+    link1_to_link2 = +tau/8, past a thin box 0.005 x 0.1 x 0.32 centred at (0.02, -0.20, 0.16)."""
+    scene = PlanningScene(model)
+    scene.add_object(CollisionObject.box("box", [0.005, 0.1, 0.32], make_pose([0.02, -0.20, 0.16]), frame_id="base_link"))
+    start = RobotState(model)
+    start.set_named("ready")
+    start.set_joint_positions({"link1_to_link2": -np.pi / 4})
+    goal = dict(model.named_state("ready", "arm"), link1_to_link2=np.pi / 4)
+    return scene, start, goal
+
+
+def bench_plan_ompl(repeat: int, seed: int) -> None:
+    """OMPL RRTConnect on fallback case (c), 100 seeds per repeat (planning incl. simplification
+    and Ruckig timing, as a move_group plan call)."""
+    model = RobotModel.mycobot()
+    planner = OmplPlanner()
+    scene, start, goal = fallback_case_c(model)
+    all_times, successes, medians = [], 0, []
+    for index in range(repeat):
+        times, ok = [], 0
+        for k in range(100):
+            request = MotionPlanRequest("arm", JointGoal(goal), start_state=start, seed=seed * 1000 + index * 100 + k + 1)
+            elapsed, response = timed(lambda: planner.plan(scene, request))
+            times.append(elapsed)
+            ok += response.success
+        record = {"scenario": "plan_ompl", "repeat": index, "problems": len(times), "success_rate": ok / len(times)}
+        record.update(stats(times, 1.0, "s"))
+        medians.append(record["median_s"])
+        emit(record)
+        all_times += times
+        successes += ok
+    summary = {"scenario": "plan_ompl", "summary": True, "success_rate": successes / len(all_times)}
+    summary.update({k: v for k, v in stats(all_times, 1.0, "s").items() if k in ("median_s", "p90_s")})
+    emit({**summary, **spread(medians), **machine()})
+
+
+class _OursOnPanda:
+    """Our OMPL pipeline as the benchmark's `plan(problem)` callable: the peers' problems (Panda,
+    SRDF start, panda_hand pose goal, the same boxes) planned with the default RRTConnect and the
+    same planning time limit. The scene is built once per box set, outside the timed call."""
+
+    def __init__(self) -> None:
+        root = example_robot_data_dir() / "panda_description"
+        self.model = RobotModel.from_files(root / "urdf" / "panda.urdf", root / "srdf" / "panda.srdf")
+        self.planner = OmplPlanner()
+        self._scenes: dict[str, PlanningScene] = {}
+
+    def scene_for(self, problem: dict) -> PlanningScene:
+        key = repr(problem["obstacles"])
+        if key not in self._scenes:
+            scene = PlanningScene(self.model)
+            for box in problem["obstacles"]:
+                pose = make_pose(box["position"], quat_xyzw=box["orientation_xyzw"])
+                scene.add_object(CollisionObject.box(box["id"], box["size"], pose))
+            self._scenes[key] = scene
+        return self._scenes[key]
+
+    def __call__(self, problem: dict):
+        scene = self.scene_for(problem)
+        start = RobotState(self.model)
+        start.set_joint_positions(dict(zip(problem["joint_names"], problem["start"])))
+        start.set_joint_positions({j: v for j, v in problem["finger_positions"].items() if j in self.model.variable_names})
+        goal = np.eye(4)
+        goal[:3, :3] = quat_to_matrix(problem["goal"]["orientation_xyzw"])
+        goal[:3, 3] = problem["goal"]["position"]
+        request = MotionPlanRequest(
+            "arm",
+            PoseGoal(goal, link=problem["tip_link"]),
+            start_state=start,
+            allowed_planning_time=problem["time_limit"],
+            seed=problem["index"] + 1,
+        )
+        response = self.planner.plan(scene, request)
+        if not response.success:
+            return {"path": None, "status": response.error_code.name}
+        return {"path": response.path, "status": "SUCCESS"}
+
+
+def bench_peers(repeat: int, seed: int) -> None:
+    """Panda pose goals: our OMPL pipeline beside mplib and pyroboplan (each in a virtual
+    environment the bench tooling creates on first use), on the same problems and time limit."""
+    from .peers import compare, report_records, run_ours, run_peers
+    from .peers.problems import panda_pose_problems
+
+    ours_plan = _OursOnPanda()
+    for index in range(repeat):
+        problems = panda_pose_problems(20, seed + index)
+        peers = run_peers(problems, time_limit=1.0)
+        ours = run_ours(problems, plan=ours_plan, time_limit=1.0)
+        for record in report_records(compare(ours, peers)):
+            emit({"scenario": "peers", "repeat": index, **record})
+        last = compare(ours, peers)
+    emit({"scenario": "peers", "summary": True, **last, **machine()})
+
+
 SCENARIOS: dict[str, Callable[..., None]] = {
     "collision": bench_collision,
     "fk": bench_fk,
     "ik": bench_ik,
+    "peers": bench_peers,
+    "plan_ompl": bench_plan_ompl,
 }

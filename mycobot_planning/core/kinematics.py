@@ -252,6 +252,33 @@ class IKSolver:
         return solutions
 
 
+    def refine(
+        self,
+        target_pose: np.ndarray,
+        seed: RobotState,
+        position_only: bool = False,
+        max_iterations: int | None = None,
+    ) -> RobotState | None:
+        """One Gauss-Newton descent from the seed only, or None if it does not converge.
+
+        For consecutive small steps (Cartesian paths, LIN): the answer must stay on the seed's
+        branch, so no table seeds or random restarts are tried, and nothing is spent on them.
+        """
+        try:
+            target = check_pose(target_pose, "IK target pose")
+        except ValueError as exc:
+            raise KinematicsError(str(exc)) from None
+        if seed.model is not self.model:
+            raise KinematicsError("IK seed state belongs to a different robot model")
+        if self.offset_inv is not None:
+            target = target @ self.offset_inv
+        full = seed.positions.copy()
+        iterations = self.options.max_iterations if max_iterations is None else max_iterations
+        if self._descend(full, pin.SE3(target[:3, :3].copy(), target[:3, 3].copy()), position_only, iterations):
+            return RobotState(self.model, full)
+        return None
+
+
 def solve_ik(
     model: RobotModel,
     group: str,

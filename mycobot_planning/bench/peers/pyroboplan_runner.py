@@ -1,0 +1,172 @@
+"""Solve the benchmark's Panda pose-goal problems with pyroboplan (run by its peer venv's Python).
+
+Standalone on purpose: this file runs in a venv that has pyroboplan, pin (Pinocchio + Coal) and
+numpy but not mycobot_planning, so it imports only the standard library, numpy, pinocchio, coal
+and pyroboplan.
+
+Input: one JSON request on stdin, or in the file named by the first argument::
+
+    {"urdf": path, "srdf": path, "time_limit": seconds, "problems": [problem, ...]}
+
+Output on stdout: one ``{"meta": true, ...}`` line, then one JSON line per problem with the same
+keys as mplib_runner.py (index, success, claimed_success, seconds, status, waypoints, path_length,
+goal_position_error, goal_rotation_error, path).
+
+pyroboplan has no pose-goal planning call, so a pose goal is what its examples do: DifferentialIk
+(collision-checked, random restarts) for the goal configuration, seeded from the start state,
+then RRTPlanner from the start to that configuration, then shortcut_path. ``seconds`` is wall
+time around those three calls together. Settings follow pyroboplan's Panda examples
+(examples/differential_ik.py, examples/rrt_panda.py) with RRT-Connect switched on
+(``rrt_connect`` + ``bidirectional_rrt``) and ``max_planning_time`` = the benchmark time limit.
+
+The model is example-robot-data's Panda (the URDF given in the request), self-collision pairs
+from its SRDF as ``pyroboplan.models.panda.add_self_collisions`` does, and the finger joints
+locked at the problem's finger values with Pinocchio's buildReducedModel, so pyroboplan plans
+over the same 7 arm joints as the other planners (its examples instead leave the fingers in the
+model and tell IK to ignore them, which makes the RRT sample finger positions as well).
+
+pyroboplan prints progress with print(), so fd 1 is pointed at stderr while it runs and the JSON
+lines go to the original stdout.
+"""
+from __future__ import annotations
+
+import json
+import os
+import sys
+import time
+
+PEER = "pyroboplan"
+
+
+def _json_out():
+    sys.stdout.flush()
+    out = os.fdopen(os.dup(1), "w", buffering=1)
+    os.dup2(2, 1)
+    sys.stdout = sys.stderr
+    return out
+
+
+def _read_request() -> dict:
+    if len(sys.argv) > 1 and sys.argv[1] != "-":
+        with open(sys.argv[1]) as handle:
+            return json.load(handle)
+    return json.load(sys.stdin)
+
+
+def _version() -> str:
+    try:
+        import importlib.metadata as metadata
+
+        return metadata.version("pyroboplan")
+    except Exception:
+        return "unknown"
+
+
+def main() -> int:
+    out = _json_out()
+    request = _read_request()
+    import coal
+    import numpy as np
+    import pinocchio
+    from pyroboplan.core.utils import set_collisions
+    from pyroboplan.ik.differential_ik import DifferentialIk, DifferentialIkOptions
+    from pyroboplan.planning.path_shortcutting import shortcut_path
+    from pyroboplan.planning.rrt import RRTPlanner, RRTPlannerOptions
+
+    time_limit = float(request.get("time_limit", 1.0))
+    problems = request["problems"]
+    started = time.perf_counter()
+    first = problems[0] if problems else {"joint_names": [], "tip_link": "panda_hand"}
+    tip = first["tip_link"]
+
+    full_model, full_collision, _visual = pinocchio.buildModelsFromUrdf(request["urdf"])
+    # Lock every joint that is not a planned arm joint (the fingers) at the problem's value.
+    fixed = dict(first.get("finger_positions", {}))
+    q_ref = pinocchio.neutral(full_model)
+    lock = []
+    for joint_id in range(1, full_model.njoints):
+        name = full_model.names[joint_id]
+        if name not in first["joint_names"]:
+            lock.append(joint_id)
+            q_ref[full_model.joints[joint_id].idx_q] = fixed.get(name, 0.0)
+    model, (collision_model,) = pinocchio.buildReducedModel(full_model, [full_collision], lock, q_ref)
+    if list(model.names)[1:] != list(first["joint_names"]):
+        raise RuntimeError(f"reduced model joints {list(model.names)[1:]} != {first['joint_names']}")
+
+    collision_model.addAllCollisionPairs()
+    pinocchio.removeCollisionPairs(model, collision_model, request["srdf"])
+    robot_geoms = [g.name for g in collision_model.geometryObjects]
+    for box in first.get("obstacles", []):
+        x, y, z, w = box["orientation_xyzw"]
+        rotation = pinocchio.Quaternion(w, x, y, z).normalized().matrix()
+        placement = pinocchio.SE3(rotation, np.asarray(box["position"], dtype=float))
+        collision_model.addGeometryObject(
+            pinocchio.GeometryObject(box["id"], 0, placement, coal.Box(*map(float, box["size"]))))
+        for geom in robot_geoms:
+            set_collisions(model, collision_model, box["id"], geom, True)
+
+    data = model.createData()
+    collision_data = collision_model.createData()
+    tip_id = model.getFrameId(tip)
+    ik_options = DifferentialIkOptions(damping=0.0001, min_step_size=0.025, max_step_size=0.1)
+    ik = DifferentialIk(model, data=data, collision_model=collision_model,
+                        collision_data=collision_data, options=ik_options)
+    rrt_options = RRTPlannerOptions(
+        max_step_size=0.05, max_connection_dist=0.5, rrt_connect=True, bidirectional_rrt=True,
+        rrt_star=False, max_planning_time=time_limit, fast_return=True,
+        goal_biasing_probability=0.15, collision_distance_padding=0.0,
+    )
+    planner = RRTPlanner(model, collision_model, options=rrt_options)
+
+    def goal_se3(problem: dict):
+        x, y, z, w = problem["goal"]["orientation_xyzw"]
+        rotation = pinocchio.Quaternion(w, x, y, z).normalized().matrix()
+        return pinocchio.SE3(rotation, np.asarray(problem["goal"]["position"], dtype=float))
+
+    def solve(problem: dict):
+        q_start = np.asarray(problem["start"], dtype=float)
+        target = goal_se3(problem)
+        t0 = time.perf_counter()
+        q_goal = ik.solve(tip, target, init_state=q_start.copy())  # solve() edits init_state
+        if q_goal is None:
+            return time.perf_counter() - t0, "IK failed", None
+        path = planner.plan(q_start, q_goal)
+        if not path:
+            return time.perf_counter() - t0, "RRT failed", None
+        path = shortcut_path(model, collision_model, path)
+        return time.perf_counter() - t0, "Success", path
+
+    setup_seconds = time.perf_counter() - started
+    if problems:
+        solve(problems[0])  # warm-up, untimed
+    out.write(json.dumps({"meta": True, "peer": PEER, "version": _version(),
+                          "setup_seconds": round(setup_seconds, 4)}) + "\n")
+
+    for problem in problems:
+        record = {"index": problem["index"], "success": False, "claimed_success": False}
+        try:
+            seconds, status, path = solve(problem)
+            record.update(seconds=seconds, status=status, claimed_success=path is not None)
+            if path is not None:
+                arr = np.asarray(path, dtype=float)
+                record["waypoints"] = int(len(arr))
+                record["path_length"] = float(np.sum(np.linalg.norm(np.diff(arr, axis=0), axis=1)))
+                record["path"] = [[float(v) for v in q] for q in arr]
+                pinocchio.framesForwardKinematics(model, data, arr[-1])
+                reached = data.oMf[tip_id]
+                target = goal_se3(problem)
+                record["goal_position_error"] = float(
+                    np.linalg.norm(reached.translation - target.translation))
+                record["goal_rotation_error"] = float(
+                    np.linalg.norm(pinocchio.log3(target.rotation.T @ reached.rotation)))
+                record["success"] = (record["goal_position_error"] < 1e-2
+                                     and record["goal_rotation_error"] < 2e-2)
+        except Exception as error:  # one bad problem must not lose the others' results
+            record.setdefault("seconds", None)
+            record["status"] = f"error: {type(error).__name__}: {error}"
+        out.write(json.dumps(record) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

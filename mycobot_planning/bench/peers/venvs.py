@@ -1,0 +1,172 @@
+"""Separate virtual environments for the peer planners, created on demand by the bench tooling.
+
+The peers (mplib, pyroboplan) are benchmark-only: they are never dependencies of the package, and
+they cannot share our venv anyway (mplib 0.2.1 needs numpy < 2; pyroboplan pins pin==4.0.0 while
+we use pin 4.1). Each gets ``<root>/<name>`` made with ``python3 -m venv`` and exact pins, and a
+stamp file written last records what was installed: a venv whose stamp matches is reused at once,
+anything else (no stamp, other pins, an interrupted install) is deleted and built again.
+
+``<root>`` is ``$MYCOBOT_PEERS_DIR`` if set, else ``<repo>/.venv-peers`` for a checkout (the
+folder is gitignored), else ``~/.cache/mycobot_planning/peers`` for an installed package.
+
+All progress goes to stderr: stdout of the bench is the JSON-lines contract.
+"""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+STAMP = ".peer-stamp.json"
+
+
+@dataclass(frozen=True)
+class PeerSpec:
+    """What one peer venv holds.
+
+    requirements: installed with their dependencies resolved by pip (exact pins where the version
+        matters for the result or for installing on Python 3.11).
+    no_deps: installed with ``--no-deps`` after ``requirements``; used for pyroboplan, whose
+        declared dependencies include drake (~800 MB, only for its trajectory optimisation, which
+        the benchmark does not touch), matplotlib, plyfile and toppra, none imported by the IK and
+        RRT modules we call. ``requirements`` lists what those modules do import.
+    check: Python statement that must succeed in the finished venv.
+    """
+
+    name: str
+    requirements: tuple[str, ...]
+    no_deps: tuple[str, ...] = ()
+    check: str = ""
+    version_of: str = ""  # distribution whose version is reported with the results
+
+
+PEERS: dict[str, PeerSpec] = {
+    "mplib": PeerSpec(
+        name="mplib",
+        requirements=("mplib==0.2.1", "numpy==1.26.4", "toppra==0.6.10", "transforms3d==0.4.2",
+                      "scipy==1.17.1"),
+        check="import mplib, mplib.pymp",
+        version_of="mplib",
+    ),
+    "pyroboplan": PeerSpec(
+        name="pyroboplan",
+        requirements=("pin==4.0.0", "numpy==2.4.6", "scipy==1.17.1", "meshcat==0.3.2"),
+        no_deps=("pyroboplan==1.3.1",),
+        check="import pinocchio, coal, pyroboplan.planning.rrt, pyroboplan.ik.differential_ik",
+        version_of="pyroboplan",
+    ),
+}
+
+
+class PeerUnavailable(RuntimeError):
+    """A peer venv could not be created or its library does not import; the message says why."""
+
+    def __init__(self, name: str, reason: str):
+        super().__init__(f"peer '{name}' unavailable: {reason}")
+        self.name = name
+        self.reason = reason
+
+
+def log(message: str) -> None:
+    print(f"[peers] {message}", file=sys.stderr, flush=True)
+
+
+def peers_root() -> Path:
+    """Folder holding one venv per peer plus a cache/ for generated files (see module doc)."""
+    env = os.environ.get("MYCOBOT_PEERS_DIR")
+    if env:
+        return Path(env).expanduser().resolve()
+    repo = Path(__file__).resolve().parents[3]
+    if (repo / "setup.py").is_file() and (repo / "mycobot_planning").is_dir():
+        return repo / ".venv-peers"
+    return Path.home() / ".cache" / "mycobot_planning" / "peers"
+
+
+def cache_dir() -> Path:
+    path = peers_root() / "cache"
+    path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def venv_python(venv: Path) -> Path:
+    return venv / "bin" / "python"
+
+
+def _stamp_for(spec: PeerSpec) -> dict:
+    return {"requirements": list(spec.requirements), "no_deps": list(spec.no_deps),
+            "python": sys.version.split()[0]}
+
+
+def read_stamp(name: str) -> dict | None:
+    path = peers_root() / name / STAMP
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+
+
+def _run(cmd: list[str], what: str, name: str) -> None:
+    """Run an install step, its output on stderr; PeerUnavailable with the output tail on failure."""
+    proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    lines = [line for line in proc.stdout.splitlines()
+             if "is ignored: it is neither a file nor a directory" not in line]
+    for line in lines:
+        print(f"[peers:{name}] {line}", file=sys.stderr)
+    if proc.returncode != 0:
+        tail = "\n".join(lines[-15:])
+        raise PeerUnavailable(name, f"{what} failed (exit {proc.returncode}): {tail}")
+
+
+def ensure_peer_venv(name: str, python: str | None = None) -> Path:
+    """Path of the peer's Python, creating and filling its venv first if needed.
+
+    Idempotent and fast when the venv is already there with a matching stamp. Raises
+    ``KeyError`` for an unknown peer and :class:`PeerUnavailable` (with pip's error text) when
+    the venv cannot be built or the library does not import.
+    """
+    if name not in PEERS:
+        raise KeyError(f"unknown peer '{name}'; known: {', '.join(PEERS)}")
+    spec = PEERS[name]
+    venv = peers_root() / name
+    py = venv_python(venv)
+    wanted = _stamp_for(spec)
+    stamp = read_stamp(name)
+    if py.is_file() and stamp is not None and {k: stamp.get(k) for k in wanted} == wanted:
+        return py
+
+    if venv.exists():
+        log(f"{name}: venv at {venv} is stale or incomplete; rebuilding")
+        shutil.rmtree(venv)
+    venv.parent.mkdir(parents=True, exist_ok=True)
+    started = time.perf_counter()
+    log(f"{name}: creating venv {venv} (one-off; reused afterwards)")
+    base = python or shutil.which("python3") or sys.executable
+    _run([base, "-m", "venv", str(venv)], "python -m venv", name)
+    pip = [str(py), "-m", "pip", "--disable-pip-version-check", "install", "-q"]
+    log(f"{name}: pip install {' '.join(spec.requirements)}")
+    _run(pip + list(spec.requirements), "pip install", name)
+    if spec.no_deps:
+        log(f"{name}: pip install --no-deps {' '.join(spec.no_deps)}")
+        _run(pip + ["--no-deps"] + list(spec.no_deps), "pip install --no-deps", name)
+    if spec.check:
+        _run([str(py), "-c", spec.check], "import check", name)
+    elapsed = time.perf_counter() - started
+    stamp = {**wanted, "created_seconds": round(elapsed, 1),
+             "version": installed_version(py, spec.version_of or name)}
+    (venv / STAMP).write_text(json.dumps(stamp, indent=1))
+    log(f"{name}: venv ready in {elapsed:.0f} s")
+    return py
+
+
+def installed_version(py: Path, distribution: str) -> str:
+    """Version of a distribution inside a peer venv (importlib.metadata, run by that Python)."""
+    proc = subprocess.run(
+        [str(py), "-c", f"import importlib.metadata as m; print(m.version({distribution!r}))"],
+        stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
+    )
+    return proc.stdout.strip() if proc.returncode == 0 else "unknown"

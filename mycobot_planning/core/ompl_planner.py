@@ -1,0 +1,177 @@
+"""The OMPL planning pipeline: MoveIt's ompl_interface on our scene, IK and Ruckig timing.
+
+ompl_interface.py knows OMPL and nothing of robots; this module turns a MotionPlanRequest into
+its inputs (the group's joint box, the scene's validity checker, IK-sampled goal states for pose
+goals) and its result back into a timed trajectory with MoveIt's error codes. As in MoveIt, the
+planner stops at its first exact solution, the path is simplified (shortcutting, smoothing) and
+interpolated to the validity-checking resolution, then timed.
+"""
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+
+from interfaces_py.msgs import MoveItErrorCode
+
+from ..paths import config_file
+from .ompl_interface import (
+    GroupConfig,
+    OmplConfig,
+    OmplConfigError,
+    ResolvedPlanner,
+    load_ompl_config,
+    parse_projection_evaluator,
+    plan_joint_space,
+    resolve_planner_id,
+)
+from .planning_interface import (
+    MotionPlanRequest,
+    MotionPlanResponse,
+    PlanningFailure,
+    PoseGoal,
+    check_group,
+    check_request_numbers,
+    check_scaling,
+    failure,
+    goal_states,
+    start_state_of,
+    success,
+    time_group_path,
+)
+from .planning_scene import PlanningScene
+from .robot_model import JointModelGroup
+
+_STATUS_CODES = {
+    "INVALID_START": MoveItErrorCode.START_STATE_IN_COLLISION,
+    "INVALID_GOAL": MoveItErrorCode.GOAL_IN_COLLISION,
+    "TIMEOUT": MoveItErrorCode.TIMED_OUT,
+    "ABORT": MoveItErrorCode.PREEMPTED,
+    "INFEASIBLE": MoveItErrorCode.PLANNING_FAILED,
+    "CRASH": MoveItErrorCode.CRASH,
+}
+
+#: Share of the planning time that IK for pose goals may use before OMPL starts.
+IK_TIME_SHARE = 0.25
+
+
+class OmplPlanner:
+    """Plans with OMPL under a MoveIt-format ompl_planning.yaml (config/ompl_planning.yaml by default)."""
+
+    def __init__(self, config: OmplConfig | str | Path | Mapping | None = None) -> None:
+        if config is None:
+            config = config_file("ompl_planning.yaml")
+        self.config: OmplConfig = config if isinstance(config, OmplConfig) else load_ompl_config(config)
+
+    def _resolve(self, group: str, planner_id: str) -> ResolvedPlanner:
+        """The planner for a group; groups the YAML does not list (any URDF + SRDF robot) get every
+        configured planner with RRTConnect as the default, as MoveIt's setup assistant would write."""
+        config = self.config
+        if group not in config.groups:
+            names = tuple(config.planner_configs)
+            default = "RRTConnectkConfigDefault" if "RRTConnectkConfigDefault" in names else None
+            groups = dict(config.groups)
+            groups[group] = GroupConfig(
+                name=group,
+                planner_configs=names,
+                default_planner_config=default,
+                longest_valid_segment_fraction=0.005,
+                projection_evaluator=None,
+            )
+            config = OmplConfig(planner_configs=config.planner_configs, groups=groups, pipeline=config.pipeline)
+        try:
+            return resolve_planner_id(config, group, planner_id)
+        except OmplConfigError as exc:
+            raise failure(MoveItErrorCode.INVALID_MOTION_PLAN, str(exc)) from None
+
+    @staticmethod
+    def _projection_dims(jmg: JointModelGroup, resolved: ResolvedPlanner) -> list[int] | None:
+        if not resolved.projection_evaluator:
+            return None
+        kind, names = parse_projection_evaluator(resolved.projection_evaluator)
+        if kind != "joints":
+            return None
+        dims = [jmg.joint_names.index(n) for n in names if n in jmg.joint_names]
+        return dims or None
+
+    def plan(self, scene: PlanningScene, request: MotionPlanRequest) -> MotionPlanResponse:
+        """Plan the request; never raises for bad input (the error code says what was wrong)."""
+        started = time.perf_counter()
+        try:
+            return self._plan(scene, request, started)
+        except PlanningFailure as exc:
+            return exc.to_response(started, request)
+
+    def _plan(self, scene: PlanningScene, request: MotionPlanRequest, started: float) -> MotionPlanResponse:
+        model = scene.robot_model
+        check_request_numbers(request)
+        jmg = check_group(model, request.group)
+        velocity_scaling, acceleration_scaling = check_scaling(model, request)
+        resolved = self._resolve(jmg.name, request.planner_id)
+        start = start_state_of(scene, request)
+        rng = np.random.default_rng(request.seed)
+        budget = float(request.allowed_planning_time)
+        ik_time = budget * IK_TIME_SHARE if isinstance(request.goal, PoseGoal) else 0.0
+        goals = goal_states(scene, jmg, start, request.goal, max(1, request.num_ik_goals), max(ik_time, 1e-3), rng)
+        start_vector = start.group_positions(jmg.name)
+        goal_vectors = [g.group_positions(jmg.name) for g in goals]
+        lower = model.lower_limits[jmg.variable_indices]
+        upper = model.upper_limits[jmg.variable_indices]
+        lower = np.where(np.isfinite(lower), lower, -math.pi)
+        upper = np.where(np.isfinite(upper), upper, math.pi)
+        validity = scene.validity_checker(jmg.name, start)
+
+        best = None
+        last = None
+        attempts = request.num_planning_attempts
+        for attempt in range(attempts):
+            remaining = budget - (time.perf_counter() - started)
+            if remaining <= 0:
+                break
+            seed = None if request.seed is None else int(request.seed) + 1 + attempt
+            result = plan_joint_space(
+                lower,
+                upper,
+                validity,
+                start_vector,
+                goal_vectors,
+                planner_type=resolved.type,
+                planner_params=resolved.params,
+                timeout=remaining / (attempts - attempt),
+                longest_valid_segment_fraction=resolved.longest_valid_segment_fraction,
+                simplify=True,
+                interpolate_states=0,
+                seed=seed,
+                projection_dims=self._projection_dims(jmg, resolved),
+                stop_on_first_solution=True,
+            )
+            last = result
+            if result.success and (best is None or _length(result.path) < _length(best.path)):
+                best = result
+        if best is None:
+            status = last.status if last is not None else "TIMEOUT"
+            code = _STATUS_CODES.get(status, MoveItErrorCode.PLANNING_FAILED)
+            detail = f" ({last.message})" if last is not None and last.message else ""
+            raise failure(
+                code,
+                f"{resolved.config_name} found no path for group '{jmg.name}' in "
+                f"{budget:.3g} s: {status}{detail}",
+            )
+        trajectory = time_group_path(model, jmg, best.path, velocity_scaling, acceleration_scaling)
+        response = success(
+            trajectory,
+            started,
+            request,
+            start,
+            path=best.path,
+            message=f"{resolved.config_name}: {len(best.path)} waypoints, {trajectory.duration:.3f} s",
+        )
+        response.planner_id = f"{jmg.name}[{resolved.config_name}]"
+        return response
+
+
+def _length(path: np.ndarray) -> float:
+    return float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1))) if len(path) > 1 else 0.0

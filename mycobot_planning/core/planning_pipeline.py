@@ -1,0 +1,52 @@
+"""The planning pipelines by id, as move_group offers them: one call, any planner.
+
+MoveIt users pick a pipeline (``ompl``, ``pilz_industrial_motion_planner``) and a planner id on
+the request; MTC's JointInterpolationPlanner is exposed as a third pipeline so task stages and
+the planning server reach every core planner the same way. Each planner is built once and reused.
+"""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Mapping
+
+from interfaces_py.msgs import MoveItErrorCode
+
+from .joint_interpolation import plan_joint_interpolation
+from .ompl_planner import OmplPlanner
+from .pilz import PILZ_PIPELINE_ID, IndustrialMotionPlanner
+from .planning_interface import MotionPlanRequest, MotionPlanResponse, failure
+from .planning_scene import PlanningScene
+
+OMPL_PIPELINE_ID = "ompl"
+JOINT_INTERPOLATION_PIPELINE_ID = "joint_interpolation"
+
+
+class PlanningPipeline:
+    """Dispatches a MotionPlanRequest to the pipeline named by request.pipeline_id."""
+
+    def __init__(
+        self,
+        ompl_config: str | Path | Mapping | None = None,
+        cartesian_limits: str | Path | Mapping | None = None,
+    ) -> None:
+        self.ompl = OmplPlanner(ompl_config)
+        self.industrial = IndustrialMotionPlanner(cartesian_limits)
+
+    @property
+    def pipeline_ids(self) -> list[str]:
+        return [OMPL_PIPELINE_ID, PILZ_PIPELINE_ID, JOINT_INTERPOLATION_PIPELINE_ID]
+
+    def plan(self, scene: PlanningScene, request: MotionPlanRequest) -> MotionPlanResponse:
+        """Plan with the requested pipeline; unknown pipelines get INVALID_MOTION_PLAN."""
+        pipeline = request.pipeline_id or OMPL_PIPELINE_ID
+        if pipeline == OMPL_PIPELINE_ID:
+            return self.ompl.plan(scene, request)
+        if pipeline == PILZ_PIPELINE_ID:
+            return self.industrial.plan(scene, request)
+        if pipeline == JOINT_INTERPOLATION_PIPELINE_ID:
+            return plan_joint_interpolation(scene, request)
+        return failure(
+            MoveItErrorCode.INVALID_MOTION_PLAN,
+            f"unknown planning pipeline '{pipeline}'; known: {', '.join(self.pipeline_ids)}",
+        ).to_response(time.perf_counter(), request)
