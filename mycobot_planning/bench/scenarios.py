@@ -205,10 +205,87 @@ def bench_peers(repeat: int, seed: int) -> None:
     emit({"scenario": "peers", "summary": True, **last, **machine()})
 
 
+def cartesian_line_start(model: RobotModel) -> tuple[RobotState, np.ndarray, np.ndarray]:
+    """A state with the flange pointing down at (0.18, -0.15, 0.20), and the 0.3 m line to
+    (0.18, +0.15, 0.20) across the front of the robot."""
+    start_pose = make_pose([0.18, -0.15, 0.20], rpy=[np.pi, 0.0, 0.0])
+    end_pose = make_pose([0.18, 0.15, 0.20], rpy=[np.pi, 0.0, 0.0])
+    from mycobot_planning.core.cartesian_path import compute_cartesian_path
+
+    seed = RobotState(model)
+    seed.set_named("ready")
+    solutions = IKSolver(model, "arm").solve(
+        start_pose, seed=seed, rng=0, timeout=0.5, max_solutions=6, min_solution_distance=0.5
+    )
+    # The elbow-down branch collides with the base half-way; start on a branch that completes.
+    scene = PlanningScene(model)
+    for state in solutions:
+        if compute_cartesian_path(scene, "arm", state, [end_pose], eef_step=0.01).fraction == 1.0:
+            return state, start_pose, end_pose
+    raise RuntimeError("benchmark set-up: no IK branch completes the Cartesian line")
+
+
+def bench_cartesian(repeat: int, seed: int) -> None:
+    """compute_cartesian_path along a 0.3 m line at eef_step 0.00025 (1200 IK steps), timed."""
+    from mycobot_planning.core.cartesian_path import compute_cartesian_path
+
+    model = RobotModel.mycobot()
+    scene = PlanningScene(model)
+    start, _, end_pose = cartesian_line_start(model)
+    all_times, fractions, medians = [], [], []
+    for index in range(repeat):
+        times = []
+        for _ in range(10):
+            elapsed, result = timed(
+                lambda: compute_cartesian_path(scene, "arm", start, [end_pose], eef_step=0.00025, jump_threshold=0.0)
+            )
+            times.append(elapsed)
+            fractions.append(result.fraction)
+        record = {"scenario": "cartesian", "repeat": index, "runs": len(times), "fraction": fractions[-1]}
+        record.update(stats(times, 1e3, "ms"))
+        medians.append(record["median_ms"])
+        emit(record)
+        all_times += times
+    summary = {"scenario": "cartesian", "summary": True, "fraction": float(np.min(fractions))}
+    summary.update({k: v for k, v in stats(all_times, 1e3, "ms").items() if k in ("median_ms", "p90_ms")})
+    emit({**summary, **spread(medians), **machine()})
+
+
+def bench_ptp(repeat: int, seed: int) -> None:
+    """Industrial PTP ready -> home on the myCobot, free space, collision-checked."""
+    from mycobot_planning.core.pilz import IndustrialMotionPlanner
+
+    model = RobotModel.mycobot()
+    scene = PlanningScene(model)
+    planner = IndustrialMotionPlanner()
+    start = RobotState(model)
+    start.set_named("ready")
+    request = MotionPlanRequest("arm", JointGoal(model.named_state("home", "arm")), start_state=start,
+                                pipeline_id="pilz_industrial_motion_planner", planner_id="PTP")
+    all_times, medians = [], []
+    for index in range(repeat):
+        times = []
+        for _ in range(50):
+            elapsed, response = timed(lambda: planner.plan(scene, request))
+            if not response.success:
+                raise RuntimeError(f"PTP benchmark plan failed: {response.error_code}")
+            times.append(elapsed)
+        record = {"scenario": "ptp", "repeat": index, "runs": len(times)}
+        record.update(stats(times, 1e3, "ms"))
+        medians.append(record["median_ms"])
+        emit(record)
+        all_times += times
+    summary = {"scenario": "ptp", "summary": True}
+    summary.update({k: v for k, v in stats(all_times, 1e3, "ms").items() if k in ("median_ms", "p90_ms")})
+    emit({**summary, **spread(medians), **machine()})
+
+
 SCENARIOS: dict[str, Callable[..., None]] = {
+    "cartesian": bench_cartesian,
     "collision": bench_collision,
     "fk": bench_fk,
     "ik": bench_ik,
     "peers": bench_peers,
     "plan_ompl": bench_plan_ompl,
+    "ptp": bench_ptp,
 }

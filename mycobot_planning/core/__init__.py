@@ -8,8 +8,29 @@ from .robot_model import EndEffector, JointInfo, JointModelGroup, RobotModel
 from .robot_state import RobotState
 from .acm import AllowedCollisionMatrix
 from .planning_scene import CollisionReport, Contact, DistanceReport, PlanningScene
+from .kinematics import IKSolver, solve_ik
+from .time_parameterization import TimedTrajectory, retime, time_parameterize
+from .planning_interface import JointGoal, MotionPlanRequest, MotionPlanResponse, NamedGoal, PoseGoal
+from .planning_pipeline import PlanningPipeline
+from .cartesian_path import compute_cartesian_path, plan_relative_motion
+from .trajectory_validator import ValidationReport, validate_trajectory
 
 __all__ = [
+    "IKSolver",
+    "JointGoal",
+    "MotionPlanRequest",
+    "MotionPlanResponse",
+    "NamedGoal",
+    "PlanningPipeline",
+    "PoseGoal",
+    "TimedTrajectory",
+    "ValidationReport",
+    "compute_cartesian_path",
+    "plan_relative_motion",
+    "retime",
+    "solve_ik",
+    "time_parameterize",
+    "validate_trajectory",
     "AllowedCollisionMatrix",
     "CollisionReport",
     "Contact",

@@ -1,0 +1,869 @@
+"""Cartesian paths (MoveIt's computeCartesianPath) and relative motions (MTC's MoveRelative).
+
+A Cartesian path moves an ik frame (a link, optionally with a rigid offset such as a TCP) along
+straight lines through a list of world-frame poses: position interpolated linearly, orientation
+by slerp, in steps no longer than ``eef_step``. Each step is solved by IK seeded with the
+previous step, and the path stops at the first step that has no IK solution, collides or jumps
+in joint space. The caller gets the reachable prefix and the fraction of the path it covers,
+and decides what to do with a partial path, exactly as with MoveIt's ``computeCartesianPath``.
+
+Why a dedicated per-step solver instead of calling ``IKSolver.solve`` for every step: a step is
+a tiny, known change of the target, so a first-order predictor (one Newton step with the
+Jacobian already computed at the previous solution) lands within micrometres, and one more
+forward-kinematics evaluation confirms it. That costs one Pinocchio Jacobian call, one 6x6 solve
+and one collision check per step, a few tens of microseconds, where a general IK query (seed
+table lookup, restarts, RobotState objects) costs hundreds. When the corrector does not converge
+(near singularities, at joint limits) ``IKSolver.refine`` runs a longer descent from the previous
+solution only. Neither ever samples other IK branches: where the seed's branch ends the path
+stops (``no_ik_solution``) instead of flipping to another configuration, which is safer than
+MoveIt's KDL restarts. Near a singularity the branch itself can demand a large joint motion for
+a small Cartesian step (the wrist swings round); that is what ``jump_threshold`` and the
+absolute per-joint thresholds catch, and the collision check between steps covers it when they
+are off.
+
+Fraction (MoveIt's definition): with W waypoints the path has W segments (start pose -> first
+waypoint, then waypoint to waypoint), each worth 1/W; a segment cut after k of its n steps adds
+k/n of its share. Jump truncation recomputes the fraction from the step where the path is cut
+(MoveIt multiplies by a ratio of state counts instead; the result is the same for uniform steps).
+
+Relative motions follow MTC's MoveRelative: a translation along a direction, or a twist (linear
++ angular, rotation about the ik frame's origin), both expressed in a frame's axes ('world', a
+link, or a collision object), planned as a one-waypoint Cartesian path. ``min_distance`` /
+``max_distance`` keep MTC's conventions (see :func:`plan_relative_motion`).
+
+Nothing here raises for bad input: every problem comes back as a MoveIt error code with a
+message naming it.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import numpy as np
+import pinocchio as pin
+from scipy.linalg import get_lapack_funcs
+from scipy.spatial.transform import Rotation
+
+from interfaces_py.msgs import MoveItErrorCode
+
+from .errors import PlanningError
+from .kinematics import IKSolver
+from .planning_interface import MotionPlanResponse, PlanningFailure, check_group, failure, time_group_path
+from .planning_scene import PlanningScene
+from .robot_model import JointModelGroup, RobotModel
+from .robot_state import RobotState
+from .time_parameterization import TimedTrajectory
+from .transforms import check_pose
+
+__all__ = [
+    "CartesianPathResult",
+    "RelativeMotionResult",
+    "RelativeTarget",
+    "STOP_COLLISION",
+    "STOP_COMPLETE",
+    "STOP_INVALID_REQUEST",
+    "STOP_JOINT_JUMP",
+    "STOP_NO_IK",
+    "compute_cartesian_path",
+    "plan_relative_motion",
+    "relative_target_poses",
+]
+
+# stop_reason values
+STOP_COMPLETE = "complete"
+STOP_NO_IK = "no_ik_solution"
+STOP_COLLISION = "collision"
+STOP_JOINT_JUMP = "joint_space_jump"
+STOP_INVALID_REQUEST = "invalid_request"
+
+#: MoveIt forces at least this many steps per segment when the relative jump test is on, so the
+#: mean step it compares against is meaningful; with fewer states the test is skipped.
+MIN_STEPS_FOR_JUMP_THRESHOLD = 10
+#: Default rotation bound per step: eef_step / this radius (rad), i.e. a point this far from the
+#: ik frame's origin moves at most eef_step per step through rotation alone.
+ROTATION_STEP_RADIUS = 0.1
+#: Refuse requests needing more steps than this (eef_step far too small for the path): the
+#: arrays alone would exhaust memory long before the IK finished.
+MAX_STEPS = 1_000_000
+#: Joint-space resolution (rad, max-norm) of the collision checks between consecutive steps;
+#: equal to the trajectory validator's default so both look at the motion equally finely.
+DEFAULT_COLLISION_CHECK_RESOLUTION = 0.005
+
+_POSITION_TOLERANCE = 1e-6  # m, per-step IK accuracy (the line is followed to this)
+_ORIENTATION_TOLERANCE = 1e-5  # rad
+_CORRECTOR_ITERATIONS = 6  # Newton iterations from the previous step before falling back
+_CORRECTOR_MAX_STEP = 0.5  # rad per joint per Newton iteration: larger means leaving the branch
+_DAMPING = 1e-10
+
+
+# ---------------------------------------------------------------------------- results
+@dataclass
+class CartesianPathResult:
+    """Outcome of :func:`compute_cartesian_path`.
+
+    ``error_code`` is SUCCESS whenever the request was well-formed, even when the path stops
+    early (MoveIt returns the fraction and lets the caller decide); then ``fraction`` < 1,
+    ``stop_reason`` says why (``no_ik_solution``, ``collision``, ``joint_space_jump``) and the
+    message gives the details. ``path`` (N x group dof, row 0 = start) and ``trajectory`` hold
+    the reachable prefix; with fraction 0 they hold only the start state.
+    """
+
+    error_code: MoveItErrorCode
+    fraction: float = 0.0
+    trajectory: TimedTrajectory | None = None
+    path: np.ndarray | None = field(default=None, repr=False)
+    stop_reason: str = ""
+    group_name: str = ""
+    link: str = ""
+    start_state: RobotState | None = field(default=None, repr=False)
+    planning_time: float = 0.0
+
+    @property
+    def message(self) -> str:
+        return self.error_code.message
+
+    @property
+    def success(self) -> bool:
+        """True when the request was valid (check ``fraction`` for how much was achieved)."""
+        return bool(self.error_code)
+
+    def __bool__(self) -> bool:
+        return self.success
+
+    def states(self) -> list[RobotState]:
+        """The path as full robot states (joints outside the group keep the start's values)."""
+        if self.path is None or self.start_state is None:
+            return []
+        jmg = self.start_state.model.group(self.group_name)
+        out = []
+        for row in self.path:
+            state = self.start_state.copy()
+            positions = state.positions.copy()
+            positions[jmg.variable_indices] = row
+            state.set_positions(positions)
+            out.append(state)
+        return out
+
+    def to_motion_plan_response(self, planner_id: str = "cartesian") -> MotionPlanResponse:
+        """The same result in the shared MotionPlanResponse form (fraction goes into the message)."""
+        return MotionPlanResponse(
+            error_code=self.error_code,
+            trajectory=self.trajectory,
+            planning_time=self.planning_time,
+            group_name=self.group_name,
+            planner_id=planner_id,
+            start_state=self.start_state,
+            path=self.path,
+        )
+
+
+@dataclass
+class RelativeTarget:
+    """Where a relative motion sends the ik frame (all world frame).
+
+    ``linear`` is the translation (m) and ``angular`` the rotation vector (axis * angle, rad),
+    rotation about the ik frame's origin. ``measure`` says how achieved distance is measured:
+    'translation' (m) or 'rotation' (rad, when the motion has no translation), as in MTC.
+    """
+
+    pose: np.ndarray
+    start_pose: np.ndarray
+    linear: np.ndarray
+    angular: np.ndarray
+    measure: str
+    distance: float
+
+    @property
+    def waypoints(self) -> list[np.ndarray]:
+        return [self.pose]
+
+    def achieved(self, reached_pose: np.ndarray) -> float:
+        """Distance covered when the ik frame is at reached_pose (in this target's measure)."""
+        if self.measure == "rotation":
+            delta = reached_pose[:3, :3] @ self.start_pose[:3, :3].T
+            return float(np.linalg.norm(pin.log3(delta)))
+        return float(np.linalg.norm(reached_pose[:3, 3] - self.start_pose[:3, 3]))
+
+
+@dataclass
+class RelativeMotionResult:
+    """Outcome of :func:`plan_relative_motion` (MTC's MoveRelative).
+
+    ``error_code`` is SUCCESS only when MTC would accept the motion (see min_distance); a
+    failed motion still carries the partial ``trajectory`` and ``achieved_distance`` so the
+    caller can inspect it, as MTC keeps failed solutions for introspection.
+    """
+
+    error_code: MoveItErrorCode
+    trajectory: TimedTrajectory | None = None
+    path: np.ndarray | None = field(default=None, repr=False)
+    achieved_distance: float = 0.0
+    fraction: float = 0.0
+    target: RelativeTarget | None = field(default=None, repr=False)
+    cartesian: CartesianPathResult | None = field(default=None, repr=False)
+
+    @property
+    def message(self) -> str:
+        return self.error_code.message
+
+    @property
+    def success(self) -> bool:
+        return bool(self.error_code)
+
+    def __bool__(self) -> bool:
+        return self.success
+
+    @property
+    def stop_reason(self) -> str:
+        return self.cartesian.stop_reason if self.cartesian is not None else STOP_INVALID_REQUEST
+
+
+def _failed(code: int, message: str, group: str = "", started: float | None = None) -> CartesianPathResult:
+    return CartesianPathResult(
+        error_code=MoveItErrorCode(code, message),
+        stop_reason=STOP_INVALID_REQUEST,
+        group_name=group if isinstance(group, str) else "",
+        planning_time=0.0 if started is None else time.perf_counter() - started,
+    )
+
+
+# ---------------------------------------------------------------------------- request checks
+def _finite_number(value: object, name: str, minimum: float = 0.0, strict: bool = False) -> float:
+    ok = isinstance(value, (int, float, np.floating, np.integer)) and not isinstance(value, bool)
+    if ok:
+        value = float(value)
+        ok = math.isfinite(value) and (value > minimum if strict else value >= minimum)
+    if not ok:
+        bound = f"> {minimum:g}" if strict else f">= {minimum:g}"
+        raise failure(MoveItErrorCode.INVALID_MOTION_PLAN, f"{name} must be a finite number {bound}, got {value!r}")
+    return float(value)
+
+
+def _scaling(value: float | None, default: float, name: str) -> float:
+    value = default if value is None else value
+    if (not isinstance(value, (int, float, np.floating)) or isinstance(value, bool) or not math.isfinite(value)
+            or not 0.0 < value <= 1.0):
+        raise failure(MoveItErrorCode.INVALID_MOTION_PLAN, f"{name} must be in (0, 1], got {value!r}")
+    return float(value)
+
+
+def _start_state(scene: PlanningScene, start_state: RobotState | None, avoid_collisions: bool) -> RobotState:
+    start = scene.current_state if start_state is None else start_state
+    if not isinstance(start, RobotState) or start.model is not scene.robot_model:
+        raise failure(MoveItErrorCode.INVALID_ROBOT_STATE, "start state is not a RobotState of the scene's robot")
+    violated = start.violated_bounds(margin=1e-6)
+    if violated:
+        raise failure(MoveItErrorCode.START_STATE_INVALID, "start state outside joint limits: " + "; ".join(violated))
+    if avoid_collisions:
+        report = scene.check_collision(start, max_contacts=3)
+        if report.collision:
+            raise failure(
+                MoveItErrorCode.START_STATE_IN_COLLISION,
+                "start state in collision: " + "; ".join(str(c) for c in report.contacts),
+            )
+    return start.copy()
+
+
+def _check_link(model: RobotModel, jmg: JointModelGroup, link: str | None) -> str:
+    link = jmg.tip_link if link is None else link
+    if not isinstance(link, str) or not link:
+        raise failure(MoveItErrorCode.INVALID_LINK_NAME, f"invalid link name {link!r}")
+    try:
+        model.frame_id(link)
+    except ValueError:
+        raise failure(MoveItErrorCode.INVALID_LINK_NAME, f"unknown link '{link}' of robot '{model.name}'") from None
+    return link
+
+
+def _check_offset(ik_frame_offset: np.ndarray | None) -> np.ndarray | None:
+    if ik_frame_offset is None:
+        return None
+    try:
+        return check_pose(ik_frame_offset, "ik_frame_offset")
+    except ValueError as exc:
+        raise failure(MoveItErrorCode.INVALID_GOAL_CONSTRAINTS, str(exc)) from None
+
+
+def _check_waypoints(waypoints: object) -> list[np.ndarray]:
+    if waypoints is None:
+        raise failure(MoveItErrorCode.INVALID_GOAL_CONSTRAINTS, "no waypoints given")
+    if isinstance(waypoints, np.ndarray) and waypoints.shape == (4, 4):
+        waypoints = [waypoints]
+    try:
+        items = list(waypoints)  # type: ignore[arg-type]
+    except TypeError:
+        raise failure(MoveItErrorCode.INVALID_GOAL_CONSTRAINTS, "waypoints must be a list of 4x4 poses") from None
+    if not items:
+        raise failure(MoveItErrorCode.INVALID_GOAL_CONSTRAINTS, "the waypoint list is empty: nothing to move to")
+    out = []
+    for i, pose in enumerate(items):
+        try:
+            out.append(check_pose(pose, f"waypoint {i}"))
+        except ValueError as exc:
+            raise failure(MoveItErrorCode.INVALID_GOAL_CONSTRAINTS, str(exc)) from None
+    return out
+
+
+def _frame_pose(scene: PlanningScene, frame: str, state: RobotState) -> np.ndarray:
+    if frame == "world" or frame == scene.robot_model.pin_model.frames[0].name:
+        return np.eye(4)
+    try:
+        return scene.frame_pose(frame, state)
+    except (PlanningError, ValueError) as exc:
+        raise failure(MoveItErrorCode.FRAME_TRANSFORM_FAILURE, str(exc)) from None
+
+
+# ---------------------------------------------------------------------------- interpolation
+def _interpolate_segments(
+    start: np.ndarray, waypoints: list[np.ndarray], eef_step: float, rotation_step: float, min_steps: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Every step target of the path, vectorised.
+
+    Returns positions (S, 3), rotations (S, 3, 3), the segment of each step and the number of
+    steps of each segment. A segment of translation d and rotation angle a gets
+    max(ceil(d / eef_step), ceil(a / rotation_step), min_steps, 1) equal steps.
+    """
+    plan = []
+    previous = start
+    for target in waypoints:
+        r0 = Rotation.from_matrix(previous[:3, :3])
+        rotvec = (r0.inv() * Rotation.from_matrix(target[:3, :3])).as_rotvec()
+        angle = float(np.linalg.norm(rotvec))
+        distance = float(np.linalg.norm(target[:3, 3] - previous[:3, 3]))
+        steps = max(1, min_steps, math.ceil(distance / eef_step - 1e-9), math.ceil(angle / rotation_step - 1e-9))
+        plan.append((previous, target, r0, rotvec, steps))
+        previous = target
+    total = sum(item[-1] for item in plan)
+    if total > MAX_STEPS:
+        raise failure(
+            MoveItErrorCode.INVALID_MOTION_PLAN,
+            f"the path would need {total} steps (more than {MAX_STEPS}): eef_step {eef_step:g} m / rotation step "
+            f"{rotation_step:g} rad is too small for it",
+        )
+    positions, rotations, segment_of, steps_of = [], [], [], []
+    for index, (previous, target, r0, rotvec, steps) in enumerate(plan):
+        p0, p1 = previous[:3, 3], target[:3, 3]
+        t = np.arange(1, steps + 1) / steps
+        positions.append(p0[None, :] + t[:, None] * (p1 - p0)[None, :])
+        # slerp from r0 to the target: r0 * exp(t * log(r0^-1 r1))
+        step_rot = (r0 * Rotation.from_rotvec(t[:, None] * rotvec[None, :])).as_matrix()
+        step_rot[-1] = target[:3, :3]  # land exactly on the waypoint
+        positions[-1][-1] = p1
+        rotations.append(step_rot)
+        segment_of.append(np.full(steps, index))
+        steps_of.append(steps)
+    return (np.concatenate(positions), np.concatenate(rotations), np.concatenate(segment_of),
+            np.array(steps_of, dtype=int))
+
+
+# ---------------------------------------------------------------------------- step solver
+class _StepSolver:
+    """Newton corrector for consecutive IK targets of one link, without RobotState objects.
+
+    Holds the frame pose and the group Jacobian at the current solution, so the next step's
+    first Newton iteration (the first-order predictor q + J^+ dx) needs no extra kinematics.
+    Written for the per-step budget (tens of microseconds): LAPACK's gesv directly instead of
+    numpy.linalg.solve, no np.clip/np.max wrappers.
+    """
+
+    def __init__(self, model: RobotModel, jmg: JointModelGroup, link: str, full: np.ndarray) -> None:
+        self.model = model
+        self.pmodel, self.pdata = model.pin_model, model.pin_data
+        self.fid = model.frame_id(link)
+        self.idx = jmg.variable_indices
+        jmap = np.ascontiguousarray(model.jacobian_map(self.idx))
+        # Usually each group variable is one velocity column (no mimic followers in the group):
+        # then picking columns is cheaper than the matrix product with the map.
+        ones = (jmap == 1.0).sum(axis=0) == 1
+        zeros = (jmap == 0.0).sum(axis=0) == jmap.shape[0] - 1
+        self.columns = np.argmax(jmap, axis=0) if bool(np.all(ones & zeros)) else None
+        self.jmap = jmap
+        self.lower = model.lower_limits[self.idx]
+        self.upper = model.upper_limits[self.idx]
+        self.full = full  # shared buffer: group entries are rewritten, the rest stays the start's
+        self.nan = np.full(len(self.idx), np.nan)
+        self.damping = _DAMPING * np.eye(6)
+        self.frame = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+        self.gesv = get_lapack_funcs(("gesv",), (np.zeros((6, 6)),))[0]
+        self.err = np.empty(6)
+        self.update(full[self.idx].copy())
+
+    def update(self, x: np.ndarray) -> None:
+        self.x = x
+        self.full[self.idx] = x
+        pmodel, pdata, fid = self.pmodel, self.pdata, self.fid
+        pin.computeJointJacobians(pmodel, pdata, self.model.to_q(self.full))
+        placement = pin.updateFramePlacement(pmodel, pdata, fid)
+        self.position = placement.translation
+        self.rotation = placement.rotation
+        jacobian = pin.getFrameJacobian(pmodel, pdata, fid, self.frame)
+        self.jacobian = jacobian[:, self.columns] if self.columns is not None else jacobian @ self.jmap
+
+    def _solve(self, err: np.ndarray) -> np.ndarray:
+        """Damped least squares J^T (J J^T + lambda I)^-1 e: the plain Newton step for a regular
+        Jacobian, and (close to) the minimum-norm step at a singular one, where a plain solve
+        would send the null-space joints flying although the target is reachable."""
+        jac = self.jacobian
+        _, _, y, info = self.gesv(jac @ jac.T + self.damping, err)
+        return jac.T @ y if info == 0 else self.nan
+
+    def correct(self, p_target: np.ndarray, r_target: np.ndarray, iterations: int = _CORRECTOR_ITERATIONS) -> bool:
+        """Newton from the current solution to the target; True (and state moved) on convergence.
+
+        On failure the solver is left at the last iterate; the caller restores what it needs.
+        """
+        pos_tol2 = _POSITION_TOLERANCE**2
+        rot_tol2 = _ORIENTATION_TOLERANCE**2
+        err = self.err
+        lower, upper = self.lower, self.upper
+        log3 = pin.log3
+        for _ in range(iterations + 1):
+            lin = p_target - self.position
+            ang = log3(r_target @ self.rotation.T)
+            if lin @ lin <= pos_tol2 and ang @ ang <= rot_tol2:
+                return True
+            err[:3] = lin
+            err[3:] = ang
+            step = self._solve(err)
+            if not max(step.max(), -step.min()) <= _CORRECTOR_MAX_STEP:  # also catches NaN
+                return False
+            self.update(np.minimum(np.maximum(self.x + step, lower), upper))
+        return False
+
+
+# ---------------------------------------------------------------------------- main entry
+def compute_cartesian_path(
+    scene: PlanningScene,
+    group: str,
+    start_state: RobotState | None,
+    waypoints: Sequence[np.ndarray] | np.ndarray,
+    link: str | None = None,
+    ik_frame_offset: np.ndarray | None = None,
+    eef_step: float = 0.01,
+    jump_threshold: float = 0.0,
+    avoid_collisions: bool = True,
+    velocity_scaling: float | None = None,
+    acceleration_scaling: float | None = None,
+    revolute_jump_threshold: float = 0.0,
+    prismatic_jump_threshold: float = 0.0,
+    max_rotation_step: float | None = None,
+    collision_check_resolution: float = DEFAULT_COLLISION_CHECK_RESOLUTION,
+    frame: str = "world",
+    sample_period: float | None = None,
+) -> CartesianPathResult:
+    """MoveIt's computeCartesianPath: move the ik frame through waypoints along straight lines.
+
+    Args:
+        scene: planning scene (collision world, ACM, frames).
+        group: planning group whose joints move.
+        start_state: where the path starts (None: the scene's current state). As in MoveIt,
+            the waypoints do NOT include the start pose: the first segment runs from the ik
+            frame's pose at the start state to ``waypoints[0]``.
+        waypoints: 4x4 poses of the ik frame, in ``frame`` (default the world/model frame).
+        link: the link to move (default: the group's tip link).
+        ik_frame_offset: pose of the ik frame in ``link``'s frame (e.g. a TCP); the waypoints
+            are poses of that frame.
+        eef_step: maximum translation (m) of the ik frame between consecutive path states.
+        jump_threshold: MoveIt's relative test: a step whose joint-space distance (sum of
+            per-joint distances) exceeds jump_threshold x the mean step cuts the path before
+            it. 0 disables it; when > 0 every segment gets at least 10 steps, and (as in MoveIt)
+            the test is skipped when fewer than 10 states were computed.
+        avoid_collisions: check every state (and the joint-space motion between consecutive
+            states at ``collision_check_resolution``) against the scene.
+        velocity_scaling, acceleration_scaling: timing factors in (0, 1]; None takes
+            joint_limits.yaml's defaults.
+        revolute_jump_threshold, prismatic_jump_threshold: MoveIt 2's absolute test: a step
+            moving any revolute joint more than this (rad) / prismatic joint more than this (m)
+            cuts the path before it. 0 disables.
+        max_rotation_step: maximum rotation (rad) of the ik frame per step; default
+            eef_step / 0.1 (a point 10 cm from the ik frame moves at most eef_step).
+        collision_check_resolution: joint-space spacing (rad, max-norm) of the collision checks
+            between consecutive states.
+        frame: frame the waypoints are expressed in: 'world', a link, or a collision object
+            (resolved at the start state).
+        sample_period: passed to the time parameterisation (None: breakpoints only).
+
+    Returns:
+        A CartesianPathResult; never raises for bad input (error codes instead).
+    """
+    started = time.perf_counter()
+    try:
+        return _compute(
+            scene, group, start_state, waypoints, link, ik_frame_offset, eef_step, jump_threshold, avoid_collisions,
+            velocity_scaling, acceleration_scaling, revolute_jump_threshold, prismatic_jump_threshold,
+            max_rotation_step, collision_check_resolution, frame, sample_period, started,
+        )
+    except PlanningFailure as exc:
+        return _failed(exc.code, exc.message, group, started)
+
+
+def _compute(
+    scene, group, start_state, waypoints, link, ik_frame_offset, eef_step, jump_threshold, avoid_collisions,
+    velocity_scaling, acceleration_scaling, revolute_jump_threshold, prismatic_jump_threshold, max_rotation_step,
+    collision_check_resolution, frame, sample_period, started,
+) -> CartesianPathResult:
+    if not isinstance(scene, PlanningScene):
+        raise failure(MoveItErrorCode.INVALID_MOTION_PLAN, f"scene must be a PlanningScene, got {type(scene).__name__}")
+    model = scene.robot_model
+    jmg = check_group(model, group)
+    link = _check_link(model, jmg, link)
+    offset = _check_offset(ik_frame_offset)
+    poses = _check_waypoints(waypoints)
+    eef_step = _finite_number(eef_step, "eef_step", strict=True)
+    jump_threshold = _finite_number(jump_threshold, "jump_threshold")
+    revolute_jump_threshold = _finite_number(revolute_jump_threshold, "revolute_jump_threshold")
+    prismatic_jump_threshold = _finite_number(prismatic_jump_threshold, "prismatic_jump_threshold")
+    rotation_step = (eef_step / ROTATION_STEP_RADIUS if max_rotation_step is None
+                     else _finite_number(max_rotation_step, "max_rotation_step", strict=True))
+    resolution = _finite_number(collision_check_resolution, "collision_check_resolution", strict=True)
+    vel = _scaling(velocity_scaling, model.default_velocity_scaling_factor, "velocity_scaling")
+    acc = _scaling(acceleration_scaling, model.default_acceleration_scaling_factor, "acceleration_scaling")
+    if sample_period is not None:
+        sample_period = _finite_number(sample_period, "sample_period", strict=True)
+    if not isinstance(frame, str) or not frame:
+        raise failure(MoveItErrorCode.FRAME_TRANSFORM_FAILURE, f"invalid frame {frame!r}")
+    start = _start_state(scene, start_state, bool(avoid_collisions))
+
+    # The link must actually be moved by the group, or no waypoint can ever be reached.
+    if not np.any(np.abs(start.jacobian(link, jmg.name)) > 1e-12):
+        raise failure(MoveItErrorCode.INVALID_LINK_NAME, f"link '{link}' is not moved by group '{jmg.name}'")
+
+    frame_pose = _frame_pose(scene, frame, start)
+    if frame != "world":
+        poses = [frame_pose @ p for p in poses]
+    link_start = start.frame_pose(link)
+    ik_start = link_start if offset is None else link_start @ offset
+
+    min_steps = MIN_STEPS_FOR_JUMP_THRESHOLD if jump_threshold > 0 else 1
+    p_ik, r_ik, segment_of, steps_of = _interpolate_segments(ik_start, poses, eef_step, rotation_step, min_steps)
+    # IK targets of the link itself: T_link = T_ik * offset^-1.
+    if offset is None:
+        p_link, r_link = p_ik, r_ik
+    else:
+        r_off_t = offset[:3, :3].T
+        r_link = r_ik @ r_off_t
+        p_link = p_ik - r_link @ offset[:3, 3]
+    n_steps = len(p_link)
+
+    idx = jmg.variable_indices
+    full = start.positions.copy()
+    solver = _StepSolver(model, jmg, link, full)
+    path = np.empty((n_steps + 1, len(idx)))
+    path[0] = full[idx]
+    revolute = np.array([model.joint(j).type in ("revolute", "continuous") for j in jmg.joint_names])
+    prismatic = np.array([model.joint(j).type == "prismatic" for j in jmg.joint_names])
+    continuous = np.array([model.joint(j).type == "continuous" for j in jmg.joint_names])
+    is_valid = scene.is_valid_positions
+    check_buffer = full.copy()
+    fallback: IKSolver | None = None
+
+    stop_reason, detail = STOP_COMPLETE, ""
+    done = 0  # steps achieved
+    for s in range(n_steps):
+        previous = solver.x
+        if not solver.correct(p_link[s], r_link[s]):
+            # A longer descent from the previous solution only (no table seeds, no restarts):
+            # the path stays on the seed's IK branch or stops, it never hops to another branch.
+            if fallback is None:
+                fallback = IKSolver(model, jmg.name, link)
+            seed_positions = full.copy()
+            seed_positions[idx] = previous
+            target = np.eye(4)
+            target[:3, :3], target[:3, 3] = r_link[s], p_link[s]
+            refined = fallback.refine(target, RobotState(model, seed_positions))
+            ok = False
+            if refined is not None:
+                x = refined.positions[idx].copy()
+                if continuous.any():  # stay continuous: nearest 2*pi-equivalent to the seed
+                    x[continuous] = previous[continuous] + (
+                        (x[continuous] - previous[continuous] + math.pi) % (2 * math.pi) - math.pi)
+                solver.update(x)
+                ok = solver.correct(p_link[s], r_link[s])
+            if not ok:
+                solver.update(previous)
+                stop_reason = STOP_NO_IK
+                detail = f"no IK solution for '{link}' at step {s + 1}"
+                break
+        x = solver.x
+        delta = x - previous
+        if revolute_jump_threshold > 0 and np.any(np.abs(delta[revolute]) > revolute_jump_threshold):
+            solver.update(previous)
+            stop_reason = STOP_JOINT_JUMP
+            detail = (f"revolute joint step {float(np.max(np.abs(delta[revolute]))):.4f} rad exceeds "
+                      f"revolute_jump_threshold {revolute_jump_threshold:g} at step {s + 1}")
+            break
+        if prismatic_jump_threshold > 0 and np.any(np.abs(delta[prismatic]) > prismatic_jump_threshold):
+            solver.update(previous)
+            stop_reason = STOP_JOINT_JUMP
+            detail = (f"prismatic joint step {float(np.max(np.abs(delta[prismatic]))):.4f} m exceeds "
+                      f"prismatic_jump_threshold {prismatic_jump_threshold:g} at step {s + 1}")
+            break
+        if avoid_collisions:
+            colliding = None
+            largest = float(np.abs(delta).max())
+            between = int(math.ceil(largest / resolution)) if largest > resolution else 1
+            for j in range(1, between + 1):
+                check_buffer[idx] = x if j == between else previous + (j / between) * delta
+                if not is_valid(check_buffer):
+                    colliding = check_buffer.copy()
+                    break
+            if colliding is not None:
+                solver.update(previous)
+                stop_reason = STOP_COLLISION
+                report = scene.check_collision(RobotState(model, colliding), max_contacts=3)
+                what = "; ".join(str(c) for c in report.contacts) or "joint limits"
+                where = "state" if j == between else "motion to the state"
+                detail = f"{where} of step {s + 1} invalid: {what}"
+                break
+        path[s + 1] = x
+        done = s + 1
+
+    # MoveIt's relative jump test over the computed path.
+    if jump_threshold > 0 and done + 1 >= MIN_STEPS_FOR_JUMP_THRESHOLD:
+        distances = _step_distances(path[: done + 1], continuous)
+        limit = jump_threshold * float(np.mean(distances))
+        over = np.flatnonzero(distances > limit)
+        if over.size:
+            cut = int(over[0])  # the step from path[cut] to path[cut + 1] jumps
+            detail = (f"joint-space jump at step {cut + 1}: {distances[cut]:.4f} > jump_threshold "
+                      f"{jump_threshold:g} x mean step {limit / jump_threshold:.4f}")
+            stop_reason = STOP_JOINT_JUMP
+            done = cut
+
+    path = path[: done + 1].copy()
+    if done == n_steps:
+        fraction = 1.0
+    else:
+        seg = int(segment_of[done])  # the segment of the first step not achieved
+        first_of_seg = int(np.sum(steps_of[:seg]))
+        fraction = (seg + (done - first_of_seg) / steps_of[seg]) / len(poses)
+    if len(path) >= 2:
+        try:
+            trajectory = time_group_path(model, jmg, path, vel, acc, sample_period)
+        except (PlanningError, ValueError) as exc:
+            raise failure(MoveItErrorCode.PLANNING_FAILED, f"time parameterisation failed: {exc}") from None
+    else:
+        zeros = np.zeros_like(path)
+        trajectory = TimedTrajectory(list(jmg.joint_names), np.zeros(1), path.copy(), zeros, zeros.copy())
+    if stop_reason == STOP_COMPLETE:
+        message = f"Cartesian path complete ({len(path) - 1} steps)"
+    else:
+        message = f"Cartesian path stopped at {100.0 * fraction:.2f}% ({stop_reason}): {detail}"
+    return CartesianPathResult(
+        error_code=MoveItErrorCode(MoveItErrorCode.SUCCESS, message),
+        fraction=float(fraction),
+        trajectory=trajectory,
+        path=path,
+        stop_reason=stop_reason,
+        group_name=jmg.name,
+        link=link,
+        start_state=start,
+        planning_time=time.perf_counter() - started,
+    )
+
+
+def _step_distances(path: np.ndarray, continuous: np.ndarray) -> np.ndarray:
+    """MoveIt's RobotState::distance between consecutive states: sum of per-joint distances."""
+    delta = np.abs(np.diff(path, axis=0))
+    if continuous.any():
+        delta[:, continuous] = np.minimum(delta[:, continuous], 2 * math.pi - delta[:, continuous])
+    return delta.sum(axis=1)
+
+
+# ---------------------------------------------------------------------------- relative motion
+def _vector(value: object, size: int, name: str) -> np.ndarray:
+    try:
+        arr = np.array(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise failure(MoveItErrorCode.INVALID_GOAL_CONSTRAINTS, f"{name} is not a vector of numbers") from None
+    if arr.size != size:
+        raise failure(MoveItErrorCode.INVALID_GOAL_CONSTRAINTS, f"{name} must have {size} values, got {arr.size}")
+    if not np.all(np.isfinite(arr)):
+        raise failure(MoveItErrorCode.INVALID_GOAL_CONSTRAINTS, f"{name} contains NaN or infinite values")
+    return arr
+
+
+def relative_target_poses(
+    scene: PlanningScene,
+    start_state: RobotState | None,
+    link: str | None,
+    ik_frame_offset: np.ndarray | None = None,
+    direction: Sequence[float] | np.ndarray | None = None,
+    twist: Sequence[float] | np.ndarray | None = None,
+    frame: str = "world",
+    distance: float | None = None,
+    group: str | None = None,
+) -> RelativeTarget:
+    """The goal of an MTC MoveRelative from start_state (world frame).
+
+    Exactly one of:
+      * ``direction`` (3-vector, in ``frame``'s axes): translate the ik frame by the vector, or,
+        when ``distance`` > 0, by ``distance`` along its normalised direction.
+      * ``twist`` (6-vector: linear xyz, angular xyz, in ``frame``'s axes): translate by the
+        linear part and rotate by |angular| rad about the angular axis through the ik frame's
+        origin. With ``distance`` > 0 both parts are scaled so that the linear part has length
+        ``distance`` (or, for a pure rotation, the angle is ``distance`` rad).
+
+    ``frame`` is 'world', a link, or a collision object id; only its orientation matters. The
+    link defaults to the group's tip link when ``group`` is given.
+
+    Raises PlanningFailure (a PlanningError carrying the MoveIt error code) on bad input.
+    """
+    if not isinstance(scene, PlanningScene):
+        raise failure(MoveItErrorCode.INVALID_MOTION_PLAN, f"scene must be a PlanningScene, got {type(scene).__name__}")
+    model = scene.robot_model
+    if link is None:
+        if group is None:
+            raise failure(MoveItErrorCode.INVALID_LINK_NAME, "give the link to move (or the group, for its tip link)")
+        link = check_group(model, group).tip_link
+    if not isinstance(link, str) or not link:
+        raise failure(MoveItErrorCode.INVALID_LINK_NAME, f"invalid link name {link!r}")
+    try:
+        model.frame_id(link)
+    except ValueError:
+        raise failure(MoveItErrorCode.INVALID_LINK_NAME, f"unknown link '{link}' of robot '{model.name}'") from None
+    offset = _check_offset(ik_frame_offset)
+    state = scene.current_state if start_state is None else start_state
+    if not isinstance(state, RobotState) or state.model is not model:
+        raise failure(MoveItErrorCode.INVALID_ROBOT_STATE, "start state is not a RobotState of the scene's robot")
+    if (direction is None) == (twist is None):
+        raise failure(
+            MoveItErrorCode.INVALID_GOAL_CONSTRAINTS, "give exactly one of direction (3-vector) or twist (6-vector)"
+        )
+    if distance is not None:
+        distance = _finite_number(distance, "distance")
+        if distance == 0.0:
+            distance = None  # MTC: max_distance 0 means "use the vector as given"
+    if not isinstance(frame, str) or not frame:
+        raise failure(MoveItErrorCode.FRAME_TRANSFORM_FAILURE, f"invalid frame {frame!r}")
+    axes = _frame_pose(scene, frame, state)[:3, :3]
+    start_pose = state.frame_pose(link)
+    if offset is not None:
+        start_pose = start_pose @ offset
+
+    if direction is not None:
+        linear = _vector(direction, 3, "direction")
+        norm = float(np.linalg.norm(linear))
+        if norm < 1e-12:
+            raise failure(MoveItErrorCode.INVALID_GOAL_CONSTRAINTS, "direction is the zero vector")
+        if distance is not None:
+            linear = linear / norm * distance
+        linear = axes @ linear
+        angular = np.zeros(3)
+        measure = "translation"
+    else:
+        values = _vector(twist, 6, "twist")
+        linear, angular = values[:3], values[3:]
+        lin_norm, ang_norm = float(np.linalg.norm(linear)), float(np.linalg.norm(angular))
+        if lin_norm < 1e-12 and ang_norm < 1e-12:
+            raise failure(MoveItErrorCode.INVALID_GOAL_CONSTRAINTS, "twist is zero: nothing to move")
+        measure = "rotation" if lin_norm < 1e-12 else "translation"
+        if distance is not None:
+            scale = distance / (lin_norm if measure == "translation" else ang_norm)
+            linear, angular = linear * scale, angular * scale
+        linear, angular = axes @ linear, axes @ angular
+
+    pose = start_pose.copy()
+    pose[:3, :3] = pin.exp3(angular) @ start_pose[:3, :3]  # rotation about the ik frame's origin
+    pose[:3, 3] = start_pose[:3, 3] + linear
+    nominal = float(np.linalg.norm(linear)) if measure == "translation" else float(np.linalg.norm(angular))
+    return RelativeTarget(pose=pose, start_pose=start_pose, linear=linear, angular=angular, measure=measure,
+                          distance=nominal)
+
+
+def plan_relative_motion(
+    scene: PlanningScene,
+    group: str,
+    start_state: RobotState | None = None,
+    link: str | None = None,
+    ik_frame_offset: np.ndarray | None = None,
+    direction: Sequence[float] | np.ndarray | None = None,
+    twist: Sequence[float] | np.ndarray | None = None,
+    frame: str = "world",
+    min_distance: float = -1.0,
+    max_distance: float = 0.0,
+    eef_step: float = 0.01,
+    jump_threshold: float = 0.0,
+    avoid_collisions: bool = True,
+    velocity_scaling: float | None = None,
+    acceleration_scaling: float | None = None,
+    min_fraction: float = 1.0,
+    **cartesian_options,
+) -> RelativeMotionResult:
+    """MTC's MoveRelative with its CartesianPath solver.
+
+    The motion is given by ``direction`` or ``twist`` in ``frame`` (see
+    :func:`relative_target_poses`); ``max_distance`` > 0 says how far to go along it (0: the
+    vector's own length). Success follows MTC:
+
+      * ``min_distance`` > 0: success iff the ik frame moved at least min_distance (m, or rad for
+        a pure rotation), even if the full distance was not reached;
+      * ``min_distance`` == 0: success whatever distance was achieved;
+      * ``min_distance`` < 0 (default -1): success only if the Cartesian path reached
+        ``min_fraction`` (default 1.0, i.e. the whole motion).
+
+    Extra keyword arguments go to :func:`compute_cartesian_path` (revolute_jump_threshold, ...).
+    """
+    started = time.perf_counter()
+    try:
+        min_distance = _finite_number(min_distance, "min_distance", minimum=-math.inf)
+        max_distance = _finite_number(max_distance, "max_distance", minimum=-math.inf)
+        max_distance = abs(max_distance)
+        min_fraction = _finite_number(min_fraction, "min_fraction")
+        if min_fraction > 1.0:
+            raise failure(MoveItErrorCode.INVALID_MOTION_PLAN, f"min_fraction must be in [0, 1], got {min_fraction}")
+        if max_distance > 0 and min_distance > max_distance:
+            raise failure(
+                MoveItErrorCode.INVALID_MOTION_PLAN,
+                f"min_distance {min_distance:g} exceeds max_distance {max_distance:g}: the motion can never succeed",
+            )
+        model = scene.robot_model if isinstance(scene, PlanningScene) else None
+        jmg = check_group(model, group) if model is not None else None
+        if jmg is None:
+            raise failure(
+                MoveItErrorCode.INVALID_MOTION_PLAN, f"scene must be a PlanningScene, got {type(scene).__name__}"
+            )
+        target = relative_target_poses(
+            scene, start_state, link if link is not None else jmg.tip_link, ik_frame_offset, direction, twist, frame,
+            max_distance if max_distance > 0 else None,
+        )
+    except PlanningFailure as exc:
+        return RelativeMotionResult(
+            error_code=MoveItErrorCode(exc.code, exc.message),
+            cartesian=_failed(exc.code, exc.message, group if isinstance(group, str) else "", started),
+        )
+    result = compute_cartesian_path(
+        scene, group, start_state, target.waypoints, link=link, ik_frame_offset=ik_frame_offset, eef_step=eef_step,
+        jump_threshold=jump_threshold, avoid_collisions=avoid_collisions, velocity_scaling=velocity_scaling,
+        acceleration_scaling=acceleration_scaling, **cartesian_options,
+    )
+    if not result:
+        return RelativeMotionResult(error_code=result.error_code, target=target, cartesian=result)
+    last = result.states()[-1]
+    reached = last.frame_pose(result.link)
+    if ik_frame_offset is not None:
+        reached = reached @ np.asarray(ik_frame_offset, dtype=float)
+    achieved = target.achieved(reached)
+    unit = "rad" if target.measure == "rotation" else "m"
+    if min_distance > 0:
+        ok = achieved >= min_distance
+        why = (f"moved {achieved:.4g} {unit} >= min_distance {min_distance:g}" if ok
+               else f"min_distance not reached ({achieved:.4g} < {min_distance:g} {unit}): {result.message}")
+    elif min_distance == 0:
+        ok, why = True, f"moved {achieved:.4g} {unit} (min_distance 0: any distance succeeds)"
+    else:
+        ok = result.fraction >= min_fraction - 1e-12
+        why = (f"moved the full {achieved:.4g} {unit}" if ok
+               else f"failed to move full distance ({achieved:.4g} of {target.distance:.4g} {unit}): {result.message}")
+    code = MoveItErrorCode.SUCCESS if ok else MoveItErrorCode.PLANNING_FAILED
+    return RelativeMotionResult(
+        error_code=MoveItErrorCode(code, why),
+        trajectory=result.trajectory,
+        path=result.path,
+        achieved_distance=achieved,
+        fraction=result.fraction,
+        target=target,
+        cartesian=result,
+    )
