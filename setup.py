@@ -24,6 +24,8 @@ setup(
     entry_points={
         "console_scripts": [
             f"ik_over_table = {PACKAGE}.demos.ik_over_table:main",
+            f"mock_controllers = {PACKAGE}.nodes.mock_controllers:main",
+            f"ros2 = {PACKAGE}.ros2cli.__main__:main",
         ],
     },
 )

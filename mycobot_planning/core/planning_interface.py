@@ -21,7 +21,7 @@ from .kinematics import IKSolver
 from .planning_scene import PlanningScene
 from .robot_model import JointModelGroup, RobotModel
 from .robot_state import RobotState
-from .time_parameterization import TimedTrajectory, time_parameterize
+from .time_parameterization import DEFAULT_MAX_DEVIATION, TimedTrajectory, time_parameterize
 from .transforms import check_pose
 
 
@@ -294,8 +294,16 @@ def time_group_path(
     velocity_scaling: float,
     acceleration_scaling: float,
     sample_period: float | None = None,
+    max_deviation: float = DEFAULT_MAX_DEVIATION,
 ) -> TimedTrajectory:
-    """Ruckig timing of a group path under joint_limits.yaml scaled by the request's factors."""
+    """Time a group path under joint_limits.yaml scaled by the request's factors.
+
+    ``method="auto"``: a densely sampled curve (a Cartesian path, a B-spline-smoothed OMPL
+    path) gets near time-optimal path speeds along a smooth curve through every waypoint
+    within ``max_deviation`` (joint-space norm) of the polyline; anything else (straight
+    runs and real corners, or jerk limits configured) one Ruckig profile per straight segment,
+    exactly on the polyline, resting at each corner. See time_parameterization's module
+    docstring."""
     idx = jmg.variable_indices
     jerk = None if model.jerk_limits is None else model.jerk_limits[idx]
     return time_parameterize(
@@ -307,6 +315,8 @@ def time_group_path(
         acceleration_scaling=acceleration_scaling,
         joint_names=list(jmg.joint_names),
         sample_period=sample_period,
+        method="auto",
+        max_deviation=max_deviation,
     )
 
 

@@ -1,0 +1,1 @@
+"""Thin rclpy nodes: they translate parameters, topics and requests into core library calls."""

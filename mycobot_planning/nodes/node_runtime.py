@@ -1,0 +1,167 @@
+"""What every node of the package shares: start-up and shutdown, and declared, validated parameters.
+
+ROS users expect `ros2 param describe` to explain a parameter, `ros2 param set` to refuse a bad
+value with a reason (never to crash the node or half-apply), and Ctrl-C / SIGTERM to stop a node
+cleanly. Each node declares its parameters through `ParameterSpec`s and starts through
+`run_node`, so all nodes behave the same way.
+"""
+from __future__ import annotations
+
+import math
+import os
+import signal
+import sys
+from dataclasses import dataclass
+from typing import Any, Callable, Sequence
+
+import rclpy
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
+from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+
+Validator = Callable[[Any], str | None]  # returns an error sentence, or None when the value is fine
+
+
+@dataclass(frozen=True)
+class ParameterSpec:
+    """One declared parameter: default, human description, optional range/size/check."""
+
+    name: str
+    default: Any
+    description: str
+    range: tuple[float, float] | None = None  # inclusive
+    array_size: int | None = None  # fixed length for arrays
+    non_empty: bool = False  # strings (and string arrays' items) must not be empty
+    read_only: bool = False
+    validator: Validator | None = None
+    dynamic_typing: bool = False
+
+    def descriptor(self) -> ParameterDescriptor:
+        extra = []
+        if self.array_size is not None:
+            extra.append(f"exactly {self.array_size} values")
+        if self.non_empty:
+            extra.append("must not be empty")
+        descriptor = ParameterDescriptor(
+            description=self.description + (f" ({'; '.join(extra)})" if extra else ""),
+            read_only=self.read_only,
+            dynamic_typing=self.dynamic_typing,
+        )
+        if self.range is not None:
+            low, high = self.range
+            if isinstance(self.default, bool):
+                pass
+            elif isinstance(self.default, int):
+                descriptor.integer_range = [IntegerRange(from_value=int(low), to_value=int(high), step=0)]
+            elif isinstance(self.default, float):
+                descriptor.floating_point_range = [FloatingPointRange(from_value=float(low), to_value=float(high), step=0.0)]
+        return descriptor
+
+    def check(self, value: Any) -> str | None:
+        """Why `value` is not acceptable, or None."""
+        if isinstance(value, float) and not math.isfinite(value):
+            return f"{self.name} must be a finite number, got {value}"
+        if isinstance(value, (list, tuple)):
+            if self.array_size is not None and len(value) != self.array_size:
+                return f"{self.name} must have exactly {self.array_size} values, got {len(value)}"
+            if any(isinstance(v, float) and not math.isfinite(v) for v in value):
+                return f"{self.name} must contain finite numbers only"
+            if self.non_empty and (len(value) == 0 or any(isinstance(v, str) and not v.strip() for v in value)):
+                return f"{self.name} must not be empty or contain empty names"
+        if isinstance(value, str) and self.non_empty and not value.strip():
+            return f"{self.name} must not be empty"
+        if self.range is not None and isinstance(value, (int, float)) and not isinstance(value, bool):
+            low, high = self.range
+            if not low <= value <= high:
+                return f"{self.name} must be within [{low}, {high}], got {value}"
+        if self.validator is not None:
+            return self.validator(value)
+        return None
+
+
+class Parameters:
+    """Declares specs on a node, validates every set against them, and notifies listeners."""
+
+    def __init__(self, node: Node, specs: Sequence[ParameterSpec]) -> None:
+        self._node = node
+        self._specs = {spec.name: spec for spec in specs}
+        self._listeners: list[Callable[[dict[str, Any]], None]] = []
+        for spec in specs:
+            node.declare_parameter(spec.name, spec.default, spec.descriptor())
+        problems = [p for p in (spec.check(self.get(spec.name)) for spec in specs) if p]
+        if problems:
+            raise ValueError("invalid parameters: " + "; ".join(problems))
+        node.add_on_set_parameters_callback(self._on_set)
+        node.add_post_set_parameters_callback(self._after_set)
+
+    def get(self, name: str) -> Any:
+        value = self._node.get_parameter(name).value
+        return list(value) if isinstance(value, (list, tuple)) or hasattr(value, "tolist") else value
+
+    def values(self) -> dict[str, Any]:
+        return {name: self.get(name) for name in self._specs}
+
+    def on_change(self, listener: Callable[[dict[str, Any]], None]) -> None:
+        """Call `listener({name: value})` after a set has been accepted."""
+        self._listeners.append(listener)
+
+    def _on_set(self, params: list[Parameter]) -> SetParametersResult:
+        for param in params:
+            spec = self._specs.get(param.name)
+            if spec is None:
+                continue
+            value = param.value
+            if hasattr(value, "tolist"):
+                value = value.tolist()
+            reason = spec.check(value)
+            if reason:
+                self._node.get_logger().warning(f"refused {param.name}: {reason}")
+                return SetParametersResult(successful=False, reason=reason)
+        return SetParametersResult(successful=True)
+
+    def _after_set(self, params: list[Parameter]) -> None:
+        changed = {p.name: self.get(p.name) for p in params if p.name in self._specs}
+        if changed:
+            for listener in self._listeners:
+                try:
+                    listener(changed)
+                except Exception as exc:  # a listener's failure is logged, the node keeps running
+                    self._node.get_logger().error(f"applying {sorted(changed)} failed: {exc}")
+
+
+def use_fast_discovery() -> None:
+    """Point Fast DDS at config/fastdds_discovery.xml (frequent announcements) unless the user
+    chose a profile; must run before rclpy.init in the process."""
+    if "FASTRTPS_DEFAULT_PROFILES_FILE" not in os.environ:
+        from ..paths import config_file
+
+        os.environ["FASTRTPS_DEFAULT_PROFILES_FILE"] = str(config_file("fastdds_discovery.xml"))
+
+
+def run_node(factory: Callable[[], Node], args: list[str] | None = None, threads: int = 4) -> int:
+    """rclpy.init, build the node, spin it on a multi-threaded executor until Ctrl-C or SIGTERM,
+    then tear down. A node that cannot start logs why and exits 1 instead of a traceback."""
+    use_fast_discovery()
+    rclpy.init(args=args if args is not None else sys.argv)
+    signal.signal(signal.SIGTERM, lambda *_: rclpy.try_shutdown())
+    node = None
+    code = 0
+    try:
+        node = factory()
+        executor = MultiThreadedExecutor(num_threads=threads)
+        executor.add_node(node)
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except ValueError as exc:  # bad configuration: say what, do not print a traceback
+        print(f"[ERROR] {exc}", file=sys.stderr)
+        code = 1
+    finally:
+        if node is not None:
+            close = getattr(node, "close", None)
+            if callable(close):
+                close()
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return code
