@@ -151,3 +151,14 @@ def test_velocity_scaling_slows_the_trajectory(mycobot: RobotModel, planner: Omp
     )
     assert slow.trajectory.duration > 2 * fast.trajectory.duration
     assert np.max(np.abs(slow.trajectory.velocities)) <= 0.2 * 2.792527 + 1e-6
+
+
+def test_no_path_crosses_the_thin_wall_between_checks(mycobot: RobotModel, planner: OmplPlanner):
+    """OMPL checks edges every ~0.07 rad here; the planner re-checks the path densely and
+    re-plans finer, so no seed may return a path through the 5 mm wall of case (c)."""
+    scene = fallback_scene(mycobot, with_box=True)
+    start = ready_with(mycobot, link1_to_link2=-TAU / 8)
+    goal = JointGoal(dict(mycobot.named_state("ready", "arm"), link1_to_link2=TAU / 8))
+    for seed in range(1, 41):
+        response = planner.plan(scene, MotionPlanRequest("arm", goal, start_state=start, seed=seed))
+        assert_valid(scene, response, "arm", start)

@@ -15,6 +15,7 @@ from mycobot_planning.paths import example_robot_data_dir
 from mycobot_planning.core.transforms import make_pose
 
 from .common import emit, machine, spread, stats, timed
+from .task_scenarios import TASK_SCENARIOS
 
 
 def random_arm_states(
@@ -288,4 +289,5 @@ SCENARIOS: dict[str, Callable[..., None]] = {
     "peers": bench_peers,
     "plan_ompl": bench_plan_ompl,
     "ptp": bench_ptp,
+    **TASK_SCENARIOS,
 }

@@ -52,10 +52,30 @@ _STATUS_CODES = {
     "ABORT": MoveItErrorCode.PREEMPTED,
     "INFEASIBLE": MoveItErrorCode.PLANNING_FAILED,
     "CRASH": MoveItErrorCode.CRASH,
+    "INVALID_PATH": MoveItErrorCode.INVALID_MOTION_PLAN,
 }
 
 #: Share of the planning time that IK for pose goals may use before OMPL starts.
 IK_TIME_SHARE = 0.25
+
+#: Joint step (rad) at which the final path is re-checked, as fine as the trajectory validator's.
+#: OMPL checks edges at longest_valid_segment_fraction x the joint box diagonal (0.07 rad for the
+#: myCobot at MoveIt's 0.005), which lets a gripper sweep through a 5 mm wall between two checks;
+#: MoveIt has the same gap and closes it with its ValidateSolution adapter, as we do here.
+DENSE_CHECK_STEP = 0.005
+
+#: Re-plans (each with a 4x finer edge resolution) when the dense check finds a collision.
+MAX_REPLANS = 3
+
+
+def first_invalid_segment(validity, path: np.ndarray, step: float = DENSE_CHECK_STEP) -> int | None:
+    """Index of the first path segment whose interior collides at `step` resolution, or None."""
+    for index, (a, b) in enumerate(zip(path[:-1], path[1:])):
+        count = int(np.ceil(np.max(np.abs(b - a)) / step))
+        for t in np.arange(1, count) / count:
+            if not validity(a + t * (b - a)):
+                return index
+    return None
 
 
 class OmplPlanner:
@@ -127,11 +147,14 @@ class OmplPlanner:
         best = None
         last = None
         attempts = request.num_planning_attempts
-        for attempt in range(attempts):
+        fraction = resolved.longest_valid_segment_fraction
+        replans = 0
+        attempt = 0
+        while attempt < attempts:
             remaining = budget - (time.perf_counter() - started)
             if remaining <= 0:
                 break
-            seed = None if request.seed is None else int(request.seed) + 1 + attempt
+            seed = None if request.seed is None else int(request.seed) + 1 + attempt + 1000 * replans
             result = plan_joint_space(
                 lower,
                 upper,
@@ -141,7 +164,7 @@ class OmplPlanner:
                 planner_type=resolved.type,
                 planner_params=resolved.params,
                 timeout=remaining / (attempts - attempt),
-                longest_valid_segment_fraction=resolved.longest_valid_segment_fraction,
+                longest_valid_segment_fraction=fraction,
                 simplify=True,
                 interpolate_states=0,
                 seed=seed,
@@ -149,8 +172,17 @@ class OmplPlanner:
                 stop_on_first_solution=True,
             )
             last = result
+            if result.success and first_invalid_segment(validity, result.path) is not None:
+                # An edge passes through an obstacle between OMPL's checks: plan again, finer.
+                if replans < MAX_REPLANS:
+                    replans += 1
+                    fraction /= 4.0
+                    continue
+                result.success, result.status = False, "INVALID_PATH"
+                result.message = "every path found crossed an obstacle between collision checks"
             if result.success and (best is None or _length(result.path) < _length(best.path)):
                 best = result
+            attempt += 1
         if best is None:
             status = last.status if last is not None else "TIMEOUT"
             code = _STATUS_CODES.get(status, MoveItErrorCode.PLANNING_FAILED)

@@ -1,0 +1,17 @@
+"""MTC's ``core`` namespace: Task, containers, solvers, cost terms and geometry in one place
+(``from mycobot_planning.task import core; core.CartesianPath()``)."""
+from .containers import Alternatives, ContainerBase, Fallbacks, Merger, ParallelContainerBase, SerialContainer, WrapperBase
+from .cost_terms import Clearance, Constant, CostTerm, DistanceToReference, LambdaCostTerm, LinkMotion, PathLength, TrajectoryDuration
+from .errors import InitStageException, TaskError
+from .geometry import PointStamped, PoseStamped, TwistStamped, Vector3Stamped
+from .solvers import CartesianPath, JointInterpolationPlanner, PipelinePlanner, PlannerInterface
+from .stage import Connecting, Generator, InterfaceState, MonitoringGenerator, PropagatingEitherWay, SolutionBase, Stage
+from .task import Task
+
+__all__ = [
+    "Alternatives", "CartesianPath", "Clearance", "Connecting", "Constant", "ContainerBase", "CostTerm",
+    "DistanceToReference", "Fallbacks", "Generator", "InitStageException", "InterfaceState", "JointInterpolationPlanner",
+    "LambdaCostTerm", "LinkMotion", "Merger", "MonitoringGenerator", "ParallelContainerBase", "PathLength",
+    "PipelinePlanner", "PlannerInterface", "PointStamped", "PoseStamped", "PropagatingEitherWay", "SerialContainer",
+    "SolutionBase", "Stage", "Task", "TaskError", "TrajectoryDuration", "TwistStamped", "Vector3Stamped", "WrapperBase",
+]

@@ -1,0 +1,287 @@
+"""Cost terms: how a stage ranks its solutions (MTC's cost_terms.h).
+
+A stage's cost term is applied to every successful solution it produces, before the solution is
+stored; the cost orders the stage's solutions and, summed along a sequence, the task's. A term
+may also return a comment (the Clearance term names the closest bodies), which is appended to
+the solution's comment. A term returning ``inf`` turns the solution into a failure.
+
+* ``CostTerm`` (every stage's default): keep the cost the stage set (e.g. ComputeIK's distance
+  to the current state).
+* ``Constant(c)``: always ``c``.
+* ``PathLength(joints=None)``: joint-space length of the trajectory (sum over joints of the
+  absolute motion between consecutive points, MoveIt's RobotState::distance), optionally
+  weighted per joint. MoveTo, MoveRelative and Connect use it by default.
+* ``TrajectoryDuration``: execution time (s).
+* ``LinkMotion(link)``: Cartesian path length (m) of a link's origin.
+* ``Clearance(with_world=True, cumulative=False, group_property="group", mode=AUTO)``: 1/(d+1e-5)
+  for the distance d of the group's links to the world (with_world) or to the robot itself; on
+  trajectories the average over the waypoints. ``cumulative`` sums each link's own minimum
+  distance instead of taking the overall minimum (MoveIt sums per body pair; we have per-link
+  minima from the scene, the closest analogue).
+* ``DistanceToReference(reference, mode, weights)``: distance to a reference joint state.
+* any callable ``f(solution) -> cost`` or ``-> (cost, comment)`` (``LambdaCostTerm``).
+
+For sequences (containers) trajectory terms sum their children's costs, as in MTC.
+"""
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any, Callable, Mapping, Sequence
+
+import numpy as np
+
+from .errors import TaskError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .stage import SolutionSequence, SubTrajectory, WrappedSolution
+
+__all__ = [
+    "Clearance",
+    "Constant",
+    "CostTerm",
+    "DistanceToReference",
+    "LambdaCostTerm",
+    "LinkMotion",
+    "PathLength",
+    "TrajectoryCostTerm",
+    "TrajectoryDuration",
+]
+
+
+class CostTerm:
+    """Keep the solution's own cost (the default of every stage)."""
+
+    def subtrajectory_cost(self, s: "SubTrajectory") -> tuple[float, str]:
+        return s.cost, ""
+
+    def sequence_cost(self, s: "SolutionSequence") -> tuple[float, str]:
+        return s.cost, ""
+
+    def wrapped_cost(self, s: "WrappedSolution") -> tuple[float, str]:
+        return s.cost, ""
+
+    def __call__(self, solution) -> float:
+        """Cost of a solution under this term (convenience for users and tests)."""
+        return solution.compute_cost(self)[0]
+
+
+class TrajectoryCostTerm(CostTerm):
+    """Terms defined on sub-trajectories; sequences sum their children, wrappers delegate."""
+
+    def subtrajectory_cost(self, s: "SubTrajectory") -> tuple[float, str]:
+        raise NotImplementedError
+
+    def sequence_cost(self, s: "SolutionSequence") -> tuple[float, str]:
+        total, comments = 0.0, []
+        for child in s.children:
+            cost, comment = child.compute_cost(self)
+            total += cost
+            if comment:
+                comments.append(comment)
+        return total, ", ".join(comments)
+
+    def wrapped_cost(self, s: "WrappedSolution") -> tuple[float, str]:
+        return s.wrapped.compute_cost(self)
+
+
+class Constant(CostTerm):
+    def __init__(self, cost: float = 0.0) -> None:
+        if not isinstance(cost, (int, float)) or isinstance(cost, bool) or math.isnan(cost):
+            raise TaskError(f"Constant cost must be a number, got {cost!r}")
+        self.cost = float(cost)
+
+    def subtrajectory_cost(self, s):
+        return self.cost, ""
+
+    def sequence_cost(self, s):
+        return self.cost, ""
+
+    def wrapped_cost(self, s):
+        return self.cost, ""
+
+
+class PathLength(TrajectoryCostTerm):
+    """Joint-space length of the trajectory; ``joints`` restricts it (a list, or a mapping of
+    joint name to weight)."""
+
+    def __init__(self, joints: Sequence[str] | Mapping[str, float] | None = None) -> None:
+        if joints is None:
+            self.joints: dict[str, float] = {}
+        elif isinstance(joints, Mapping):
+            self.joints = {str(k): float(v) for k, v in joints.items()}
+        else:
+            self.joints = {str(j): 1.0 for j in joints}
+
+    def subtrajectory_cost(self, s):
+        traj = s.trajectory
+        if traj is None or len(traj) < 2:
+            return 0.0, ""
+        steps = np.abs(np.diff(traj.positions, axis=0))
+        if not self.joints:
+            return float(steps.sum()), ""
+        weights = np.array([self.joints.get(name, 0.0) for name in traj.joint_names])
+        return float((steps * weights).sum()), ""
+
+
+class TrajectoryDuration(TrajectoryCostTerm):
+    def subtrajectory_cost(self, s):
+        return (0.0 if s.trajectory is None else float(s.trajectory.duration)), ""
+
+
+class LinkMotion(TrajectoryCostTerm):
+    """Length (m) of the path of a link's origin along the trajectory."""
+
+    def __init__(self, link: str) -> None:
+        if not isinstance(link, str) or not link:
+            raise TaskError(f"LinkMotion needs a link name, got {link!r}")
+        self.link_name = link
+
+    def subtrajectory_cost(self, s):
+        traj = s.trajectory
+        if traj is None or len(traj) == 0:
+            return 0.0, ""
+        start = s.start.scene.current_state
+        model = start.model
+        if not model.has_link(self.link_name):
+            return math.inf, f"LinkMotionCost: frame '{self.link_name}' unknown in trajectory"
+        indices = np.array([model.variable_index(n) for n in traj.joint_names], dtype=int)
+        state = start.copy()
+        positions = start.positions.copy()
+        previous = None
+        distance = 0.0
+        for row in traj.positions:
+            positions[indices] = row
+            state.set_positions(positions)
+            point = state.frame_pose(self.link_name)[:3, 3]
+            if previous is not None:
+                distance += float(np.linalg.norm(point - previous))
+            previous = point
+        return distance, ""
+
+
+class Clearance(TrajectoryCostTerm):
+    """Prefer solutions far from obstacles: cost 1/(d + 1e-5) for clearance d (m).
+
+    ``mode``: AUTO (the trajectory's waypoints if there is one, else the start state),
+    START_INTERFACE, END_INTERFACE or TRAJECTORY. The group is read from the interface state's
+    property ``group_property`` if present, else from the creating stage's property.
+    """
+
+    AUTO = 0
+    START_INTERFACE = 1
+    END_INTERFACE = 2
+    TRAJECTORY = 3
+    PREFIX = "Clearance: "
+
+    def __init__(self, with_world: bool = True, cumulative: bool = False, group_property: str = "group",
+                 mode: int = 0, distance_to_cost: Callable[[float], float] | None = None) -> None:
+        self.with_world = bool(with_world)
+        self.cumulative = bool(cumulative)
+        self.group_property = group_property
+        self.mode = mode
+        self.distance_to_cost = distance_to_cost or (lambda d: 1.0 / (d + 1e-5))
+
+    def _group(self, s) -> str | None:
+        state = s.end if self.mode == self.END_INTERFACE else s.start
+        value = state.properties.get(self.group_property)
+        if value is None and s.creator is not None and self.group_property in s.creator.properties:
+            value = s.creator.properties[self.group_property]
+        return value
+
+    def _distance(self, scene, robot_state, group):
+        report = scene.distance(robot_state, include_self=not self.with_world, include_world=self.with_world,
+                                links=group)
+        if report.min_distance <= 0:
+            return report.min_distance, report
+        if self.cumulative:
+            return float(sum(d for d, _ in report.per_link.values())), report
+        return report.min_distance, report
+
+    def subtrajectory_cost(self, s):
+        group = self._group(s)
+        state = s.end if self.mode == self.END_INTERFACE else s.start
+        scene = state.scene
+        use_states = self.mode in (self.START_INTERFACE, self.END_INTERFACE) or (
+            self.mode == self.AUTO and (s.trajectory is None or len(s.trajectory) == 0))
+        if use_states:
+            distance, report = self._distance(scene, scene.current_state, group)
+            if math.isinf(distance):
+                return math.inf, self.PREFIX + "no collision pairs to measure"
+            if distance < 0:
+                return math.inf, (self.PREFIX + f"allegedly valid solution collides between '{report.body_a}' "
+                                  f"and '{report.body_b}'")
+            if self.cumulative:
+                comment = self.PREFIX + f"cumulative distance {distance}"
+            else:
+                comment = self.PREFIX + f"distance {distance} between '{report.body_a}' and '{report.body_b}'"
+            return self.distance_to_cost(distance), comment
+        model = scene.robot_model
+        traj = s.trajectory
+        indices = np.array([model.variable_index(n) for n in traj.joint_names], dtype=int)
+        robot_state = s.start.scene.current_state.copy()
+        positions = robot_state.positions.copy()
+        total = 0.0
+        for row in traj.positions:
+            positions[indices] = row
+            robot_state.set_positions(positions)
+            distance, report = self._distance(scene, robot_state, group)
+            if distance < 0:
+                return math.inf, (self.PREFIX + f"allegedly valid solution collides between '{report.body_a}' "
+                                  f"and '{report.body_b}'")
+            total += distance
+        total /= len(traj)
+        comment = self.PREFIX + f"average{' cumulative' if self.cumulative else ''} distance: {total}"
+        return self.distance_to_cost(total), comment
+
+
+class DistanceToReference(TrajectoryCostTerm):
+    """Joint-space distance to a reference state (a joint map), at the start/end state or
+    averaged over the trajectory (AUTO: trajectory if any, else the start state)."""
+
+    AUTO = 0
+    START_INTERFACE = 1
+    END_INTERFACE = 2
+
+    def __init__(self, reference: Mapping[str, float], mode: int = 0, weights: Mapping[str, float] | None = None) -> None:
+        self.reference = {str(k): float(v) for k, v in reference.items()}
+        self.mode = mode
+        self.weights = dict(weights or {})
+
+    def _distance(self, positions: Mapping[str, float]) -> float:
+        total = 0.0
+        for name, value in self.reference.items():
+            weight = self.weights.get(name, 1.0) if self.weights else 1.0
+            total += weight * abs(positions[name] - value)
+        return total
+
+    def subtrajectory_cost(self, s):
+        state = s.end if self.mode == self.END_INTERFACE else s.start
+        base = state.scene.current_state.to_joint_dict(include_mimic=False)
+        unknown = [n for n in self.reference if n not in base]
+        if unknown:
+            return math.inf, f"DistanceToReference: unknown joints {unknown}"
+        traj = s.trajectory
+        if self.mode != self.AUTO or traj is None or len(traj) == 0:
+            return self._distance(base), ""
+        total = 0.0
+        for row in traj.positions:
+            values = dict(base)
+            values.update(zip(traj.joint_names, (float(v) for v in row)))
+            total += self._distance(values)
+        return total / len(traj), ""
+
+
+class LambdaCostTerm(TrajectoryCostTerm):
+    """A user callable ``f(solution)`` returning a cost or ``(cost, comment)``."""
+
+    def __init__(self, function: Callable[[Any], Any]) -> None:
+        if not callable(function):
+            raise TaskError(f"LambdaCostTerm needs a callable, got {type(function).__name__}")
+        self.function = function
+
+    def subtrajectory_cost(self, s):
+        result = self.function(s)
+        if isinstance(result, tuple):
+            cost, comment = result
+            return float(cost), str(comment)
+        return float(result), ""

@@ -1,0 +1,196 @@
+"""Stamped geometry for stage properties: PoseStamped, PointStamped, Vector3Stamped, TwistStamped.
+
+MTC stages take geometry_msgs types (a pose in a frame, a direction in a frame). The task
+layer must not import ROS, so these are small value classes with the same names and fields.
+The converters also accept the obvious shorthands (a link name for an ik_frame, ``(frame,
+vector)`` tuples) and, by duck typing, real geometry_msgs messages (anything with
+``header.frame_id`` and the usual fields), so node code can pass ROS messages straight in.
+
+Poses are 4x4 homogeneous matrices, as everywhere in ``mycobot_planning.core``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Sequence
+
+import numpy as np
+
+from ..core.errors import SceneError
+from ..core.transforms import check_pose, make_pose, quat_to_matrix
+
+__all__ = [
+    "PointStamped",
+    "PoseStamped",
+    "TwistStamped",
+    "Vector3Stamped",
+    "as_point_stamped",
+    "as_pose_stamped",
+    "as_twist_stamped",
+    "as_vector3_stamped",
+    "frame_transform",
+]
+
+WORLD_FRAMES = ("", "world")
+
+
+def _vec3(value: Any, what: str) -> np.ndarray:
+    if hasattr(value, "x") and hasattr(value, "y") and hasattr(value, "z"):
+        value = (value.x, value.y, value.z)
+    arr = np.array(value, dtype=float).reshape(-1)
+    if arr.size != 3:
+        raise ValueError(f"{what} needs 3 values, got {arr.size}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{what} contains NaN or infinite values")
+    return arr
+
+
+def _frame(value: Any, what: str) -> str:
+    if not isinstance(value, str):
+        raise ValueError(f"{what} frame_id must be a string, got {type(value).__name__}")
+    return value
+
+
+@dataclass(frozen=True, eq=False)
+class PoseStamped:
+    """A pose (4x4) expressed in ``frame_id`` ('' or 'world' = the planning frame)."""
+
+    frame_id: str = ""
+    pose: np.ndarray = field(default_factory=lambda: np.eye(4))
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "frame_id", _frame(self.frame_id, "PoseStamped"))
+        object.__setattr__(self, "pose", check_pose(self.pose, "PoseStamped.pose").copy())
+
+    @classmethod
+    def from_xyz_rpy(cls, frame_id: str, xyz: Sequence[float] = (0, 0, 0), rpy: Sequence[float] = (0, 0, 0)) -> "PoseStamped":
+        return cls(frame_id, make_pose(xyz, rpy=rpy))
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, PoseStamped) and other.frame_id == self.frame_id and np.array_equal(other.pose, self.pose)
+
+    def __repr__(self) -> str:
+        xyz = ", ".join(f"{v:.4g}" for v in self.pose[:3, 3])
+        return f"PoseStamped(frame_id={self.frame_id!r}, xyz=({xyz}))"
+
+
+@dataclass(frozen=True, eq=False)
+class PointStamped:
+    frame_id: str = ""
+    point: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "frame_id", _frame(self.frame_id, "PointStamped"))
+        object.__setattr__(self, "point", _vec3(self.point, "PointStamped.point"))
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, PointStamped) and other.frame_id == self.frame_id and np.array_equal(other.point, self.point)
+
+
+@dataclass(frozen=True, eq=False)
+class Vector3Stamped:
+    """A translation (m) expressed in ``frame_id``'s axes (MoveRelative's direction)."""
+
+    frame_id: str = ""
+    vector: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "frame_id", _frame(self.frame_id, "Vector3Stamped"))
+        object.__setattr__(self, "vector", _vec3(self.vector, "Vector3Stamped.vector"))
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Vector3Stamped) and other.frame_id == self.frame_id and np.array_equal(other.vector, self.vector)
+
+
+@dataclass(frozen=True, eq=False)
+class TwistStamped:
+    """A linear (m) and angular (rad, axis * angle) motion in ``frame_id``'s axes."""
+
+    frame_id: str = ""
+    linear: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    angular: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "frame_id", _frame(self.frame_id, "TwistStamped"))
+        object.__setattr__(self, "linear", _vec3(self.linear, "TwistStamped.linear"))
+        object.__setattr__(self, "angular", _vec3(self.angular, "TwistStamped.angular"))
+
+    def __eq__(self, other: object) -> bool:
+        return (isinstance(other, TwistStamped) and other.frame_id == self.frame_id
+                and np.array_equal(other.linear, self.linear) and np.array_equal(other.angular, self.angular))
+
+
+# ------------------------------------------------------------------ converters (property coercion)
+def _ros_pose_matrix(pose: Any) -> np.ndarray:
+    p, q = pose.position, pose.orientation
+    T = np.eye(4)
+    T[:3, :3] = quat_to_matrix([q.x, q.y, q.z, q.w])
+    T[:3, 3] = [p.x, p.y, p.z]
+    return T
+
+
+def as_pose_stamped(value: Any) -> PoseStamped:
+    """PoseStamped from a PoseStamped, a frame name (identity pose in it, e.g. an ik_frame
+    link), ``(frame_id, 4x4)``, or a geometry_msgs/PoseStamped-like object."""
+    if isinstance(value, PoseStamped):
+        return value
+    if isinstance(value, str):
+        return PoseStamped(value, np.eye(4))
+    if isinstance(value, tuple) and len(value) == 2 and isinstance(value[0], str):
+        return PoseStamped(value[0], value[1])
+    header = getattr(value, "header", None)
+    if header is not None and hasattr(value, "pose"):
+        return PoseStamped(header.frame_id, _ros_pose_matrix(value.pose))
+    raise TypeError("expected a PoseStamped, a frame name or (frame_id, 4x4 pose)")
+
+
+def as_point_stamped(value: Any) -> PointStamped:
+    if isinstance(value, PointStamped):
+        return value
+    if isinstance(value, tuple) and len(value) == 2 and isinstance(value[0], str):
+        return PointStamped(value[0], value[1])
+    header = getattr(value, "header", None)
+    if header is not None and hasattr(value, "point"):
+        return PointStamped(header.frame_id, value.point)
+    raise TypeError("expected a PointStamped or (frame_id, xyz)")
+
+
+def as_vector3_stamped(value: Any) -> Vector3Stamped:
+    if isinstance(value, Vector3Stamped):
+        return value
+    if isinstance(value, tuple) and len(value) == 2 and isinstance(value[0], str):
+        return Vector3Stamped(value[0], value[1])
+    header = getattr(value, "header", None)
+    if header is not None and hasattr(value, "vector"):
+        return Vector3Stamped(header.frame_id, value.vector)
+    raise TypeError("expected a Vector3Stamped or (frame_id, xyz)")
+
+
+def as_twist_stamped(value: Any) -> TwistStamped:
+    if isinstance(value, TwistStamped):
+        return value
+    header = getattr(value, "header", None)
+    twist = getattr(value, "twist", None)
+    if header is not None and twist is not None:
+        return TwistStamped(header.frame_id, twist.linear, twist.angular)
+    raise TypeError("expected a TwistStamped")
+
+
+def frame_transform(scene, frame_id: str, state=None) -> np.ndarray:
+    """World pose of a frame: '' / 'world' (identity), a robot link, or a collision object
+    (world or attached). Raises SceneError naming the frame when it is unknown."""
+    if frame_id in WORLD_FRAMES:
+        return np.eye(4)
+    return scene.frame_pose(frame_id, state)
+
+
+def rigidly_connected_link(scene, frame_id: str) -> str:
+    """The robot link a frame moves with: the link itself, or the link an object is attached
+    to. SceneError for world objects and unknown frames (they cannot be an ik_frame)."""
+    model = scene.robot_model
+    if model.has_link(frame_id):
+        return frame_id
+    if scene.is_attached(frame_id):
+        return scene.get_attached_object(frame_id).link_name
+    if scene.has_object(frame_id):
+        raise SceneError(f"frame '{frame_id}' is a world object, not attached to the robot: it cannot be an ik_frame")
+    raise SceneError(f"unknown frame '{frame_id}': not a link of robot '{model.name}' or an attached object")

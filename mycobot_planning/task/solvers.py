@@ -1,0 +1,423 @@
+"""Planners for MoveTo / MoveRelative / Connect (MTC's solvers), wrapping the planning core.
+
+* :class:`PipelinePlanner`: the planning pipelines by id and planner id, as move_group offers
+  them: OMPL (``{"ompl": "arm[RRTConnectkConfigDefault]"}``) and the industrial PTP / LIN / CIRC
+  (``{"pilz_industrial_motion_planner": "PTP"}``). One :class:`PlanningPipeline` is shared by
+  every PipelinePlanner of the process unless one is given, so OMPL configurations load once.
+* :class:`CartesianPath`: a straight line of the ik frame (step size, jump threshold, minimum
+  fraction, velocity/acceleration scaling), MTC's defaults (step 0.01 m, jump threshold 1.5).
+* :class:`JointInterpolationPlanner`: a straight line in joint space, checked every
+  ``max_step`` (the core's 0.01 rad; MTC's 0.1 rad lets a link sweep through thin objects, see
+  core/joint_interpolation.py).
+
+Each planner answers two questions: plan to a goal *state* (the joints of a group in the goal
+scene) and plan the link ``link`` (with the rigid ``offset`` of the ik frame) to a world pose.
+Both return a :class:`PlanResult` with the trajectory of the group, which may be partial when
+planning failed (MoveRelative measures how far a partial Cartesian path got).
+
+Planner properties are MTC's: set them as attributes (``cartesian.step_size = 0.005``), through
+``properties``, or with MTC's setters (``setStepSize``).
+"""
+from __future__ import annotations
+
+import math
+import threading
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Callable, Mapping
+
+import numpy as np
+
+from ..core.cartesian_path import compute_cartesian_path
+from ..core.errors import PlanningError
+from ..core.joint_interpolation import DEFAULT_MAX_STEP, interpolate_joint_path
+from ..core.trajectory_validator import validate_trajectory
+from ..core.planning_interface import JointGoal, MotionPlanRequest, PlanningFailure, PoseGoal, goal_states
+from ..core.planning_pipeline import PlanningPipeline
+from ..core.planning_scene import PlanningScene
+from ..core.time_parameterization import TimedTrajectory
+from ..core.transforms import inverse
+from .errors import PropertyError, TaskError
+from .geometry import PoseStamped, as_pose_stamped
+from .properties import PropertyMap
+from .trajectories import time_path
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..core.robot_model import RobotModel
+    from .task import TaskContext
+
+__all__ = ["CartesianPath", "JointInterpolationPlanner", "PipelinePlanner", "PlanResult", "PlannerInterface",
+           "default_pipeline"]
+
+_PIPELINE_LOCK = threading.Lock()
+_DEFAULT_PIPELINE: PlanningPipeline | None = None
+
+
+def default_pipeline() -> PlanningPipeline:
+    """The process-wide planning pipeline (built on first use, then reused)."""
+    global _DEFAULT_PIPELINE
+    with _PIPELINE_LOCK:
+        if _DEFAULT_PIPELINE is None:
+            _DEFAULT_PIPELINE = PlanningPipeline()
+        return _DEFAULT_PIPELINE
+
+
+@dataclass
+class PlanResult:
+    """A planner's answer: success, the group trajectory (possibly partial), and why."""
+
+    success: bool
+    trajectory: TimedTrajectory | None = None
+    message: str = ""
+    planner_id: str = ""
+
+    def __bool__(self) -> bool:
+        return self.success
+
+
+class PlannerInterface:
+    """Base of the solvers: typed properties and the two planning questions."""
+
+    def __init__(self) -> None:
+        object.__setattr__(self, "_properties", PropertyMap(lambda: type(self).__name__))
+        p = self._properties
+        p.declare("max_velocity_scaling_factor", 1.0, "scale down max velocity by this factor", type=float)
+        p.declare("max_acceleration_scaling_factor", 1.0, "scale down max acceleration by this factor", type=float)
+        p.declare("timeout", math.inf, "upper bound of the planning time (s); the stage's timeout applies too",
+                  type=float)
+
+    @property
+    def properties(self) -> PropertyMap:
+        return self._properties
+
+    def setProperty(self, name: str, value: Any) -> None:
+        self._properties.set(name, value)
+
+    def setMaxVelocityScalingFactor(self, factor: float) -> None:
+        self._properties.set("max_velocity_scaling_factor", factor)
+
+    def setMaxAccelerationScalingFactor(self, factor: float) -> None:
+        self._properties.set("max_acceleration_scaling_factor", factor)
+
+    def setTimeout(self, timeout: float) -> None:
+        self._properties.set("timeout", timeout)
+
+    def __getattr__(self, name: str) -> Any:
+        if name.startswith("_"):
+            raise AttributeError(name)
+        props = self.__dict__.get("_properties")
+        if props is not None and name in props:
+            return props[name]
+        raise AttributeError(f"{type(self).__name__} has no attribute or property '{name}'")
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if name.startswith("_") or hasattr(type(self), name):
+            object.__setattr__(self, name, value)
+            return
+        props = self.__dict__.get("_properties")
+        if props is not None and name in props:
+            props.set(name, value)
+            return
+        raise AttributeError(f"{type(self).__name__} has no property '{name}' (declared: {', '.join(sorted(props or []))})")
+
+    def _scaling(self) -> tuple[float, float]:
+        values = []
+        for name in ("max_velocity_scaling_factor", "max_acceleration_scaling_factor"):
+            value = float(self._properties[name])
+            if not 0.0 < value <= 1.0:
+                raise PropertyError(name, f"must be in (0, 1], got {value}", type(self).__name__)
+            values.append(value)
+        return values[0], values[1]
+
+    def _timeout(self, timeout: float) -> float:
+        limit = float(self._properties["timeout"])
+        return min(timeout, limit) if math.isfinite(limit) else timeout
+
+    def init(self, robot_model: "RobotModel") -> None:
+        """Check the configuration (ValueError naming the property); the owning stage reports it."""
+        self._scaling()
+
+    def _memoized(self, context: "TaskContext | None", scene: PlanningScene, parts: tuple,
+                  compute: Callable[[], PlanResult]) -> PlanResult:
+        """Reuse the result of an identical earlier query of this planning run.
+
+        Only for deterministic planners (Cartesian, joint interpolation): the same planner
+        settings, group, start state, target and collision scene give the same answer, so a
+        task repeating a module from the same state (the modular demo) plans it once. The scene
+        is identified by its compiled collision content, shared by scene copies until one of
+        them changes; scenes without it are never reused.
+        """
+        identity = collision_identity(scene)
+        if context is None or identity is None or not context.reuse_plans:
+            return compute()
+        key = (type(self), tuple(sorted((k, repr(v)) for k, v in self._properties.items())), identity,
+               scene.current_state.positions.tobytes()) + parts
+        cache = context.plan_cache
+        result = cache.get(key)
+        if result is None:
+            result = compute()
+            if len(cache) < context.plan_cache_size:
+                cache[key] = result
+        return result
+
+    @property
+    def planner_id(self) -> str:
+        return type(self).__name__
+
+    def getPlannerId(self) -> str:
+        return self.planner_id
+
+    def plan(self, from_scene: PlanningScene, to_scene: PlanningScene, group: str, timeout: float,
+             context: "TaskContext | None" = None) -> PlanResult:
+        raise NotImplementedError
+
+    def plan_pose(self, from_scene: PlanningScene, link: str, offset: np.ndarray, target: np.ndarray, group: str,
+                  timeout: float, context: "TaskContext | None" = None) -> PlanResult:
+        raise NotImplementedError
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({dict(self._properties.defined())})"
+
+
+def collision_identity(scene: PlanningScene) -> object | None:
+    """What identifies a scene's collision content (world, attached objects, ACM): the compiled
+    collision model holder the core shares between copies until one changes. None if the
+    scene does not expose one (then nothing is reused)."""
+    return getattr(scene, "_slot", None)
+
+
+def _seed(context: "TaskContext | None") -> int | None:
+    return None if context is None else context.next_seed()
+
+
+class PipelinePlanner(PlannerInterface):
+    """Plans with the planning pipelines (OMPL, industrial), as MTC's PipelinePlanner.
+
+    ``PipelinePlanner("ompl")``, ``PipelinePlanner("ompl", "RRTConnectkConfigDefault")`` or
+    MTC's map form ``PipelinePlanner({"pilz_industrial_motion_planner": "PTP"})``. With several
+    pipelines in the map they are tried in order and the first success is used.
+    """
+
+    def __init__(self, pipeline_id_planner_id_map: str | Mapping[str, str] = "ompl", planner_id: str = "", *,
+                 pipeline: PlanningPipeline | None = None) -> None:
+        super().__init__()
+        if isinstance(pipeline_id_planner_id_map, str):
+            mapping = {pipeline_id_planner_id_map: planner_id}
+        elif isinstance(pipeline_id_planner_id_map, Mapping):
+            if planner_id:
+                raise TaskError("give the planner id inside the pipeline map, not as a second argument")
+            mapping = {str(k): str(v) for k, v in pipeline_id_planner_id_map.items()}
+        else:
+            raise TaskError(f"PipelinePlanner: expected a pipeline id or a {{pipeline: planner_id}} map, "
+                            f"got {type(pipeline_id_planner_id_map).__name__}")
+        if not mapping:
+            raise TaskError("PipelinePlanner: the pipeline map is empty")
+        p = self._properties
+        p.declare("pipeline_id_planner_id_map", mapping, "pipelines and their planner ids, tried in order", type=dict)
+        p.declare("num_planning_attempts", 1, "number of planning attempts", type=int)
+        p.declare("goal_joint_tolerance", 1e-4, "tolerance for reaching joint goals", type=float)
+        p.declare("goal_position_tolerance", 1e-4, "tolerance for reaching position goals", type=float)
+        p.declare("goal_orientation_tolerance", 1e-3, "tolerance for reaching orientation goals", type=float)
+        p.declare("validate_solution", True, "check every planned trajectory with the trajectory validator and "
+                  "re-plan (new seed) when it fails", type=bool)
+        p.declare("max_validation_retries", 2, "re-plans after a trajectory failed validation", type=int)
+        object.__setattr__(self, "_pipeline", pipeline)
+        object.__setattr__(self, "_last_planner", "")
+
+    def setPlannerId(self, pipeline_id: str, planner_id: str) -> bool:
+        mapping = dict(self._properties["pipeline_id_planner_id_map"])
+        if pipeline_id not in mapping:
+            return False
+        mapping[pipeline_id] = planner_id
+        self._properties.set("pipeline_id_planner_id_map", mapping)
+        return True
+
+    @property
+    def planner_id(self) -> str:
+        if self._last_planner:
+            return self._last_planner
+        return ", ".join(f"{k}:{v}" if v else k for k, v in self._properties["pipeline_id_planner_id_map"].items())
+
+    def init(self, robot_model: "RobotModel") -> None:
+        super().init(robot_model)
+        pipeline = self._pipeline or default_pipeline()
+        for pipeline_id in self._properties["pipeline_id_planner_id_map"]:
+            if pipeline_id not in pipeline.pipeline_ids:
+                raise ValueError(f"unknown planning pipeline '{pipeline_id}'; known: {', '.join(pipeline.pipeline_ids)}")
+        attempts = self._properties["num_planning_attempts"]
+        if attempts < 1:
+            raise ValueError(f"num_planning_attempts must be >= 1, got {attempts}")
+
+    def _plan(self, scene: PlanningScene, group: str, goal, timeout: float, context) -> PlanResult:
+        pipeline = self._pipeline
+        if pipeline is None:
+            pipeline = context.pipeline if context is not None else default_pipeline()
+        velocity, acceleration = self._scaling()
+        timeout = self._timeout(timeout)
+        messages = []
+        for pipeline_id, planner_id in self._properties["pipeline_id_planner_id_map"].items():
+            request = MotionPlanRequest(
+                group,
+                goal,
+                start_state=scene.current_state,
+                pipeline_id=pipeline_id,
+                planner_id=planner_id,
+                allowed_planning_time=timeout,
+                num_planning_attempts=int(self._properties["num_planning_attempts"]),
+                max_velocity_scaling_factor=velocity,
+                max_acceleration_scaling_factor=acceleration,
+                seed=_seed(context),
+            )
+            retries = int(self._properties["max_validation_retries"]) if self._properties["validate_solution"] else 0
+            for attempt in range(retries + 1):
+                if attempt:
+                    request.seed = _seed(context) if request.seed is not None else None
+                response = pipeline.plan(scene, request)
+                if not response.success:
+                    messages.append(f"{pipeline_id}{'/' + planner_id if planner_id else ''}: {response.error_code}")
+                    break
+                if self._properties["validate_solution"]:
+                    # Joint limits unscaled: the industrial LIN/CIRC scale Cartesian limits, not joint ones.
+                    report = validate_trajectory(scene, response.trajectory, group, scene.current_state)
+                    if not report.valid:
+                        messages.append(f"{pipeline_id}{'/' + planner_id if planner_id else ''}: computed path is not "
+                                        f"valid: {'; '.join(report.problems[:2])}")
+                        continue
+                object.__setattr__(self, "_last_planner", response.planner_id or planner_id)
+                return PlanResult(True, response.trajectory, response.message, response.planner_id or planner_id)
+        return PlanResult(False, None, "; ".join(messages), planner_id)
+
+    def plan(self, from_scene, to_scene, group, timeout, context=None):
+        values = to_scene.current_state.group_positions(group)
+        goal = JointGoal(values, tolerance=float(self._properties["goal_joint_tolerance"]))
+        return self._plan(from_scene, group, goal, timeout, context)
+
+    def plan_pose(self, from_scene, link, offset, target, group, timeout, context=None):
+        goal = PoseGoal(np.asarray(target, dtype=float), link=link, ik_frame_offset=np.asarray(offset, dtype=float),
+                        position_tolerance=float(self._properties["goal_position_tolerance"]),
+                        orientation_tolerance=float(self._properties["goal_orientation_tolerance"]))
+        return self._plan(from_scene, group, goal, timeout, context)
+
+
+class CartesianPath(PlannerInterface):
+    """A straight line of the ik frame, MTC's CartesianPath solver."""
+
+    def __init__(self, step_size: float = 0.01, jump_threshold: float = 1.5, min_fraction: float = 1.0) -> None:
+        super().__init__()
+        p = self._properties
+        p.declare("ik_frame", None, "frame to move linearly (for joint-space targets)", type=PoseStamped,
+                  coerce=as_pose_stamped)
+        p.declare("step_size", step_size, "step size between consecutive waypoints (m)", type=float)
+        p.declare("jump_threshold", jump_threshold, "acceptable fraction of mean joint motion per step", type=float)
+        p.declare("min_fraction", min_fraction, "fraction of motion required for success", type=float)
+
+    def setStepSize(self, step_size: float) -> None:
+        self._properties.set("step_size", step_size)
+
+    def setJumpThreshold(self, threshold: float) -> None:
+        self._properties.set("jump_threshold", threshold)
+
+    def setMinFraction(self, fraction: float) -> None:
+        self._properties.set("min_fraction", fraction)
+
+    def setIKFrame(self, pose_or_link: Any, link: str | None = None) -> None:
+        self._properties.set("ik_frame", pose_or_link if link is None else PoseStamped(link, pose_or_link))
+
+    @property
+    def planner_id(self) -> str:
+        return "CartesianPath"
+
+    def init(self, robot_model):
+        super().init(robot_model)
+        p = self._properties
+        if not p["step_size"] > 0:
+            raise ValueError(f"step_size must be > 0, got {p['step_size']}")
+        if p["jump_threshold"] < 0:
+            raise ValueError(f"jump_threshold must be >= 0, got {p['jump_threshold']}")
+        if not 0.0 <= p["min_fraction"] <= 1.0:
+            raise ValueError(f"min_fraction must be in [0, 1], got {p['min_fraction']}")
+
+    def plan(self, from_scene, to_scene, group, timeout, context=None):
+        from .stages.common import robot_tip_for_frame
+
+        link, ik_pose = robot_tip_for_frame(self._properties["ik_frame"], from_scene, group)
+        offset = inverse(from_scene.current_state.frame_pose(link)) @ ik_pose
+        target = to_scene.current_state.frame_pose(link) @ offset
+        return self.plan_pose(from_scene, link, offset, target, group, timeout, context)
+
+    def plan_pose(self, from_scene, link, offset, target, group, timeout, context=None):
+        parts = ("pose", group, link, np.asarray(offset, dtype=float).tobytes(), np.asarray(target, dtype=float).tobytes())
+        return self._memoized(context, from_scene, parts,
+                              lambda: self._plan_pose(from_scene, link, offset, target, group))
+
+    def _plan_pose(self, from_scene, link, offset, target, group):
+        velocity, acceleration = self._scaling()
+        p = self._properties
+        result = compute_cartesian_path(
+            from_scene, group, from_scene.current_state, [np.asarray(target, dtype=float)], link=link,
+            ik_frame_offset=np.asarray(offset, dtype=float), eef_step=float(p["step_size"]),
+            jump_threshold=float(p["jump_threshold"]), avoid_collisions=True, velocity_scaling=velocity,
+            acceleration_scaling=acceleration,
+        )
+        if not result.success:
+            return PlanResult(False, None, result.message, self.planner_id)
+        fraction = result.fraction
+        if fraction < float(p["min_fraction"]) - 1e-12:
+            return PlanResult(False, result.trajectory, f"min_fraction not met. Achieved: {fraction:.6f} "
+                                                        f"({result.message})", self.planner_id)
+        return PlanResult(True, result.trajectory, f"achieved fraction: {fraction:.6f}", self.planner_id)
+
+
+class JointInterpolationPlanner(PlannerInterface):
+    """A straight line in joint space from start to goal, every ``max_step`` checked."""
+
+    def __init__(self, max_step: float = DEFAULT_MAX_STEP) -> None:
+        super().__init__()
+        self._properties.declare("max_step", max_step, "max joint step between checked states (rad)", type=float)
+        self._properties.declare("max_effort", None, "max_effort for gripper commands (passed through)", type=float)
+
+    def setMaxStep(self, max_step: float) -> None:
+        self._properties.set("max_step", max_step)
+
+    @property
+    def planner_id(self) -> str:
+        return "JointInterpolation"
+
+    def init(self, robot_model):
+        super().init(robot_model)
+        if not self._properties["max_step"] > 0:
+            raise ValueError(f"max_step must be > 0, got {self._properties['max_step']}")
+
+    def plan(self, from_scene, to_scene, group, timeout, context=None):
+        goal = to_scene.current_state.group_positions(group)
+        return self._memoized(context, from_scene, ("state", group, goal.tobytes()),
+                              lambda: self._plan_line(from_scene, group, goal))
+
+    def _plan_line(self, from_scene, group, goal):
+        model = from_scene.robot_model
+        jmg = model.group(group)
+        start = from_scene.current_state
+        try:
+            path, message = interpolate_joint_path(from_scene, group, start, goal, float(self._properties["max_step"]))
+        except PlanningError as exc:
+            return PlanResult(False, None, str(exc), self.planner_id)
+        if path is None:
+            return PlanResult(False, None, message, self.planner_id)
+        velocity, acceleration = self._scaling()
+        # The line is collision-checked above; timing its two ends gives the same straight
+        # motion (the timing never leaves the path) at a fraction of the cost.
+        trajectory = time_path(model, jmg, path[[0, -1]], velocity, acceleration)
+        return PlanResult(True, trajectory, message, self.planner_id)
+
+    def plan_pose(self, from_scene, link, offset, target, group, timeout, context=None):
+        model = from_scene.robot_model
+        jmg = model.group(group)
+        timeout = self._timeout(timeout)
+        rng = np.random.default_rng(_seed(context))
+        goal = PoseGoal(np.asarray(target, dtype=float), link=link, ik_frame_offset=np.asarray(offset, dtype=float))
+        try:
+            states = goal_states(from_scene, jmg, from_scene.current_state, goal, 8, max(timeout, 1e-3), rng)
+        except PlanningFailure as exc:
+            return PlanResult(False, None, f"IK failed for pose target: {exc.message}", self.planner_id)
+        to_scene = from_scene.diff()
+        to_scene.set_current_state(states[0])
+        return self.plan(from_scene, to_scene, group, timeout, context)

@@ -1,0 +1,134 @@
+"""MoveTo: move a group to a goal (MTC's stages::MoveTo).
+
+Goals: a named state of the group ("ready", "open"), a joint map ``{joint: value}`` (joints of
+the group), a RobotState (the group's joints are taken), a PoseStamped for the ik frame, or a
+PointStamped (the ik frame keeps its orientation). Propagates forward (plan from the incoming
+state to the goal) or backward (plan from the incoming end state to the goal and reverse), as
+the neighbours require. Cost: joint-space path length.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from interfaces_py.msgs import RobotState as RobotStateMsg
+
+from ...core.robot_state import RobotState
+from ...core.transforms import inverse
+from ..cost_terms import PathLength
+from ..errors import InitStageException
+from ..geometry import PointStamped, PoseStamped, as_point_stamped, as_pose_stamped, frame_transform
+from ..solvers import PlannerInterface
+from ..stage import BACKWARD, InterfaceState, PropagatingEitherWay, SubTrajectory
+from ..trajectories import reverse_trajectory
+from .common import joint_goal_values, robot_tip_for_frame
+
+
+def _as_goal(value: Any) -> Any:
+    if isinstance(value, (str, dict, RobotState, PoseStamped, PointStamped)):
+        return value
+    if isinstance(value, RobotStateMsg):
+        if not value.is_diff:
+            raise ValueError("a RobotState message goal must be a diff (is_diff=True)")
+        return dict(value.joint_positions())
+    for convert in (as_pose_stamped, as_point_stamped):
+        try:
+            return convert(value)
+        except (TypeError, ValueError):
+            pass
+    raise TypeError("expected a named state, a joint map, a RobotState, a PoseStamped or a PointStamped")
+
+
+class MoveTo(PropagatingEitherWay):
+    def __init__(self, name: str = "move to", planner: PlannerInterface | None = None) -> None:
+        super().__init__(name)
+        self._planner = planner
+        self.setCostTerm(PathLength())
+        p = self._properties
+        p.property("timeout").setDefaultValue(1.0)
+        p.declare("group", type=str, description="name of planning group")
+        p.declare("ik_frame", type=PoseStamped, coerce=as_pose_stamped, description="frame to be moved towards the goal pose")
+        p.declare("goal", description="goal specification", coerce=_as_goal)
+
+    @property
+    def planner(self) -> PlannerInterface | None:
+        return self._planner
+
+    def setGroup(self, group: str) -> None:
+        self._properties.set("group", group)
+
+    def setGoal(self, goal: Any) -> None:
+        self._properties.set("goal", goal)
+
+    def setIKFrame(self, pose_or_link: Any, link: str | None = None) -> None:
+        self._properties.set("ik_frame", pose_or_link if link is None else PoseStamped(link, pose_or_link))
+
+    def init(self, robot_model) -> None:
+        errors = InitStageException()
+        try:
+            super().init(robot_model)
+        except InitStageException as exc:
+            errors.append(exc)
+        if not isinstance(self._planner, PlannerInterface):
+            errors.push_back(self, f"needs a planner (a PlannerInterface), got {type(self._planner).__name__}")
+        else:
+            try:
+                self._planner.init(robot_model)
+            except (ValueError, TypeError) as exc:
+                errors.push_back(self, f"planner {type(self._planner).__name__}: {exc}")
+        group = self._require_property("group", errors)
+        goal = self._require_property("goal", errors)
+        if self._check_group("group", group, robot_model, errors) and goal is not None:
+            try:
+                joint_goal_values(robot_model, group, goal)
+            except ValueError as exc:
+                errors.push_back(self, f"property 'goal': {exc}")
+        if errors:
+            raise errors
+
+    def _propagate(self, state: InterfaceState, direction: int):
+        scene = state.scene.diff()
+        model = scene.robot_model
+        props = self._properties
+        group = props["group"]
+        if group is None or not model.has_group(group):
+            return False, scene, SubTrajectory.failure(f"invalid joint model group: {group}")
+        goal = props["goal"]
+        if goal is None:
+            return False, scene, SubTrajectory.failure("undefined goal")
+        timeout = self.timeout_or(1.0)
+        context = self._context
+        jmg = model.group(group)
+        values = joint_goal_values(model, group, goal) if not isinstance(goal, RobotState) else None
+        if isinstance(goal, RobotState) or values is not None:
+            target = scene.current_state.copy()
+            if isinstance(goal, RobotState):
+                target.set_group_positions(group, goal.group_positions(group))
+            else:
+                target.set_joint_positions({k: v for k, v in values.items() if k in model.variable_names})
+            scene.set_current_state(target)
+            result = self._planner.plan(state.scene, scene, group, timeout, context)
+        else:
+            link, ik_pose = robot_tip_for_frame(props["ik_frame"], scene, group)
+            if isinstance(goal, PoseStamped):
+                target_pose = frame_transform(scene, goal.frame_id) @ goal.pose
+            else:
+                target_pose = ik_pose.copy()
+                point = frame_transform(scene, goal.frame_id) @ np.append(goal.point, 1.0)
+                target_pose[:3, 3] = point[:3]
+            offset = inverse(scene.current_state.frame_pose(link)) @ ik_pose
+            result = self._planner.plan_pose(state.scene, link, offset, target_pose, group, timeout, context)
+        trajectory = result.trajectory
+        solution = SubTrajectory(None, group, planner_id=result.planner_id or self._planner.planner_id)
+        if trajectory is None or len(trajectory) == 0:
+            solution.comment = result.message or "planning failed"
+            return False, scene, solution
+        positions = state.scene.current_state.positions.copy()
+        positions[jmg.variable_indices] = trajectory.positions[-1]
+        scene.set_current_state(positions)
+        solution.trajectory = reverse_trajectory(trajectory) if direction == BACKWARD else trajectory
+        if not result.success:
+            solution.comment = result.message
+            return False, scene, solution
+        return True, scene, solution
