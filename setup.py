@@ -25,6 +25,7 @@ setup(
         "console_scripts": [
             f"ik_over_table = {PACKAGE}.demos.ik_over_table:main",
             f"mock_controllers = {PACKAGE}.nodes.mock_controllers:main",
+            f"planning_server = {PACKAGE}.nodes.planning_server:main",
             f"ros2 = {PACKAGE}.ros2cli.__main__:main",
         ],
     },

@@ -18,6 +18,7 @@ import rclpy
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 from rclpy.node import Node
+from rclpy.exceptions import ParameterException
 from rclpy.parameter import Parameter
 
 Validator = Callable[[Any], str | None]  # returns an error sentence, or None when the value is fine
@@ -88,7 +89,10 @@ class Parameters:
         self._specs = {spec.name: spec for spec in specs}
         self._listeners: list[Callable[[dict[str, Any]], None]] = []
         for spec in specs:
-            node.declare_parameter(spec.name, spec.default, spec.descriptor())
+            try:
+                node.declare_parameter(spec.name, spec.default, spec.descriptor())
+            except ParameterException as exc:  # e.g. a --ros-args value outside the declared range
+                raise ValueError(f"parameter {spec.name}: {exc}") from None
         problems = [p for p in (spec.check(self.get(spec.name)) for spec in specs) if p]
         if problems:
             raise ValueError("invalid parameters: " + "; ".join(problems))
@@ -157,6 +161,11 @@ def run_node(factory: Callable[[], Node], args: list[str] | None = None, threads
     except ValueError as exc:  # bad configuration: say what, do not print a traceback
         print(f"[ERROR] {exc}", file=sys.stderr)
         code = 1
+    except Exception:
+        # A signal can invalidate the context while the executor is waiting; that is a shutdown,
+        # not an error. Anything else while rclpy is still up is a real failure.
+        if rclpy.ok():
+            raise
     finally:
         if node is not None:
             close = getattr(node, "close", None)

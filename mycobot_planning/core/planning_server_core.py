@@ -1,0 +1,779 @@
+"""The planning server's logic without ROS: MoveIt's move_group capabilities on our core.
+
+The planning_server node (mycobot_planning/nodes/planning_server.py) only translates ROS topics,
+services and parameters into calls on :class:`PlanningServerCore`; everything it decides lives
+here so it can be unit-tested without processes:
+
+* the **monitored planning scene**: world and attached objects, allowed collisions, and the
+  robot's current state fed from /joint_states (with its age, so a stale state is refused);
+* **scene updates** (collision objects, attached objects, planning-scene diffs, attach/detach),
+  each validated completely before anything changes and answered with a clear error otherwise;
+* **planning requests** as JSON-able dicts (group, goal, pipeline, planner, time, scaling, start
+  state) turned into :class:`~mycobot_planning.core.planning_interface.MotionPlanRequest` and
+  answered with a MoveIt error code, the trajectory and the planning time;
+* **execution** of the last plan, a given trajectory or a whole task solution through the
+  :class:`~mycobot_planning.core.execution.TrajectoryExecutionManager`.
+
+Every method takes and returns the JSON forms of interfaces_py.msgs, which are exactly the
+JSON-RPC payloads. Bad requests raise :class:`RequestError` (scene operations) or come back with
+a MoveIt error code (planning and execution), as move_group answers them.
+"""
+from __future__ import annotations
+
+import math
+import threading
+import time
+from dataclasses import dataclass
+from typing import Any, Callable, Mapping, Sequence
+
+import numpy as np
+
+from interfaces_py.msgs import (
+    AttachedCollisionObject,
+    CollisionObject,
+    JointTrajectory,
+    MessageError,
+    MoveItErrorCode,
+    PlanningScene as PlanningSceneMsg,
+    PlanningSceneWorld,
+    Pose,
+    RobotState as RobotStateMsg,
+    RobotTrajectory,
+)
+
+from .cartesian_path import compute_cartesian_path
+from .errors import PlanningError, RobotModelError, SceneError, StateError
+from .execution import (
+    ControllerBus,
+    ControllerInfo,
+    ExecutionError,
+    ExecutionSettings,
+    TrajectoryExecutionManager,
+    parse_task_solution,
+    parse_trajectory,
+    timed_to_joint_trajectory,
+)
+from .planning_interface import JointGoal, MotionPlanRequest, NamedGoal, PoseGoal
+from .planning_scene import PlanningScene
+from .robot_model import RobotModel
+from .transforms import check_pose, make_pose
+
+__all__ = ["PlanningDefaults", "PlanningServerCore", "RequestError", "goal_from_parameters", "pose_from_json"]
+
+SOURCE = "planning_server"
+# error codes for scene requests (JSON-RPC answers)
+BAD_REQUEST = -1001
+
+_PLAN_KEYS = {
+    "group", "goal", "pipeline_id", "planner_id", "allowed_planning_time", "num_planning_attempts",
+    "max_velocity_scaling_factor", "max_acceleration_scaling_factor", "start_state", "seed", "display",
+    "circ_center", "circ_interim", "num_ik_goals",
+}
+_GOAL_KEYS = {"named", "joints", "pose", "link", "ik_frame_offset", "tolerance", "position_tolerance",
+              "orientation_tolerance"}
+_CARTESIAN_KEYS = {
+    "group", "waypoints", "link", "ik_frame_offset", "eef_step", "jump_threshold", "avoid_collisions",
+    "max_velocity_scaling_factor", "max_acceleration_scaling_factor", "start_state", "frame", "display",
+    "revolute_jump_threshold", "prismatic_jump_threshold",
+}
+
+
+class RequestError(PlanningError, ValueError):
+    """A request the server refuses, with the code to answer (MoveIt's or BAD_REQUEST)."""
+
+    def __init__(self, code: int, message: str) -> None:
+        super().__init__(message)
+        self.code = code
+        self.message = message
+
+
+@dataclass
+class PlanningDefaults:
+    """What a request does not say (MoveIt's plan_request_params)."""
+
+    pipeline_id: str = "ompl"
+    planner_id: str = ""
+    planning_time: float = 5.0
+    num_planning_attempts: int = 1
+    max_velocity_scaling_factor: float = 1.0
+    max_acceleration_scaling_factor: float = 1.0
+    sample_period: float = 0.01  # s between published trajectory points (0: planner breakpoints only)
+
+
+def _code(val: int, message: str, source: str = SOURCE) -> dict[str, Any]:
+    return MoveItErrorCode(val, message, source).to_dict()
+
+
+def pose_from_json(value: Any, what: str = "pose") -> np.ndarray:
+    """A 4x4 world pose from a Pose dict, [x, y, z, qx, qy, qz, qw] or a 4x4 nested list."""
+    try:
+        if isinstance(value, Pose):
+            return value.to_matrix()
+        if isinstance(value, Mapping):
+            return Pose.from_dict(value).to_matrix()
+        if isinstance(value, (list, tuple, np.ndarray)):
+            arr = np.asarray(value, dtype=float)
+            if arr.shape == (7,):
+                if not np.all(np.isfinite(arr)):
+                    raise ValueError("contains NaN or infinite values")
+                return make_pose(arr[:3], quat_xyzw=arr[3:])
+            if arr.shape == (4, 4):
+                return check_pose(arr, what)
+            raise ValueError(f"expected 7 numbers (x, y, z, qx, qy, qz, qw) or a 4x4 matrix, got shape {arr.shape}")
+    except (MessageError, ValueError, TypeError) as exc:
+        raise RequestError(MoveItErrorCode.INVALID_GOAL_CONSTRAINTS, f"invalid {what}: {exc}") from None
+    raise RequestError(MoveItErrorCode.INVALID_GOAL_CONSTRAINTS,
+                       f"invalid {what}: expected a Pose object, 7 numbers or a 4x4 matrix, got {type(value).__name__}")
+
+
+def goal_from_parameters(values: Mapping[str, Any], last_set: str | None = None) -> dict[str, Any]:
+    """The plan request of the Trigger ``plan`` service from the goal.* parameters.
+
+    ``values`` maps "group", "named_target", "joint_values", "pose", "link". The target is the
+    goal parameter set last (``last_set``: "named_target", "joint_values" or "pose"), as
+    MoveGroup's set_*_target replaces the previous target; without one, the first non-empty of
+    named_target, joint_values, pose. RequestError when no target is set.
+    """
+    order = ["named_target", "joint_values", "pose"]
+    if last_set in order and values.get(last_set):
+        order.remove(last_set)
+        order.insert(0, last_set)
+    request: dict[str, Any] = {"group": values.get("group") or "arm"}
+    for key in order:
+        value = values.get(key)
+        if not value:
+            continue
+        if key == "named_target":
+            request["goal"] = {"named": value}
+        elif key == "joint_values":
+            request["goal"] = {"joints": [float(v) for v in value]}
+        else:
+            goal: dict[str, Any] = {"pose": [float(v) for v in value]}
+            if values.get("link"):
+                goal["link"] = values["link"]
+            request["goal"] = goal
+        return request
+    raise RequestError(MoveItErrorCode.INVALID_GOAL_CONSTRAINTS,
+                       "no goal set: set goal.named_target, goal.joint_values or goal.pose first")
+
+
+class PlanningServerCore:
+    """Monitored scene + planning + execution of the planning server (see module docstring).
+
+    Thread-safe: ROS callbacks (joint states, scene updates, requests, stop) arrive on several
+    executor threads. The scene is guarded by one lock held only for short updates; planning
+    works on a copy of the scene, so joint states keep flowing while a planner runs; executions
+    are serialised by the execution manager (one at a time, stop always answered).
+    """
+
+    def __init__(
+        self,
+        model: RobotModel,
+        pipeline: Any,
+        controllers: Sequence[ControllerInfo],
+        bus: ControllerBus,
+        settings: ExecutionSettings | None = None,
+        defaults: PlanningDefaults | None = None,
+        clock: Callable[[], float] = time.monotonic,
+        log: Callable[[str, str], None] | None = None,
+    ) -> None:
+        self.model = model
+        self.pipeline = pipeline
+        self.defaults = defaults or PlanningDefaults()
+        self._clock = clock
+        self._log = log or (lambda level, text: None)
+        self._lock = threading.RLock()
+        self._plan_lock = threading.Lock()
+        self.scene = PlanningScene(model)
+        self._joint_values: dict[str, float] = {}
+        self._joint_stamp: float | None = None
+        self._name_cache: dict[tuple[str, ...], tuple[np.ndarray, np.ndarray]] = {}
+        self._last_plan: tuple[JointTrajectory, str] | None = None
+        self._last_plan_problem = "nothing has been planned yet"
+        self.scene_listeners: list[Callable[[], None]] = []
+        self.trajectory_listeners: list[Callable[[JointTrajectory], None]] = []
+        self.executor = TrajectoryExecutionManager(
+            model, controllers, bus, self.joint_positions, settings or ExecutionSettings(), clock=clock, log=self._log
+        )
+
+    # ------------------------------------------------------------------ settings
+    @property
+    def settings(self) -> ExecutionSettings:
+        return self.executor.settings
+
+    @settings.setter
+    def settings(self, value: ExecutionSettings) -> None:
+        self.executor.settings = value
+
+    # ------------------------------------------------------------------ joint states
+    def update_joint_state(self, names: Sequence[str], positions: Sequence[float]) -> str | None:
+        """Take one /joint_states message. Returns why it was ignored (or None when applied).
+
+        Joints the robot does not have are ignored (other robots may share the topic); mimic
+        joints are kept for execution monitoring but the scene derives them from their source.
+        """
+        key = tuple(names)
+        if len(positions) != len(key):
+            return f"joint state has {len(key)} names but {len(positions)} positions"
+        values = np.asarray(positions, dtype=float)
+        if not np.all(np.isfinite(values)):
+            bad = [n for n, v in zip(key, values) if not math.isfinite(v)]
+            return f"joint state contains NaN or infinite positions for {bad}"
+        mapping = self._name_cache.get(key)
+        if mapping is None:
+            index = {n: i for i, n in enumerate(self.model.variable_names)}
+            sel = [i for i, n in enumerate(key) if n in index]
+            mapping = (np.array(sel, dtype=int), np.array([index[key[i]] for i in sel], dtype=int))
+            if len(self._name_cache) > 16:
+                self._name_cache.clear()
+            self._name_cache[key] = mapping
+        sel, target = mapping
+        with self._lock:
+            self._joint_values.update(zip(key, values.tolist()))
+            self._joint_stamp = self._clock()
+            if sel.size:
+                current = self.scene.current_state.positions
+                if not np.array_equal(current[target], values[sel]):
+                    new = current.copy()
+                    new[target] = values[sel]
+                    self.scene.set_current_state(new)
+        self.executor.notify()
+        return None
+
+    def joint_positions(self) -> tuple[dict[str, float] | None, float | None]:
+        """(positions by joint name, age in s) of the latest joint states; (None, None) before any."""
+        with self._lock:
+            if self._joint_stamp is None:
+                return None, None
+            return dict(self._joint_values), self._clock() - self._joint_stamp
+
+    def joint_state_problem(self, joints: Sequence[str]) -> tuple[int, str] | None:
+        """Why the current state cannot be used for ``joints`` (code, message), or None."""
+        positions, age = self.joint_positions()
+        if positions is None:
+            return (MoveItErrorCode.ROBOT_STATE_STALE,
+                    "no joint state received on /joint_states yet: is the joint state broadcaster running?")
+        if age > self.settings.joint_state_timeout:
+            return (MoveItErrorCode.ROBOT_STATE_STALE,
+                    f"the current robot state is stale: the last /joint_states message is {age:.2f} s old "
+                    f"(joint_state_timeout {self.settings.joint_state_timeout} s)")
+        missing = [j for j in joints if j not in positions]
+        if missing:
+            return MoveItErrorCode.INVALID_ROBOT_STATE, f"/joint_states does not report joints {missing}"
+        return None
+
+    # ------------------------------------------------------------------ scene
+    def _changed(self) -> None:
+        for listener in list(self.scene_listeners):
+            try:
+                listener()
+            except Exception as exc:  # a publisher problem must not undo an applied update
+                self._log("error", f"scene listener failed: {exc}")
+
+    def scene_msg(self) -> PlanningSceneMsg:
+        return self.scene_copy().get_planning_scene_msg()
+
+    def scene_copy(self) -> PlanningScene:
+        with self._lock:
+            return self.scene.copy()
+
+    def scene_snapshot(self) -> tuple[PlanningSceneMsg, list[CollisionObject]]:
+        """The full scene message and the attached objects posed in the world frame at the
+        current state, built under one lock (what the node publishes together)."""
+        scene = self.scene_copy()  # cheap (shared immutable objects): messages are built outside the lock
+        msg = scene.get_planning_scene_msg()
+        attached = [scene.get_object(i) for i in scene.attached_object_ids()]
+        return msg, attached
+
+    def attached_snapshot(self) -> tuple[list[float], list[CollisionObject]]:
+        """(current positions, attached objects in the world frame): what moves with the robot."""
+        scene = self.scene_copy()
+        return [float(v) for v in scene.current_state.positions], [scene.get_object(i) for i in scene.attached_object_ids()]
+
+    def marker_objects(self) -> list[tuple[CollisionObject, bool]]:
+        """Every object in the world frame at the current state, with whether it is attached."""
+        scene = self.scene_copy()
+        return [(obj, False) for obj in scene.world_objects()] + [(scene.get_object(i), True)
+                                                                   for i in scene.attached_object_ids()]
+
+    def has_attached_objects(self) -> bool:
+        with self._lock:
+            return bool(self.scene.attached_object_ids())
+
+    def _scene_call(self, what: str, fn: Callable[[], Any]) -> Any:
+        try:
+            with self._lock:
+                result = fn()
+        except SceneError as exc:
+            text = str(exc)
+            code = MoveItErrorCode.INVALID_OBJECT_NAME if "unknown collision object" in text else BAD_REQUEST
+            raise RequestError(code, text) from None
+        except (MessageError, StateError, RobotModelError) as exc:
+            raise RequestError(BAD_REQUEST, f"{what}: {exc}") from None
+        self._log("info", what)
+        self._changed()
+        return result
+
+    @staticmethod
+    def _message(cls: type, value: Any, what: str) -> Any:
+        try:
+            if isinstance(value, cls):
+                return value
+            if isinstance(value, (str, bytes, bytearray)):
+                return cls.from_json(value)
+            return cls.from_dict(value)
+        except MessageError as exc:
+            raise RequestError(BAD_REQUEST, f"invalid {what}: {exc}") from None
+
+    def apply_planning_scene(self, scene: Any) -> dict[str, Any]:
+        """Apply a PlanningScene message (a diff when is_diff, else a full replacement)."""
+        msg = self._message(PlanningSceneMsg, scene, "planning scene")
+        self._scene_call(f"applied a planning scene {'diff' if msg.is_diff else '(full)'}",
+                         lambda: self.scene.apply_planning_scene_msg(msg))
+        return {"applied": True}
+
+    def apply_collision_objects(self, objects: Sequence[Any]) -> dict[str, Any]:
+        """Apply CollisionObjects (ADD/REMOVE/APPEND/MOVE) all or nothing."""
+        if not isinstance(objects, (list, tuple)) or not objects:
+            raise RequestError(BAD_REQUEST, "expected a non-empty list of collision objects")
+        msgs = [self._message(CollisionObject, o, f"collision object {k}") for k, o in enumerate(objects)]
+        diff = PlanningSceneMsg(world=PlanningSceneWorld(collision_objects=msgs), is_diff=True)
+        summary = ", ".join(f"{m.operation_name} '{m.id}'" for m in msgs[:5]) + (" ..." if len(msgs) > 5 else "")
+        self._scene_call(f"collision objects: {summary}", lambda: self.scene.apply_planning_scene_msg(diff))
+        return {"applied": len(msgs), "ids": [m.id for m in msgs]}
+
+    def apply_attached_collision_object(self, attached: Any) -> dict[str, Any]:
+        msg = self._message(AttachedCollisionObject, attached, "attached collision object")
+        self._scene_call(f"attached collision object {msg.object.operation_name} '{msg.object.id}' on '{msg.link_name}'",
+                         lambda: self.scene.apply_attached_collision_object(msg))
+        return {"applied": True}
+
+    def default_attach_link(self) -> str:
+        """The link objects attach to when none is given: the end effector's parent link."""
+        effectors = list(self.model.end_effectors.values())
+        if len(effectors) == 1:
+            return effectors[0].parent_link
+        raise RequestError(BAD_REQUEST, "link_name is required: the robot has "
+                                        f"{len(effectors)} end effectors, so there is no default")
+
+    def default_touch_links(self, link: str) -> list[str]:
+        """Links that may touch an object attached to ``link``: the link and everything mounted
+        below it in the kinematic tree (for the flange: the gripper base and fingers that hold
+        the object). MoveIt's default is the link alone, which makes every grasped object collide
+        with the gripper holding it."""
+        model = self.model
+        below = []
+        for other in model.link_names:
+            current = other
+            while current is not None and current != link:
+                joint = model.parent_joint(current)
+                current = model.joint(joint).parent_link if joint is not None else None
+            if current == link and other != link:
+                below.append(other)
+        return [link] + below
+
+    def attach_object(self, object_id: Any, link_name: str | None = None, touch_links: Sequence[str] | None = None,
+                      weight: float = 0.0) -> dict[str, Any]:
+        if not isinstance(object_id, str) or not object_id:
+            raise RequestError(BAD_REQUEST, "attach_object needs an 'object_id' string")
+        link = link_name or self.default_attach_link()
+        if touch_links is None:
+            touch = self.default_touch_links(link) if self.model.has_link(link) else [link]
+        elif isinstance(touch_links, (list, tuple)) and all(isinstance(t, str) for t in touch_links):
+            touch = list(touch_links)
+        else:
+            raise RequestError(BAD_REQUEST, "touch_links must be a list of link or group names")
+        if isinstance(weight, bool) or not isinstance(weight, (int, float)):
+            raise RequestError(BAD_REQUEST, f"weight must be a number, got {weight!r}")
+        self._scene_call(f"attached '{object_id}' to '{link}'",
+                         lambda: self.scene.attach_object(object_id, link, touch, float(weight)))
+        return {"attached": object_id, "link_name": link, "touch_links": touch}
+
+    def detach_object(self, object_id: Any) -> dict[str, Any]:
+        if not isinstance(object_id, str) or not object_id:
+            raise RequestError(BAD_REQUEST, "detach_object needs an 'object_id' string")
+        self._scene_call(f"detached '{object_id}'", lambda: self.scene.detach_object(object_id))
+        return {"detached": object_id}
+
+    def get_objects(self, ids: Sequence[str] | None = None) -> dict[str, Any]:
+        """World objects (world frame), attached objects (in their link's frame) and the attached
+        objects' current world poses. ``ids`` filters; unknown ids are simply absent."""
+        if ids is not None and (not isinstance(ids, (list, tuple)) or not all(isinstance(i, str) for i in ids)):
+            raise RequestError(BAD_REQUEST, "ids must be a list of object id strings")
+        wanted = set(ids) if ids else None
+        scene = self.scene_copy()
+        world = {i: scene.get_object(i).to_dict() for i in scene.world_object_ids() if wanted is None or i in wanted}
+        attached, poses = {}, {}
+        for i in scene.attached_object_ids():
+            if wanted is None or i in wanted:
+                attached[i] = scene.get_attached_object(i).to_dict()
+                poses[i] = scene.get_object(i).pose.to_dict()
+        return {"objects": world, "attached_objects": attached, "attached_object_poses": poses}
+
+    # ------------------------------------------------------------------ planning
+    def _fail(self, code: int, message: str, **extra: Any) -> dict[str, Any]:
+        return {"error_code": _code(code, message), "trajectory": None, "planning_time": 0.0, **extra}
+
+    def _start_scene(self, start_state: Any, group_joints: Sequence[str]) -> PlanningScene:
+        """A copy of the monitored scene whose current state is the request's start state.
+
+        A start state naming every active joint needs no joint states; otherwise its joints (if
+        any) are merged onto the current state, which must be fresh (RequestError otherwise).
+        """
+        msg = None
+        if start_state is not None:
+            try:
+                msg = start_state if isinstance(start_state, RobotStateMsg) else RobotStateMsg.from_dict(start_state)
+            except MessageError as exc:
+                raise RequestError(MoveItErrorCode.INVALID_ROBOT_STATE, f"invalid start_state: {exc}") from None
+        given = msg.joint_positions() if msg is not None else {}
+        mimic = set(self.model.mimic_joint_names)
+        active = {n: v for n, v in given.items() if n not in mimic}
+        unknown = [n for n in active if n not in self.model.variable_names]
+        if unknown:
+            raise RequestError(MoveItErrorCode.INVALID_ROBOT_STATE,
+                               f"start_state names joints {unknown} that robot '{self.model.name}' does not have")
+        complete = all(n in active for n in self.model.variable_names)
+        if not complete:
+            problem = self.joint_state_problem([j for j in group_joints if j not in active])
+            if problem is not None:
+                raise RequestError(*problem)
+        scene = self.scene_copy()
+        try:
+            if active:
+                scene.set_current_state(active)
+            if msg is not None:
+                for attached in msg.attached_collision_objects:
+                    scene.apply_attached_collision_object(attached)
+        except (StateError, SceneError, ValueError) as exc:
+            raise RequestError(MoveItErrorCode.INVALID_ROBOT_STATE, f"invalid start_state: {exc}") from None
+        return scene
+
+    def _goal(self, goal: Any) -> JointGoal | NamedGoal | PoseGoal:
+        bad = MoveItErrorCode.INVALID_GOAL_CONSTRAINTS
+        if not isinstance(goal, Mapping):
+            raise RequestError(bad, "goal must be an object with one of 'named', 'joints' or 'pose'")
+        unknown = sorted(set(goal) - _GOAL_KEYS)
+        if unknown:
+            raise RequestError(bad, f"goal has unknown keys {unknown}; known: {sorted(_GOAL_KEYS)}")
+        kinds = [k for k in ("named", "joints", "pose") if goal.get(k) is not None]
+        if len(kinds) != 1:
+            raise RequestError(bad, f"goal needs exactly one of 'named', 'joints' or 'pose', got {kinds or 'none'}")
+        tolerance = self._number(goal.get("tolerance", 1e-4), "goal tolerance", bad)
+        if kinds[0] == "named":
+            if not isinstance(goal["named"], str) or not goal["named"]:
+                raise RequestError(bad, "goal 'named' must be a named state string such as 'home'")
+            return NamedGoal(goal["named"], tolerance)
+        if kinds[0] == "joints":
+            values = goal["joints"]
+            if isinstance(values, Mapping):
+                if not all(isinstance(k, str) for k in values):
+                    raise RequestError(bad, "goal 'joints' must map joint names to numbers")
+                checked = {k: self._number(v, f"goal joint '{k}'", bad) for k, v in values.items()}
+                return JointGoal(checked, tolerance)
+            if not isinstance(values, (list, tuple)):
+                raise RequestError(bad, "goal 'joints' must be a list of numbers or a {joint: value} object")
+            return JointGoal([self._number(v, f"goal joints[{i}]", bad) for i, v in enumerate(values)], tolerance)
+        pose = pose_from_json(goal["pose"], "goal pose")
+        link = goal.get("link")
+        if link is not None and (not isinstance(link, str)):
+            raise RequestError(bad, "goal 'link' must be a link name")
+        offset = goal.get("ik_frame_offset")
+        return PoseGoal(
+            pose,
+            link or None,
+            pose_from_json(offset, "ik_frame_offset") if offset is not None else None,
+            self._number(goal.get("position_tolerance", 1e-4), "position_tolerance", bad),
+            self._number(goal.get("orientation_tolerance", 1e-3), "orientation_tolerance", bad),
+        )
+
+    @staticmethod
+    def _number(value: Any, what: str, code: int = MoveItErrorCode.INVALID_MOTION_PLAN) -> float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise RequestError(code, f"{what} must be a finite number, got {value!r}")
+        return float(value)
+
+    def _request(self, params: Mapping[str, Any]) -> tuple[MotionPlanRequest, PlanningScene]:
+        bad = MoveItErrorCode.INVALID_MOTION_PLAN
+        if not isinstance(params, Mapping):
+            raise RequestError(bad, "a plan request must be a JSON object")
+        unknown = sorted(set(params) - _PLAN_KEYS)
+        if unknown:
+            raise RequestError(bad, f"plan request has unknown keys {unknown}; known: {sorted(_PLAN_KEYS)}")
+        group = params.get("group", "arm")
+        if not isinstance(group, str) or not self.model.has_group(group):
+            raise RequestError(MoveItErrorCode.INVALID_GROUP_NAME,
+                               f"unknown planning group {group!r}; known: {', '.join(self.model.group_names)}")
+        if "goal" not in params:
+            raise RequestError(MoveItErrorCode.INVALID_GOAL_CONSTRAINTS, "plan request needs a 'goal'")
+        goal = self._goal(params["goal"])
+        d = self.defaults
+        strings = {}
+        for key, default in (("pipeline_id", d.pipeline_id), ("planner_id", d.planner_id)):
+            value = params.get(key)
+            if value is None or value == "":
+                value = default
+            if not isinstance(value, str):
+                raise RequestError(bad, f"{key} must be a string, got {value!r}")
+            strings[key] = value
+        numbers = {}
+        for key, default in (("allowed_planning_time", d.planning_time),
+                             ("max_velocity_scaling_factor", d.max_velocity_scaling_factor),
+                             ("max_acceleration_scaling_factor", d.max_acceleration_scaling_factor)):
+            value = params.get(key)
+            numbers[key] = default if value is None or value == 0 else self._number(value, key)
+        attempts = params.get("num_planning_attempts", d.num_planning_attempts)
+        if isinstance(attempts, bool) or not isinstance(attempts, int):
+            raise RequestError(bad, f"num_planning_attempts must be an integer, got {attempts!r}")
+        seed = params.get("seed")
+        if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int)):
+            raise RequestError(bad, f"seed must be an integer, got {seed!r}")
+        extra = {}
+        for key in ("circ_center", "circ_interim"):
+            if params.get(key) is not None:
+                value = params[key]
+                if not isinstance(value, (list, tuple)) or len(value) != 3:
+                    raise RequestError(bad, f"{key} must be 3 numbers (x, y, z)")
+                extra[key] = [self._number(v, key) for v in value]
+        if params.get("num_ik_goals") is not None:
+            n = params["num_ik_goals"]
+            if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+                raise RequestError(bad, f"num_ik_goals must be an integer >= 1, got {n!r}")
+            extra["num_ik_goals"] = n
+        scene = self._start_scene(params.get("start_state"), self.model.group(group).joint_names)
+        request = MotionPlanRequest(
+            group=group, goal=goal, start_state=scene.current_state.copy(), seed=seed,
+            num_planning_attempts=attempts, **strings, **numbers, **extra,
+        )
+        return request, scene
+
+    def plan(self, params: Mapping[str, Any]) -> dict[str, Any]:
+        """Plan a request (see module docstring); never raises for bad input.
+
+        Returns {"error_code", "trajectory" (RobotTrajectory dict or None), "planning_time",
+        "group", "planner_id"}. A successful plan becomes the "last plan" for execute().
+        """
+        started = time.perf_counter()
+        try:
+            request, scene = self._request(params)
+        except RequestError as exc:
+            self._last_plan, self._last_plan_problem = None, f"the last planning request failed: {exc.message}"
+            self._log("warning", f"plan request refused: {exc.message}")
+            return self._fail(exc.code, exc.message)
+        try:
+            with self._plan_lock:
+                response = self.pipeline.plan(scene, request)
+        except Exception as exc:  # planners promise not to raise; if one does, answer anyway
+            response = None
+            message = f"planner failed: {type(exc).__name__}: {exc}"
+        if response is None or not response.success or response.trajectory is None:
+            code = response.error_code if response is not None else MoveItErrorCode(MoveItErrorCode.FAILURE, message)
+            self._last_plan, self._last_plan_problem = None, f"the last planning request failed: {code}"
+            self._log("warning", f"planning for '{request.group}' failed: {code}")
+            result = self._fail(code.val, code.message, group=request.group)
+            result["error_code"]["source"] = code.source or request.pipeline_id
+            result["planning_time"] = time.perf_counter() - started
+            return result
+        trajectory = timed_to_joint_trajectory(response.trajectory, self.defaults.sample_period or None)
+        self._last_plan = (trajectory, request.group)
+        self._last_plan_problem = ""
+        if params.get("display", True):
+            self._display(trajectory)
+        self._log("info", f"planned '{request.group}' with {request.pipeline_id}/{response.planner_id or 'default'}: "
+                          f"{trajectory.duration:.3f} s trajectory in {response.planning_time:.3f} s")
+        return {
+            "error_code": _code(MoveItErrorCode.SUCCESS, response.error_code.message, request.pipeline_id),
+            "trajectory": RobotTrajectory(trajectory, request.group).to_dict(),
+            "planning_time": response.planning_time,
+            "group": request.group,
+            "planner_id": response.planner_id,
+        }
+
+    def _display(self, trajectory: JointTrajectory) -> None:
+        for listener in list(self.trajectory_listeners):
+            try:
+                listener(trajectory)
+            except Exception as exc:
+                self._log("error", f"publishing the planned trajectory failed: {exc}")
+
+    def compute_cartesian_path(self, params: Mapping[str, Any]) -> dict[str, Any]:
+        """MoveIt's compute_cartesian_path: {"error_code", "trajectory", "fraction", "stop_reason"}."""
+        bad = MoveItErrorCode.INVALID_MOTION_PLAN
+        try:
+            if not isinstance(params, Mapping):
+                raise RequestError(bad, "a cartesian path request must be a JSON object")
+            unknown = sorted(set(params) - _CARTESIAN_KEYS)
+            if unknown:
+                raise RequestError(bad, f"cartesian path request has unknown keys {unknown}; known: {sorted(_CARTESIAN_KEYS)}")
+            group = params.get("group", "arm")
+            if not isinstance(group, str) or not self.model.has_group(group):
+                raise RequestError(MoveItErrorCode.INVALID_GROUP_NAME,
+                                   f"unknown planning group {group!r}; known: {', '.join(self.model.group_names)}")
+            waypoints = params.get("waypoints")
+            if not isinstance(waypoints, (list, tuple)) or not waypoints:
+                raise RequestError(bad, "waypoints must be a non-empty list of poses")
+            poses = [pose_from_json(w, f"waypoint {k}") for k, w in enumerate(waypoints)]
+            offset = params.get("ik_frame_offset")
+            kwargs: dict[str, Any] = {}
+            for key, default in (("eef_step", 0.01), ("jump_threshold", 0.0), ("revolute_jump_threshold", 0.0),
+                                 ("prismatic_jump_threshold", 0.0)):
+                kwargs[key] = self._number(params.get(key, default), key)
+            for key in ("max_velocity_scaling_factor", "max_acceleration_scaling_factor"):
+                value = params.get(key)
+                default = getattr(self.defaults, key)
+                kwargs[key.replace("max_", "").replace("_factor", "")] = (
+                    default if value is None or value == 0 else self._number(value, key))
+            avoid = params.get("avoid_collisions", True)
+            if not isinstance(avoid, bool):
+                raise RequestError(bad, "avoid_collisions must be true or false")
+            link = params.get("link")
+            if link is not None and not isinstance(link, str):
+                raise RequestError(bad, "link must be a link name")
+            frame = params.get("frame", "world")
+            if not isinstance(frame, str) or not frame:
+                raise RequestError(bad, "frame must be a frame name")
+            scene = self._start_scene(params.get("start_state"), self.model.group(group).joint_names)
+        except RequestError as exc:
+            return self._fail(exc.code, exc.message, fraction=0.0, stop_reason="invalid_request")
+        with self._plan_lock:
+            result = compute_cartesian_path(
+                scene, group, scene.current_state.copy(), poses, link=link or None,
+                ik_frame_offset=pose_from_json(offset, "ik_frame_offset") if offset is not None else None,
+                avoid_collisions=avoid, **kwargs,
+            )
+        out: dict[str, Any] = {
+            "error_code": _code(result.error_code.val, result.error_code.message, "cartesian_path"),
+            "trajectory": None,
+            "fraction": float(result.fraction),
+            "stop_reason": result.stop_reason,
+            "planning_time": result.planning_time,
+        }
+        if result.success and result.trajectory is not None:
+            trajectory = timed_to_joint_trajectory(result.trajectory, self.defaults.sample_period or None)
+            out["trajectory"] = RobotTrajectory(trajectory, group).to_dict()
+            if params.get("display", True) and result.fraction > 0:
+                self._display(trajectory)
+        self._log("info" if result.success else "warning",
+                  f"cartesian path for '{group}': fraction {result.fraction:.3f} ({result.stop_reason}) {result.message}")
+        return out
+
+    # ------------------------------------------------------------------ execution
+    def _execution_reply(self, result: Any) -> dict[str, Any]:
+        return result.to_dict()
+
+    def _run(self, params: Mapping[str, Any] | None, work: Callable[[], dict[str, Any]], what: str) -> dict[str, Any]:
+        """Run ``work`` now (``wait`` true, the default) or in a background thread (``wait`` false:
+        the answer only says it started; get_state()["execution"]["last_result"] has the outcome)."""
+        wait = True if not isinstance(params, Mapping) else params.get("wait", True)
+        if not isinstance(wait, bool):
+            return {"error_code": _code(MoveItErrorCode.INVALID_MOTION_PLAN, f"wait must be true or false, got {wait!r}")}
+        if wait:
+            return work()
+        if self.executor.executing:
+            status = self.executor.status()
+            return {"error_code": _code(MoveItErrorCode.FAILURE,
+                                        f"refused: another execution ({status['description']}) is in progress; "
+                                        "stop it first or wait for it to finish"), "started": False}
+        thread = threading.Thread(target=work, name=f"planning_server {what}", daemon=True)
+        thread.start()
+        return {"error_code": _code(MoveItErrorCode.SUCCESS, f"{what} started"), "started": True}
+
+    def execute(self, params: Mapping[str, Any] | None = None) -> dict[str, Any]:
+        """Execute {"trajectory"} (RobotTrajectory or JointTrajectory) or the last plan (blocking).
+
+        Optional "controllers": names to use. Returns ExecutionResult.to_dict().
+        """
+        params = params or {}
+        try:
+            trajectory, description, controllers = self._execution_input(params)
+        except ExecutionError as exc:
+            self._log("warning", f"execute refused: {exc.message}")
+            return {"error_code": exc.error_code().to_dict()}
+        return self._run(params, lambda: self._execution_reply(self.executor.execute(trajectory, controllers, description)),
+                         "execution")
+
+    def _execution_input(self, params: Mapping[str, Any]) -> tuple[JointTrajectory, str, list[str] | None]:
+        bad = MoveItErrorCode.INVALID_MOTION_PLAN
+        if not isinstance(params, Mapping):
+            raise ExecutionError(bad, "an execute request must be a JSON object")
+        unknown = sorted(set(params) - {"trajectory", "controllers", "wait"})
+        if unknown:
+            raise ExecutionError(bad, f"execute request has unknown keys {unknown}; known: controllers, trajectory, wait")
+        controllers = params.get("controllers")
+        if controllers is not None:
+            if isinstance(controllers, str):
+                controllers = [controllers]
+            if not isinstance(controllers, list) or not all(isinstance(c, str) for c in controllers):
+                raise ExecutionError(bad, "controllers must be a list of controller names")
+        if params.get("trajectory") is not None:
+            trajectory, group = parse_trajectory(params["trajectory"])
+            return trajectory, f"trajectory{f' of {group!r}' if group else ''}", controllers or None
+        last = self._last_plan
+        if last is None:
+            raise ExecutionError(bad, f"no plan to execute: {self._last_plan_problem}")
+        return last[0], f"last plan of '{last[1]}'", controllers or None
+
+    def plan_and_execute(self, params: Mapping[str, Any]) -> dict[str, Any]:
+        """Plan, then execute the plan if planning succeeded: {"error_code", "plan", "execution"}."""
+        if isinstance(params, Mapping) and "wait" in params:
+            rest = {k: v for k, v in params.items() if k != "wait"}
+            return self._run(params, lambda: self.plan_and_execute(rest), "plan and execute")
+        if self.executor.executing:
+            status = self.executor.status()
+            return {"error_code": _code(MoveItErrorCode.FAILURE,
+                                        f"refused: another execution ({status['description']}) is in progress; "
+                                        "stop it first or wait for it to finish"),
+                    "plan": None, "execution": None}
+        plan = self.plan(params)
+        if not plan["error_code"]["val"] == MoveItErrorCode.SUCCESS:
+            return {"error_code": plan["error_code"], "plan": plan, "execution": None}
+        trajectory, _ = parse_trajectory(plan["trajectory"])
+        execution = self._execution_reply(self.executor.execute(trajectory, None, f"plan of '{plan['group']}'"))
+        return {"error_code": execution["error_code"], "plan": plan, "execution": execution}
+
+    def _apply_diff_live(self, diff: PlanningSceneMsg) -> None:
+        with self._lock:
+            self.scene.apply_planning_scene_msg(diff)
+        self._changed()
+
+    def execute_task_solution(self, params: Mapping[str, Any]) -> dict[str, Any]:
+        """Execute a task solution ({"steps": [...]} or {"solution": {...}}); see execution.py."""
+        if not isinstance(params, Mapping):
+            return {"error_code": _code(MoveItErrorCode.INVALID_MOTION_PLAN, "request must be a JSON object")}
+        unknown = sorted(set(params) - {"solution", "steps", "sub_trajectory", "wait"})
+        data = params.get("solution", {k: v for k, v in params.items() if k != "wait"})
+        try:
+            if unknown:
+                raise ExecutionError(MoveItErrorCode.INVALID_MOTION_PLAN,
+                                     f"execute_task_solution has unknown keys {unknown}; known: solution, steps, wait")
+            steps = parse_task_solution(data)
+        except ExecutionError as exc:
+            self._log("warning", f"task solution refused: {exc.message}")
+            return {"error_code": exc.error_code().to_dict(), "steps_completed": 0, "failed_step": None,
+                    "applied_scene_diffs": []}
+        return self._run(
+            params,
+            lambda: self.executor.execute_solution(steps, self._apply_diff_live, self.scene_copy()).to_dict(),
+            "task solution execution",
+        )
+
+    def stop(self) -> dict[str, Any]:
+        stopped = self.executor.stop()
+        message = "stopping the running execution" if stopped else "nothing is executing"
+        self._log("info", f"stop requested: {message}")
+        return {"stopped": stopped, "message": message}
+
+    def get_state(self, controller_states: Mapping[str, Any] | None = None) -> dict[str, Any]:
+        positions, age = self.joint_positions()
+        with self._lock:
+            state = self.scene.current_state
+            robot_state = RobotStateMsg(joint_names=list(self.model.variable_names),
+                                        positions=[float(v) for v in state.positions]).to_dict()
+        return {
+            "robot_state": robot_state,
+            "joint_state_age": age,
+            "joint_state_received": positions is not None,
+            "execution": self.executor.status(),
+            "has_plan": self._last_plan is not None,
+            "controllers": dict(controller_states or {}),
+        }

@@ -1,0 +1,628 @@
+"""planning_server: the move_group stand-in (thin rclpy shell around PlanningServerCore).
+
+ROS interface (names from the issue-4 contract; MoveIt's where one exists):
+
+* in: ``/joint_states`` (sensor_msgs/JointState) -> the monitored scene's current state;
+  ``/planning_scene`` (std_msgs/String, JSON PlanningScene diff), ``/collision_object`` (JSON
+  CollisionObject), ``/attached_collision_object`` (JSON AttachedCollisionObject): scene updates,
+  validated before they are applied (a bad one is logged as a warning and changes nothing).
+* out: ``/monitored_planning_scene`` (String, JSON PlanningScene; on change and at
+  ``scene_publish_rate``; transient local so late joiners get the latest),
+  ``/planning_scene_markers`` (visualization_msgs/MarkerArray: world objects and attached
+  objects, which follow their link as the robot moves), ``/display_planned_path``
+  (trajectory_msgs/JointTrajectory: every planned trajectory).
+* std_srvs/Trigger services: ``~/plan`` (goal from the goal.* parameters), ``~/execute`` (last
+  plan), ``~/plan_and_execute``, ``~/stop``, ``~/get_planning_scene`` (message = JSON scene).
+* JSON-RPC on ``/planning_server/requests`` -> ``/planning_server/responses`` (interfaces_py
+  clients wrap it): get_planning_scene, apply_planning_scene, apply_collision_object,
+  attach_object, detach_object, get_objects, plan, execute, plan_and_execute,
+  compute_cartesian_path, execute_task_solution, stop, get_state.
+* controllers (from ``controllers_file``): commands on ``/<controller>/joint_trajectory``,
+  feedback from ``/<controller>/state``, stop through ``/<controller>/stop``.
+
+Long requests (planning, execution) run on reentrant callback groups of a multi-threaded
+executor, so joint states, scene updates and ``stop`` keep being served while they run.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import sys
+import threading
+import time
+from collections import OrderedDict
+from pathlib import Path
+from typing import Any, Callable, Mapping
+
+import numpy as np
+import yaml
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
+from rclpy.exceptions import ParameterException
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import JointState
+from std_msgs.msg import String
+from std_srvs.srv import Trigger
+from trajectory_msgs.msg import JointTrajectory as JointTrajectoryMsg
+from visualization_msgs.msg import Marker, MarkerArray
+
+from interfaces_py.json_rpc import BAD_REQUEST, JsonRpcServer, RpcError
+from interfaces_py.msgs import CollisionObject, JointTrajectory, MoveItErrorCode
+from interfaces_py.ros_conversions import collision_object_to_markers, joint_trajectory_to_msg
+from mycobot_planning.core.execution import ControllerInfo, ControllerState, ExecutionSettings, load_controllers
+from mycobot_planning.core.planning_pipeline import PlanningPipeline
+from mycobot_planning.core.planning_server_core import (
+    PlanningDefaults,
+    PlanningServerCore,
+    RequestError,
+    goal_from_parameters,
+)
+from mycobot_planning.core.robot_model import RobotModel
+from mycobot_planning.nodes.node_runtime import Parameters, ParameterSpec, run_node
+from mycobot_planning.paths import config_file
+
+NODE_NAME = "planning_server"
+LATCHED_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+INPUT_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+STATE_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+COMMAND_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+JOINT_STATES_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+# s: scene changes are published at most this often (a burst of updates is one publication, so an
+# update is answered without waiting for a full-scene serialisation)
+PUBLISH_CHECK_PERIOD = 0.1
+MARKER_FOLLOW_PERIOD = 0.1  # s: how often attached-object markers follow the moving robot
+WORLD_COLOR = (0.5, 0.7, 1.0, 1.0)
+ATTACHED_COLOR = (0.6, 0.3, 0.8, 1.0)
+GOAL_TARGETS = ("goal.named_target", "goal.joint_values", "goal.pose")
+
+# ---------------------------------------------------------------------------- parameter checks
+
+
+def _numbers(name: str, size: int | None = None) -> Callable[[Any], str | None]:
+    def check(value: Any) -> str | None:
+        if value is None:  # `[]` in a params file has no type: rcl leaves the parameter unset
+            return None
+        if not isinstance(value, (list, tuple)):
+            return f"{name} must be a list of numbers, got {type(value).__name__} {value!r}"
+        if len(value) == 0:
+            return None
+        if any(isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) for v in value):
+            return f"{name} must contain finite numbers only, got {list(value)!r}"
+        if size is not None and len(value) != size:
+            return f"{name} must be empty or have exactly {size} values, got {len(value)}"
+        if size == 7 and math.hypot(*value[3:]) < 1e-9:
+            return f"{name}: the quaternion (values 4-7) must not be zero"
+        return None
+
+    return check
+
+
+def _load_yaml_file(path: str, what: str) -> dict | None:
+    if not path:
+        return None
+    try:
+        data = yaml.safe_load(Path(path).read_text())
+    except (OSError, yaml.YAMLError) as exc:
+        raise ValueError(f"cannot read {what} '{path}': {exc}") from None
+    if not isinstance(data, dict):
+        raise ValueError(f"{what} '{path}' must hold a mapping")
+    return data
+
+
+def _declare(node: Node, specs: list[ParameterSpec]) -> Parameters:
+    """Parameters(node, specs), with rclpy's own refusal of an override (a value outside a
+    declared range, a wrong type) turned into the ValueError run_node reports in one line."""
+    try:
+        return Parameters(node, specs)
+    except ParameterException as exc:
+        raise ValueError(f"invalid parameters: {exc}") from None
+
+
+# ---------------------------------------------------------------------------- controllers in ROS
+class RosControllerBus:
+    """ControllerBus over the controllers' topics and stop services.
+
+    Commands are published from ``node``; the controllers' state streams (100 Hz each) and the
+    stop clients live on ``monitor`` (see PlanningServer: a node on its own single-threaded
+    executor).
+    """
+
+    MAX_GOALS = 32  # goal states remembered per controller
+
+    def __init__(self, node: Node, monitor: Node, controllers: list[ControllerInfo],
+                 on_feedback: Callable[[], None]) -> None:
+        self._node = node
+        self._on_feedback = on_feedback
+        self._lock = threading.Lock()
+        self._publishers = {}
+        self._stop_clients = {}
+        self._latest: dict[str, ControllerState] = {}
+        self._by_goal: dict[str, OrderedDict[str, ControllerState]] = {}
+        self._warned: set[str] = set()
+        for c in controllers:
+            self._publishers[c.name] = node.create_publisher(JointTrajectoryMsg, c.command_topic, COMMAND_QOS)
+            self._stop_clients[c.name] = monitor.create_client(Trigger, c.stop_service)
+            self._by_goal[c.name] = OrderedDict()
+            monitor.create_subscription(String, c.state_topic, lambda msg, name=c.name: self._on_state(name, msg),
+                                        STATE_QOS)
+
+    def _on_state(self, name: str, msg: String) -> None:
+        try:
+            state = ControllerState.from_dict(json.loads(msg.data), time.monotonic())
+        except ValueError as exc:  # JSONDecodeError is a ValueError
+            if name not in self._warned:
+                self._warned.add(name)
+                self._node.get_logger().warning(f"ignoring malformed state from controller '{name}': {exc}")
+            return
+        with self._lock:
+            self._latest[name] = state
+            goals = self._by_goal[name]
+            goals[state.goal_id] = state
+            goals.move_to_end(state.goal_id)
+            while len(goals) > self.MAX_GOALS:
+                goals.popitem(last=False)
+        self._on_feedback()
+
+    def is_available(self, controller: str) -> bool:
+        return self._publishers[controller].get_subscription_count() > 0
+
+    def send(self, controller: str, trajectory: JointTrajectory) -> None:
+        self._publishers[controller].publish(joint_trajectory_to_msg(trajectory))
+
+    def stop(self, controller: str) -> None:
+        client = self._stop_clients[controller]
+        if client.service_is_ready():
+            client.call_async(Trigger.Request())
+        else:  # ros2_control convention: an empty trajectory stops the controller
+            self._publishers[controller].publish(JointTrajectoryMsg())
+
+    def controller_state(self, controller: str, goal_id: str | None = None) -> ControllerState | None:
+        with self._lock:
+            if goal_id is None:
+                return self._latest.get(controller)
+            return self._by_goal.get(controller, {}).get(goal_id)
+
+    def summary(self) -> dict[str, Any]:
+        now = time.monotonic()
+        with self._lock:
+            return {
+                name: {"status": s.status, "goal_id": s.goal_id, "message": s.message, "age": now - s.received}
+                for name, s in self._latest.items()
+            }
+
+
+# ---------------------------------------------------------------------------- the node
+class PlanningServer(Node):
+    """See the module docstring."""
+
+    def __init__(self) -> None:
+        super().__init__(NODE_NAME)
+        log = self.get_logger()
+        self._config = _declare(self, [
+            ParameterSpec("robot_description", "", "URDF of the robot (XML text); empty: the package's myCobot 280",
+                          read_only=True),
+            ParameterSpec("robot_description_semantic", "", "SRDF of the robot (XML text); empty: the package's",
+                          read_only=True),
+            ParameterSpec("joint_limits_file", "", "joint_limits.yaml (MoveIt format); empty: config/joint_limits.yaml",
+                          read_only=True),
+            ParameterSpec("kinematics_file", "", "kinematics.yaml; empty: config/kinematics.yaml", read_only=True),
+            ParameterSpec("ompl_planning_file", "", "ompl_planning.yaml; empty: config/ompl_planning.yaml",
+                          read_only=True),
+            ParameterSpec("pilz_cartesian_limits_file", "",
+                          "pilz_cartesian_limits.yaml; empty: config/pilz_cartesian_limits.yaml", read_only=True),
+            ParameterSpec("controllers_file", "",
+                          "controllers YAML (ros2_control or MoveIt layout); empty: config/controllers.yaml",
+                          read_only=True),
+        ])
+        model = self._load_model()
+        pipeline = PlanningPipeline(self._config.get("ompl_planning_file") or None,
+                                    self._config.get("pilz_cartesian_limits_file") or None)
+        controllers = load_controllers(self._config.get("controllers_file") or None)
+        self._params = _declare(self, self._specs(model, pipeline))
+
+        # The high-rate streams (/joint_states and the controllers' states, 100 Hz each) are
+        # served by a second node on a single-threaded executor of its own: rclpy's
+        # multi-threaded executor re-polls entities whose callbacks are queued, which costs a
+        # whole CPU core at these rates, and it would also delay requests behind joint states.
+        self._monitor = Node(f"{NODE_NAME}_state_monitor", context=self.context)
+        self._monitor_executor = SingleThreadedExecutor(context=self.context)
+        self._monitor_executor.add_node(self._monitor)
+        self._bus = RosControllerBus(self, self._monitor, controllers, self._on_feedback)
+        self.core = PlanningServerCore(model, pipeline, controllers, self._bus, self._execution_settings(),
+                                       self._planning_defaults(), log=self._log)
+        self._goal_last_set: str | None = None
+        self._params.on_change(self._on_params)
+
+        self._publish_lock = threading.Lock()
+        self._scene_pub = self.create_publisher(String, "/monitored_planning_scene", LATCHED_QOS)
+        self._marker_pub = self.create_publisher(MarkerArray, "/planning_scene_markers", LATCHED_QOS)
+        self._display_pub = self.create_publisher(JointTrajectoryMsg, "/display_planned_path", LATCHED_QOS)
+        self._marker_positions: np.ndarray | None = None
+        self._marker_time = 0.0
+        self._world_markers: list[Marker] = []
+        self._scene_dirty = threading.Event()
+        self.core.scene_listeners.append(self._scene_dirty.set)
+        self.core.trajectory_listeners.append(self._publish_display)
+
+        self._input_group = MutuallyExclusiveCallbackGroup()
+        self._timer_group = MutuallyExclusiveCallbackGroup()
+        self._service_group = ReentrantCallbackGroup()
+        self._js_problem_logged = 0.0
+        self._monitor.create_subscription(JointState, "/joint_states", self._on_joint_state, JOINT_STATES_QOS)
+        self.create_subscription(String, "/planning_scene", self._on_planning_scene, INPUT_QOS,
+                                 callback_group=self._input_group)
+        self.create_subscription(String, "/collision_object", self._on_collision_object, INPUT_QOS,
+                                 callback_group=self._input_group)
+        self.create_subscription(String, "/attached_collision_object", self._on_attached_object, INPUT_QOS,
+                                 callback_group=self._input_group)
+
+        for name, handler in (("plan", self._srv_plan), ("execute", self._srv_execute),
+                              ("plan_and_execute", self._srv_plan_and_execute), ("stop", self._srv_stop),
+                              ("get_planning_scene", self._srv_get_planning_scene)):
+            self.create_service(Trigger, f"~/{name}", handler, callback_group=self._service_group)
+
+        self._rpc = JsonRpcServer(self)
+        for method, handler in {
+            "get_planning_scene": self._rpc_get_planning_scene,
+            "apply_planning_scene": self._rpc_apply_planning_scene,
+            "apply_collision_object": self._rpc_apply_collision_object,
+            "attach_object": self._rpc_attach_object,
+            "detach_object": self._rpc_detach_object,
+            "get_objects": self._rpc_get_objects,
+            "plan": lambda p: self.core.plan(p),
+            "execute": lambda p: self.core.execute(p),
+            "plan_and_execute": lambda p: self.core.plan_and_execute(p),
+            "compute_cartesian_path": lambda p: self.core.compute_cartesian_path(p),
+            "execute_task_solution": lambda p: self.core.execute_task_solution(p),
+            "stop": self._rpc_stop,
+            "get_state": self._rpc_get_state,
+        }.items():
+            self._rpc.register(method, handler)
+
+        self._scene_timer = self.create_timer(1.0 / self._params.get("scene_publish_rate"), self._publish_scene,
+                                              callback_group=self._timer_group)
+        self._change_timer = self.create_timer(PUBLISH_CHECK_PERIOD, self._publish_changes,
+                                               callback_group=self._timer_group)
+        self._publish_scene()
+        self._monitor_thread = threading.Thread(target=self._spin_monitor, name="state monitor", daemon=True)
+        self._monitor_thread.start()
+        log.info(
+            f"planning_server ready: robot '{model.name}', groups {model.group_names}, pipelines "
+            f"{pipeline.pipeline_ids}, controllers "
+            + ", ".join(f"{c.name} {list(c.joints)}" for c in controllers)
+        )
+
+    # ------------------------------------------------------------------ set-up
+    def _load_model(self) -> RobotModel:
+        urdf = self._config.get("robot_description")
+        srdf = self._config.get("robot_description_semantic")
+        limits_file = self._config.get("joint_limits_file")
+        kinematics_file = self._config.get("kinematics_file")
+        if not urdf and not srdf and not limits_file and not kinematics_file:
+            return RobotModel.mycobot()
+        if srdf and not urdf:
+            raise ValueError("robot_description_semantic is set but robot_description (the URDF) is empty")
+        limits = _load_yaml_file(limits_file, "joint limits file")
+        kinematics = _load_yaml_file(kinematics_file, "kinematics file")
+        if not urdf:
+            urdf = config_file("mycobot_280.urdf").read_text()
+            srdf = config_file("mycobot_280.srdf").read_text()
+            limits = limits if limits is not None else _load_yaml_file(str(config_file("joint_limits.yaml")), "joint limits")
+            kinematics = kinematics if kinematics is not None else _load_yaml_file(
+                str(config_file("kinematics.yaml")), "kinematics")
+        prefixes = [p for p in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p] + [sys.prefix]
+        return RobotModel.from_strings(urdf, srdf or '<robot name=""/>', limits, kinematics,
+                                       package_dirs=[str(Path(p) / "share") for p in prefixes])
+
+    @staticmethod
+    def _specs(model: RobotModel, pipeline: PlanningPipeline) -> list[ParameterSpec]:
+        named = sorted({n for g in model.group_names for n in model.named_state_names(g)})
+
+        def group_check(value: Any) -> str | None:
+            return None if model.has_group(value) else f"unknown planning group '{value}'; known: {model.group_names}"
+
+        def named_check(value: Any) -> str | None:
+            return None if not value or value in named else f"unknown named state '{value}'; known: {named}"
+
+        def link_check(value: Any) -> str | None:
+            return None if not value or model.has_link(value) else f"unknown link '{value}' of robot '{model.name}'"
+
+        def pipeline_check(value: Any) -> str | None:
+            ids = pipeline.pipeline_ids
+            return None if value in ids else f"unknown planning pipeline '{value}'; known: {ids}"
+
+        ex = "trajectory_execution."
+        return [
+            ParameterSpec("joint_state_timeout", 1.0,
+                          "seconds after which the last /joint_states message is stale: planning and execution "
+                          "refuse a stale current state", range=(0.01, 3600.0)),
+            ParameterSpec("scene_publish_rate", 2.0, "Hz at which /monitored_planning_scene and the scene markers "
+                          "are republished (they are also published on every change)", range=(0.1, 100.0)),
+            ParameterSpec("trajectory_sample_period", 0.01,
+                          "seconds between the points of planned trajectories (0: the planner's breakpoints only)",
+                          range=(0.0, 1.0)),
+            ParameterSpec(ex + "allowed_execution_duration_scaling", 1.2,
+                          "execution may take this many times the trajectory's duration (plus the margin)",
+                          range=(1.0, 100.0)),
+            ParameterSpec(ex + "allowed_goal_duration_margin", 0.5,
+                          "seconds added to the scaled duration before execution is cancelled as TIMED_OUT",
+                          range=(0.0, 3600.0)),
+            ParameterSpec(ex + "allowed_start_tolerance", 0.01,
+                          "largest distance (rad or m) between a trajectory's first point and the current state; "
+                          "0 disables the check", range=(0.0, 10.0)),
+            ParameterSpec(ex + "execution_duration_monitoring", True,
+                          "cancel executions that exceed the allowed duration"),
+            ParameterSpec(ex + "goal_tolerance", 0.02,
+                          "largest distance (rad or m) between the last point and /joint_states for an execution "
+                          "to succeed; 0 trusts the controllers", range=(0.0, 10.0)),
+            ParameterSpec("planning_pipeline", "ompl", "default planning pipeline: ompl, "
+                          "pilz_industrial_motion_planner or joint_interpolation", validator=pipeline_check),
+            ParameterSpec("planner_id", "", "default planner id (empty: the pipeline's default)"),
+            ParameterSpec("planning_time", 5.0, "default allowed planning time in seconds", range=(0.001, 3600.0)),
+            ParameterSpec("planning_attempts", 1, "default number of planning attempts", range=(1, 1000)),
+            ParameterSpec("max_velocity_scaling_factor", 1.0, "default velocity scaling factor",
+                          range=(0.0001, 1.0)),
+            ParameterSpec("max_acceleration_scaling_factor", 1.0, "default acceleration scaling factor",
+                          range=(0.0001, 1.0)),
+            ParameterSpec("goal.group", "arm", "planning group of the Trigger 'plan' service", validator=group_check),
+            ParameterSpec("goal.named_target", "", "named state goal (e.g. 'ready') of the Trigger 'plan' service; "
+                          "the goal.* target set last is the one planned to", validator=named_check),
+            ParameterSpec("goal.joint_values", [], "joint goal (one value per group joint, rad) of the Trigger "
+                          "'plan' service", validator=_numbers("goal.joint_values"), dynamic_typing=True),
+            ParameterSpec("goal.pose", [], "pose goal [x, y, z, qx, qy, qz, qw] in the world frame of the Trigger "
+                          "'plan' service", validator=_numbers("goal.pose", 7), dynamic_typing=True),
+            ParameterSpec("goal.link", "", "link the pose goal is for (empty: the group's tip link)",
+                          validator=link_check),
+        ]
+
+    def _execution_settings(self) -> ExecutionSettings:
+        ex = "trajectory_execution."
+        return ExecutionSettings(
+            allowed_execution_duration_scaling=float(self._params.get(ex + "allowed_execution_duration_scaling")),
+            allowed_goal_duration_margin=float(self._params.get(ex + "allowed_goal_duration_margin")),
+            allowed_start_tolerance=float(self._params.get(ex + "allowed_start_tolerance")),
+            execution_duration_monitoring=bool(self._params.get(ex + "execution_duration_monitoring")),
+            goal_tolerance=float(self._params.get(ex + "goal_tolerance")),
+            joint_state_timeout=float(self._params.get("joint_state_timeout")),
+        )
+
+    def _planning_defaults(self) -> PlanningDefaults:
+        return PlanningDefaults(
+            pipeline_id=self._params.get("planning_pipeline"),
+            planner_id=self._params.get("planner_id"),
+            planning_time=float(self._params.get("planning_time")),
+            num_planning_attempts=int(self._params.get("planning_attempts")),
+            max_velocity_scaling_factor=float(self._params.get("max_velocity_scaling_factor")),
+            max_acceleration_scaling_factor=float(self._params.get("max_acceleration_scaling_factor")),
+            sample_period=float(self._params.get("trajectory_sample_period")),
+        )
+
+    def _on_params(self, changed: dict[str, Any]) -> None:
+        self.core.settings = self._execution_settings()
+        self.core.defaults = self._planning_defaults()
+        for name in GOAL_TARGETS:
+            if name in changed and changed[name]:
+                self._goal_last_set = name
+        if "scene_publish_rate" in changed:
+            self._scene_timer.cancel()
+            self.destroy_timer(self._scene_timer)
+            self._scene_timer = self.create_timer(1.0 / changed["scene_publish_rate"], self._publish_scene,
+                                                  callback_group=self._timer_group)
+        self.get_logger().info("parameters set: " + ", ".join(f"{k}={v!r}" for k, v in changed.items()))
+
+    def _log(self, level: str, text: str) -> None:
+        # One call site per severity: rclpy refuses a call site whose severity changes.
+        logger = self.get_logger()
+        if level == "error":
+            logger.error(text)
+        elif level == "warning":
+            logger.warning(text)
+        else:
+            logger.info(text)
+
+    def _on_feedback(self) -> None:
+        self.core.executor.notify()
+
+    def _spin_monitor(self) -> None:
+        try:
+            self._monitor_executor.spin()
+        except Exception:  # the context is shut down under it at exit: nothing left to monitor
+            pass
+
+    def close(self) -> None:
+        """On shutdown: stop a running execution so the controllers hold where they are, then
+        stop the state monitor."""
+        if self.core.executor.executing:
+            self.core.stop()
+            deadline = time.monotonic() + 1.0  # let the execution send its stop commands
+            while self.core.executor.executing and time.monotonic() < deadline:
+                time.sleep(0.01)
+        self._monitor_executor.shutdown(timeout_sec=1.0)
+        self._monitor.destroy_node()
+
+    # ------------------------------------------------------------------ publishing
+    def _publish_scene(self) -> None:
+        """Publish /monitored_planning_scene and the markers (periodically and after changes)."""
+        with self._publish_lock:
+            self._scene_dirty.clear()
+            msg, attached = self.core.scene_snapshot()
+            self._scene_pub.publish(String(data=msg.to_json()))
+            self._publish_markers_locked(msg.world.collision_objects, attached, msg.robot_state.positions)
+
+    def _publish_markers_locked(self, world: list[CollisionObject] | None, attached: list[CollisionObject],
+                                positions: list[float]) -> None:
+        """One MarkerArray: DELETEALL, then every object (world markers reused when ``world`` is None)."""
+        stamp = self.get_clock().now().to_msg()
+        clear = Marker()
+        clear.action = Marker.DELETEALL
+        if world is not None:
+            self._world_markers = [m for obj in world for m in collision_object_to_markers(
+                obj, ns=f"world_objects/{obj.id}", id_start=0, color=WORLD_COLOR, stamp=stamp)]
+        markers = [clear] + self._world_markers
+        for obj in attached:
+            markers += collision_object_to_markers(obj, ns=f"attached_objects/{obj.id}", id_start=0,
+                                                   color=ATTACHED_COLOR, stamp=stamp)
+        self._marker_pub.publish(MarkerArray(markers=markers))
+        self._marker_positions = np.asarray(positions, dtype=float)
+        self._marker_time = time.monotonic()
+
+    def _publish_changes(self) -> None:
+        """Publish the scene if it changed; else republish the markers when the robot carries
+        objects and has moved (attached objects move with their link)."""
+        if self._scene_dirty.is_set():
+            self._publish_scene()
+            return
+        if time.monotonic() - self._marker_time < MARKER_FOLLOW_PERIOD or not self.core.has_attached_objects():
+            return
+        with self._publish_lock:
+            positions, attached = self.core.attached_snapshot()
+            last = self._marker_positions
+            if last is None or last.shape != (len(positions),) or not np.allclose(last, positions, atol=1e-6, rtol=0):
+                self._publish_markers_locked(None, attached, positions)  # world markers unchanged
+
+    def _publish_display(self, trajectory: JointTrajectory) -> None:
+        self._display_pub.publish(joint_trajectory_to_msg(trajectory, self.get_clock().now().to_msg()))
+
+    # ------------------------------------------------------------------ topic inputs
+    def _on_joint_state(self, msg: JointState) -> None:
+        problem = self.core.update_joint_state(msg.name, msg.position)
+        if problem is not None:
+            now = time.monotonic()
+            if now - self._js_problem_logged > 5.0:  # at 100 Hz, say it once in a while
+                self._js_problem_logged = now
+                self.get_logger().warning(f"ignoring /joint_states message: {problem}")
+
+    def _topic_update(self, topic: str, apply: Callable[[], Any]) -> None:
+        try:
+            apply()
+        except RequestError as exc:
+            self.get_logger().warning(f"refused update on {topic}: {exc.message}")
+        except Exception as exc:  # never let a bad message take the node down
+            self.get_logger().error(f"update on {topic} failed: {type(exc).__name__}: {exc}")
+
+    def _on_planning_scene(self, msg: String) -> None:
+        self._topic_update("/planning_scene", lambda: self.core.apply_planning_scene(msg.data))
+
+    def _on_collision_object(self, msg: String) -> None:
+        self._topic_update("/collision_object", lambda: self.core.apply_collision_objects([msg.data]))
+
+    def _on_attached_object(self, msg: String) -> None:
+        self._topic_update("/attached_collision_object", lambda: self.core.apply_attached_collision_object(msg.data))
+
+    # ------------------------------------------------------------------ Trigger services
+    @staticmethod
+    def _trigger(response: Trigger.Response, result: Mapping[str, Any], detail: str = "") -> Trigger.Response:
+        code = MoveItErrorCode.from_dict(result["error_code"])
+        response.success = bool(code)
+        response.message = f"{code.name}: {detail or code.message}" if detail or code.message else code.name
+        return response
+
+    def _srv_plan(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        values = {k.split(".", 1)[1]: self._params.get(k)
+                  for k in ("goal.group", "goal.named_target", "goal.joint_values", "goal.pose", "goal.link")}
+        last = self._goal_last_set.split(".", 1)[1] if self._goal_last_set else None
+        try:
+            params = goal_from_parameters(values, last)
+        except RequestError as exc:
+            response.success, response.message = False, f"INVALID_GOAL_CONSTRAINTS: {exc.message}"
+            self.get_logger().warning(f"plan refused: {exc.message}")
+            return response
+        result = self.core.plan(params)
+        goal = params["goal"]
+        target = (f"named target '{goal['named']}'" if "named" in goal else
+                  f"joint values {goal['joints']}" if "joints" in goal else f"pose {goal['pose']}")
+        detail = ""
+        if result["trajectory"] is not None:
+            points = result["trajectory"]["joint_trajectory"]["points"]
+            detail = (f"planned '{params['group']}' to {target}: {points[-1]['time_from_start']:.3f} s trajectory, "
+                      f"{len(points)} points, planning time {result['planning_time']:.3f} s")
+        return self._trigger(response, result, detail)
+
+    def _srv_execute(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        return self._trigger(response, self.core.execute({}))
+
+    def _srv_plan_and_execute(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        values = {k.split(".", 1)[1]: self._params.get(k)
+                  for k in ("goal.group", "goal.named_target", "goal.joint_values", "goal.pose", "goal.link")}
+        last = self._goal_last_set.split(".", 1)[1] if self._goal_last_set else None
+        try:
+            params = goal_from_parameters(values, last)
+        except RequestError as exc:
+            response.success, response.message = False, f"INVALID_GOAL_CONSTRAINTS: {exc.message}"
+            return response
+        return self._trigger(response, self.core.plan_and_execute(params))
+
+    def _srv_stop(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        result = self.core.stop()
+        response.success = True
+        response.message = result["message"]
+        return response
+
+    def _srv_get_planning_scene(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        response.success = True
+        response.message = self.core.scene_msg().to_json()
+        return response
+
+    # ------------------------------------------------------------------ JSON-RPC
+    @staticmethod
+    def _check_keys(params: Mapping[str, Any], allowed: set[str], method: str) -> None:
+        unknown = sorted(set(params) - allowed)
+        if unknown:
+            raise RpcError(BAD_REQUEST, f"{method}: unknown parameters {unknown}; known: {sorted(allowed)}")
+
+    @staticmethod
+    def _scene_rpc(fn: Callable[[], Any]) -> Any:
+        try:
+            return fn()
+        except RequestError as exc:
+            raise RpcError(exc.code, exc.message) from None
+
+    def _rpc_get_planning_scene(self, params: Mapping[str, Any]) -> Any:
+        self._check_keys(params, set(), "get_planning_scene")
+        return self.core.scene_msg().to_dict()
+
+    def _rpc_apply_planning_scene(self, params: Mapping[str, Any]) -> Any:
+        self._check_keys(params, {"scene"}, "apply_planning_scene")
+        if "scene" not in params:
+            raise RpcError(BAD_REQUEST, "apply_planning_scene needs a 'scene' (PlanningScene)")
+        return self._scene_rpc(lambda: self.core.apply_planning_scene(params["scene"]))
+
+    def _rpc_apply_collision_object(self, params: Mapping[str, Any]) -> Any:
+        self._check_keys(params, {"object", "objects"}, "apply_collision_object")
+        if ("object" in params) == ("objects" in params):
+            raise RpcError(BAD_REQUEST, "apply_collision_object needs either 'object' or 'objects' (a list)")
+        objects = [params["object"]] if "object" in params else params["objects"]
+        return self._scene_rpc(lambda: self.core.apply_collision_objects(objects))
+
+    def _rpc_attach_object(self, params: Mapping[str, Any]) -> Any:
+        self._check_keys(params, {"object_id", "link_name", "touch_links", "weight", "attached_object"},
+                         "attach_object")
+        if "attached_object" in params:
+            return self._scene_rpc(lambda: self.core.apply_attached_collision_object(params["attached_object"]))
+        return self._scene_rpc(lambda: self.core.attach_object(
+            params.get("object_id"), params.get("link_name") or None, params.get("touch_links"),
+            params.get("weight", 0.0)))
+
+    def _rpc_detach_object(self, params: Mapping[str, Any]) -> Any:
+        self._check_keys(params, {"object_id"}, "detach_object")
+        return self._scene_rpc(lambda: self.core.detach_object(params.get("object_id")))
+
+    def _rpc_get_objects(self, params: Mapping[str, Any]) -> Any:
+        self._check_keys(params, {"ids"}, "get_objects")
+        return self._scene_rpc(lambda: self.core.get_objects(params.get("ids")))
+
+    def _rpc_stop(self, params: Mapping[str, Any]) -> Any:
+        return self.core.stop()
+
+    def _rpc_get_state(self, params: Mapping[str, Any]) -> Any:
+        return self.core.get_state(self._bus.summary())
+
+
+def main(args: list[str] | None = None) -> None:
+    sys.exit(run_node(PlanningServer, args, threads=8))
+
+
+if __name__ == "__main__":
+    main()
