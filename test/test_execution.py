@@ -780,3 +780,18 @@ def test_pose_json_forms_agree():
     for bad in ([0.1, math.nan, 0, 0, 0, 0, 1], [0, 0, 0, 0, 0, 0, 0], "pose", [[1, 2], [3, 4]]):
         with pytest.raises(RequestError):
             pose_from_json(bad)
+
+
+def test_joint_trajectory_round_trip_keeps_the_spline():
+    """A planned (cubic) trajectory sent without accelerations comes back as the same spline."""
+    from mycobot_planning.core import time_parameterize
+    from mycobot_planning.core.execution import joint_trajectory_to_timed, timed_to_joint_trajectory
+
+    path = np.array([[0.0, 0.0], [0.5, 0.2], [0.9, -0.3]])
+    timed = time_parameterize(path, [1.0, 1.0], [2.0, 2.0])
+    msg = timed_to_joint_trajectory(timed)
+    assert all(not p.accelerations for p in msg.points)
+    back = joint_trajectory_to_timed(msg)
+    ts = np.linspace(0.0, timed.duration, 97)
+    for a, b in zip(timed.sample(ts), back.sample(ts)):
+        assert np.allclose(a, b, atol=1e-9)

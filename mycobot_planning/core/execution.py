@@ -267,6 +267,32 @@ def timed_to_joint_trajectory(trajectory: TimedTrajectory, sample_period: float 
     return JointTrajectory(joint_names=list(trajectory.joint_names), points=points)
 
 
+def joint_trajectory_to_timed(trajectory: JointTrajectory) -> TimedTrajectory:
+    """The inverse of timed_to_joint_trajectory: the TimedTrajectory a controller would follow.
+
+    Points without accelerations define a cubic Hermite spline (what a joint trajectory
+    controller interpolates); the accelerations stored at each point are that spline's, taken
+    just after the point (zero after a final point at rest), as TimedTrajectory keeps them.
+    """
+    points = trajectory.points
+    times = np.array([p.time_from_start for p in points], dtype=float)
+    positions = np.array([p.positions for p in points], dtype=float)
+    d = len(trajectory.joint_names)
+    velocities = np.array([p.velocities if p.velocities else [0.0] * d for p in points], dtype=float)
+    if all(len(p.accelerations) == d for p in points):
+        accelerations = np.array([p.accelerations for p in points], dtype=float)
+        return TimedTrajectory(list(trajectory.joint_names), times, positions, velocities, accelerations, interpolation="quintic")
+    accelerations = np.zeros_like(positions)
+    if len(points) > 1:
+        dt = np.diff(times)[:, None]
+        dp = np.diff(positions, axis=0)
+        v0, v1 = velocities[:-1], velocities[1:]
+        accelerations[:-1] = 6.0 * dp / dt**2 - (4.0 * v0 + 2.0 * v1) / dt
+        if np.any(velocities[-1] != 0.0):  # still moving at the end: the spline's last value
+            accelerations[-1] = -6.0 * dp[-1] / dt[-1] ** 2 + (2.0 * v0[-1] + 4.0 * v1[-1]) / dt[-1]
+    return TimedTrajectory(list(trajectory.joint_names), times, positions, velocities, accelerations, interpolation="cubic")
+
+
 def parse_trajectory(value: Any, what: str = "trajectory") -> tuple[JointTrajectory, str]:
     """(JointTrajectory, group name) from a RobotTrajectory or JointTrajectory message / dict / JSON.
 
@@ -761,6 +787,8 @@ def parse_task_solution(data: Any) -> list[SolutionStep]:
         if unknown:
             raise ExecutionError(bad, f"{where}: unknown keys {unknown}; known: {sorted(_STEP_KEYS)}")
         name = entry.get("name", "")
+        if not name and isinstance(entry.get("info"), Mapping):
+            name = entry["info"].get("stage_name", "")  # MTC-style sub_trajectory: the stage's name
         if not isinstance(name, str):
             raise ExecutionError(bad, f"{where}: 'name' must be a string")
         where = f"step {k}" + (f" ('{name}')" if name else "")

@@ -32,6 +32,7 @@ from interfaces_py.msgs import (
 )
 
 from ..core.planning_scene import PlanningScene
+from ..core.execution import timed_to_joint_trajectory as execution_joint_trajectory
 from ..core.time_parameterization import TimedTrajectory
 from .errors import TaskError
 from .stage import SolutionBase, SubTrajectory
@@ -43,18 +44,11 @@ __all__ = ["scene_diff_msg", "solution_joint_trajectory", "solution_to_msg", "ti
 
 
 def timed_to_joint_trajectory(trajectory: TimedTrajectory | None, sample_period: float | None = None) -> JointTrajectory:
-    """A TimedTrajectory as a JointTrajectory message (optionally resampled every period)."""
+    """A TimedTrajectory as a JointTrajectory message, exactly as the planning server sends it to
+    controllers (core.execution's conversion; an empty message for a stage without motion)."""
     if trajectory is None:
         return JointTrajectory(joint_names=[], points=[])
-    if sample_period is not None and len(trajectory) > 1:
-        trajectory = trajectory.resample(sample_period)
-    t0 = float(trajectory.times[0])
-    points = [
-        JointTrajectoryPoint(positions=trajectory.positions[k], velocities=trajectory.velocities[k],
-                             accelerations=trajectory.accelerations[k], time_from_start=float(trajectory.times[k]) - t0)
-        for k in range(len(trajectory))
-    ]
-    return JointTrajectory(joint_names=list(trajectory.joint_names), points=points)
+    return execution_joint_trajectory(trajectory, sample_period if len(trajectory) > 1 else None)
 
 
 def scene_diff_msg(start: PlanningScene, end: PlanningScene) -> PlanningSceneMsg:

@@ -1,0 +1,127 @@
+"""Task introspection topics: how a node shows its tasks to the task viewer (MTC's introspection).
+
+MoveIt Task Constructor publishes ``description``, ``statistics`` and ``solution`` topics under
+the task's introspection namespace, and RViz's Motion Planning Tasks panel subscribes to them.
+Our equivalent, with JSON in ``std_msgs/String`` (interfaces_py schemas) because the design
+card allows standard messages only:
+
+=====================================  =========================================  ==============
+topic                                  content                                    QoS
+=====================================  =========================================  ==============
+``/<node>/task/description``           ``interfaces_py.msgs.TaskDescription``     reliable,
+                                       (the stage tree, parents before children)  transient local,
+                                                                                  depth 1
+``/<node>/task/statistics``            ``TaskStatistics`` (per stage: solution    same
+                                       ids and costs, failures, compute time)
+``/<node>/task/solution``              ``TaskSolution`` (a complete solution:     reliable,
+                                       start scene + steps, each naming its       transient local,
+                                       stage in ``info.stage_id``)                depth 16
+=====================================  =========================================  ==============
+
+``<node>`` is the publishing node's fully qualified name (``/mtc_node``, ``/ns/pick_place_demo``).
+Transient local keeps the latest description and statistics and the last 16 solutions for a
+viewer that starts later, as a latched topic would. The ``task_id`` of the messages tells
+several tasks of one node apart. The viewer finds publishers by polling the ROS graph for
+String topics whose names end in ``/task/description``, ``/task/statistics`` or
+``/task/solution``: nothing needs configuring.
+
+A task node does::
+
+    introspection = TaskIntrospection(node)
+    task.plan(max_solutions=5)
+    introspection.publish(task)          # description, statistics, the best solutions
+
+The publishing helper lives here (rclpy); the messages are built by the ROS-free
+``Task.description() / statistics() / to_msg()``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Iterable
+
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from std_msgs.msg import String
+
+from interfaces_py.msgs import TaskDescription, TaskSolution, TaskStatistics
+
+if TYPE_CHECKING:  # pragma: no cover
+    from mycobot_planning.task import Task
+
+__all__ = [
+    "DESCRIPTION_QOS",
+    "SOLUTION_QOS",
+    "STATISTICS_QOS",
+    "TASK_SUFFIXES",
+    "TaskIntrospection",
+    "TaskTopics",
+    "parse_task_topic",
+    "task_topics",
+]
+
+MAX_LATCHED_SOLUTIONS = 16
+DESCRIPTION_QOS = QoSProfile(depth=1, history=HistoryPolicy.KEEP_LAST, reliability=ReliabilityPolicy.RELIABLE,
+                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
+STATISTICS_QOS = DESCRIPTION_QOS
+SOLUTION_QOS = QoSProfile(depth=MAX_LATCHED_SOLUTIONS, history=HistoryPolicy.KEEP_LAST,
+                          reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+#: topic suffix -> (kind, message class)
+TASK_SUFFIXES = {
+    "/task/description": ("description", TaskDescription),
+    "/task/statistics": ("statistics", TaskStatistics),
+    "/task/solution": ("solution", TaskSolution),
+}
+
+
+@dataclass(frozen=True)
+class TaskTopics:
+    description: str
+    statistics: str
+    solution: str
+
+
+def task_topics(node_name: str) -> TaskTopics:
+    """The three topic names of a node ("/mtc_node" or "mtc_node")."""
+    base = node_name if node_name.startswith("/") else f"/{node_name}"
+    base = base.rstrip("/")
+    return TaskTopics(f"{base}/task/description", f"{base}/task/statistics", f"{base}/task/solution")
+
+
+def parse_task_topic(topic: str) -> tuple[str, str] | None:
+    """(source prefix, kind) of a task topic name, or None: "/mtc_node/task/solution" ->
+    ("/mtc_node", "solution")."""
+    for suffix, (kind, _cls) in TASK_SUFFIXES.items():
+        if topic.endswith(suffix) and len(topic) > len(suffix):
+            return topic[: -len(suffix)], kind
+    return None
+
+
+class TaskIntrospection:
+    """Publishes a node's tasks on the three task topics (see the module docstring)."""
+
+    def __init__(self, node: Node, name: str | None = None) -> None:
+        """``name``: the topic prefix (default: the node's fully qualified name)."""
+        self.topics = task_topics(name or node.get_fully_qualified_name())
+        self._description = node.create_publisher(String, self.topics.description, DESCRIPTION_QOS)
+        self._statistics = node.create_publisher(String, self.topics.statistics, STATISTICS_QOS)
+        self._solution = node.create_publisher(String, self.topics.solution, SOLUTION_QOS)
+
+    def publish_description(self, msg: TaskDescription) -> None:
+        self._description.publish(String(data=msg.to_json()))
+
+    def publish_statistics(self, msg: TaskStatistics) -> None:
+        self._statistics.publish(String(data=msg.to_json()))
+
+    def publish_solution(self, msg: TaskSolution) -> None:
+        self._solution.publish(String(data=msg.to_json()))
+
+    def publish(self, task: "Task", solutions: int | Iterable = 1) -> int:
+        """Description and statistics of ``task``, and its ``solutions`` cheapest complete
+        solutions (an int), or the given solutions of the task. Returns how many solutions
+        were published."""
+        self.publish_description(task.description())
+        self.publish_statistics(task.statistics())
+        chosen = task.solutions[: max(0, solutions)] if isinstance(solutions, int) else list(solutions)
+        for solution in chosen:
+            self.publish_solution(task.to_msg(solution))
+        return len(chosen)
