@@ -28,7 +28,9 @@ def test_round_trip_success_rate_on_1000_poses(mycobot: RobotModel):
     poses = random_reachable_poses(mycobot, "arm", 1000, seed=11)
     solved = 0
     for pose in poses:
-        solutions = solver.solve(pose, rng=rng)
+        # Bounded by descents, not by the 50 ms kinematics.yaml timeout, so that a loaded machine
+        # cannot turn this into a timing test (the bench measures the timeout-bound solver).
+        solutions = solver.solve(pose, rng=rng, timeout=2.0, attempts=60)
         if solutions:
             solved += 1
             reached = solutions[0].frame_pose("link6_flange")

@@ -15,6 +15,7 @@ from mycobot_planning.paths import example_robot_data_dir
 from mycobot_planning.core.transforms import make_pose
 
 from .common import emit, machine, spread, stats, timed
+from .ros_scenarios import ROS_SCENARIOS
 from .task_scenarios import TASK_SCENARIOS
 
 
@@ -290,4 +291,5 @@ SCENARIOS: dict[str, Callable[..., None]] = {
     "plan_ompl": bench_plan_ompl,
     "ptp": bench_ptp,
     **TASK_SCENARIOS,
+    **ROS_SCENARIOS,
 }

@@ -1,0 +1,316 @@
+"""Benchmarks of the ROS layer with real processes: execution latency and scene updates.
+
+Each scenario starts the mock controllers and the planning_server as subprocesses on a ROS
+domain of its own (localhost discovery only), talks to them through the interfaces_py clients
+from this process, and stops them (their whole process groups) at the end, even on failure.
+
+* ``exec_latency``: time from sending an execute request to the first controller motion seen on
+  /joint_states (a change of an arm joint beyond 1e-6 rad), over executions of short planned
+  motions back and forth. Summary key ``median_ms``. Includes the JSON-RPC round to the server,
+  its start-tolerance check, the command to the controller, the controller's next cycle (100 Hz,
+  so up to 10 ms) and the /joint_states delivery back here.
+* ``scene_update``: apply 50 box collision objects and read them back (get_objects), checking
+  every pose. Summary key ``median_ms`` is the batched form (one apply_collision_object request
+  carrying all 50, what PlanningSceneInterface.apply_collision_objects sends);
+  ``one_by_one_median_ms`` is 50 separate requests (add_object per box) plus the read.
+
+Register in scenarios.SCENARIOS as "exec_latency" and "scene_update".
+"""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from interfaces_py.msgs import CollisionObject, Pose
+
+from .common import emit, machine, spread, stats
+
+ARM_JOINTS = ["link1_to_link2", "link2_to_link3", "link3_to_link4", "link4_to_link5", "link5_to_link6",
+              "link6_to_link6_flange"]
+EXECUTIONS_PER_REPEAT = 10
+SCENE_RUNS_PER_REPEAT = 10
+SCENE_OBJECTS = 50
+MOTION_THRESHOLD = 1e-6  # rad: an arm joint moved
+
+
+def bench_domain_id() -> int:
+    """A ROS domain for this benchmark run (env MYCOBOT_BENCH_DOMAIN_ID overrides): 120..219,
+    away from the test sessions' 1..100."""
+    override = os.environ.get("MYCOBOT_BENCH_DOMAIN_ID")
+    return int(override) if override else 120 + os.getpid() % 100
+
+
+class RobotProcesses:
+    """mock_controllers + planning_server as subprocesses on ``domain``; a context manager that
+    always kills their process groups. Logs go to a temporary folder (kept when start-up fails)."""
+
+    READY = {"mock_controllers": "controller_manager ready", "planning_server": "planning_server ready"}
+
+    def __init__(self, domain: int, server_args: list[str] | None = None, timeout: float = 60.0) -> None:
+        self.domain = domain
+        self.server_args = server_args or []
+        self.timeout = timeout
+        self.log_dir = Path(tempfile.mkdtemp(prefix="mycobot_bench_"))
+        self.procs: dict[str, subprocess.Popen] = {}
+
+    def env(self) -> dict[str, str]:
+        env = dict(os.environ)
+        env.update({"ROS_DOMAIN_ID": str(self.domain), "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
+                    "PYTHONUNBUFFERED": "1"})
+        env.pop("ROS_LOCALHOST_ONLY", None)
+        return env
+
+    def __enter__(self) -> "RobotProcesses":
+        from mycobot_planning.nodes.node_runtime import use_fast_discovery
+
+        use_fast_discovery()  # before any context of this process: frequent discovery announcements
+        # this process's own clients join the same domain
+        os.environ.update({k: v for k, v in self.env().items() if k.startswith("ROS_")})
+        try:
+            for name in ("mock_controllers", "planning_server"):
+                args = ["--ros-args", *self.server_args] if name == "planning_server" and self.server_args else []
+                log = open(self.log_dir / f"{name}.log", "w")
+                self.procs[name] = subprocess.Popen(
+                    [sys.executable, "-m", f"mycobot_planning.nodes.{name}", *args], env=self.env(),
+                    stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, start_new_session=True)
+                log.close()
+            deadline = time.monotonic() + self.timeout
+            for name, text in self.READY.items():
+                while text not in self.log(name):
+                    if self.procs[name].poll() is not None or time.monotonic() > deadline:
+                        raise RuntimeError(f"{name} did not start; its log ({self.log_dir / (name + '.log')}):\n"
+                                           + self.log(name)[-2000:])
+                    time.sleep(0.05)
+        except BaseException:
+            self.close()
+            raise
+        return self
+
+    def log(self, name: str) -> str:
+        try:
+            return (self.log_dir / f"{name}.log").read_text(errors="replace")
+        except OSError:
+            return ""
+
+    def close(self) -> None:
+        for proc in self.procs.values():  # SIGINT to every group first: shutdowns overlap
+            if proc.poll() is None:
+                try:
+                    os.killpg(proc.pid, signal.SIGINT)
+                except ProcessLookupError:
+                    pass
+        for proc in self.procs.values():
+            try:
+                proc.wait(10.0)
+            except subprocess.TimeoutExpired:
+                try:
+                    os.killpg(proc.pid, signal.SIGKILL)
+                except ProcessLookupError:
+                    pass
+                proc.wait(5.0)
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+
+class _JointWatcher:
+    """/joint_states on a private node: the latest arm positions and when motion first appeared."""
+
+    def __init__(self) -> None:
+        import rclpy
+        from rclpy.context import Context
+        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.node import Node
+        from sensor_msgs.msg import JointState
+
+        self._rclpy = rclpy
+        self.context = Context()
+        rclpy.init(context=self.context)
+        self.node = Node("bench_joint_watcher", context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self.lock = threading.Lock()
+        self.latest: np.ndarray | None = None
+        self._reference: np.ndarray | None = None
+        self.moved_at: float | None = None
+        self._index: list[int] | None = None
+        self.node.create_subscription(JointState, "/joint_states", self._on_joint_state, 10)
+        self.thread = threading.Thread(target=self._spin, daemon=True)
+        self.thread.start()
+
+    def _spin(self) -> None:
+        try:
+            self.executor.spin()
+        except Exception:
+            pass
+
+    def _on_joint_state(self, msg: Any) -> None:
+        now = time.perf_counter()
+        if self._index is None:
+            names = list(msg.name)
+            if not all(j in names for j in ARM_JOINTS):
+                return
+            self._index = [names.index(j) for j in ARM_JOINTS]
+        positions = np.asarray(msg.position, dtype=float)[self._index]
+        with self.lock:
+            self.latest = positions
+            if self._reference is not None and self.moved_at is None:
+                if np.max(np.abs(positions - self._reference)) > MOTION_THRESHOLD:
+                    self.moved_at = now
+
+    def arm(self) -> None:
+        """Record the current position as the reference; the next change sets ``moved_at``."""
+        with self.lock:
+            self._reference = None if self.latest is None else self.latest.copy()
+            self.moved_at = None
+
+    def close(self) -> None:
+        self.executor.shutdown(timeout_sec=1.0)
+        self.node.destroy_node()
+        self._rclpy.try_shutdown(context=self.context)
+
+
+def _wait(predicate, timeout: float, what: str) -> None:
+    deadline = time.monotonic() + timeout
+    while not predicate():
+        if time.monotonic() > deadline:
+            raise RuntimeError(f"timed out waiting for {what}")
+        time.sleep(0.005)
+
+
+def bench_exec_latency(repeat: int, seed: int) -> None:
+    """Execute request -> first controller motion on /joint_states (see module docstring)."""
+    from interfaces_py.clients import MoveGroupClient
+
+    rng = np.random.default_rng(seed)
+    with RobotProcesses(bench_domain_id()):
+        watcher = _JointWatcher()
+        arm = MoveGroupClient("arm", node=watcher.node, timeout=15.0)
+        try:
+            if not arm.wait_for_server(30.0):
+                raise RuntimeError("the planning_server does not answer")
+            _wait(lambda: arm.call("get_state").get("joint_state_received"), 30.0, "joint states at the server")
+            _wait(lambda: watcher.latest is not None, 30.0, "/joint_states here")
+            arm.set_max_velocity_scaling_factor(1.0)
+            all_samples: list[float] = []
+            medians: list[float] = []
+            sign = 1.0
+            for index in range(repeat):
+                samples = []
+                for _ in range(EXECUTIONS_PER_REPEAT):
+                    # a short joint move around "ready" (0.1-0.2 rad per joint), alternating sides
+                    goal = np.array([0.0, 0.0, 1.5708, 1.5708, 0.0, 0.0]) + sign * rng.uniform(0.1, 0.2, 6)
+                    sign = -sign
+                    arm.set_joint_value_target(goal)
+                    ok, trajectory, code = arm.plan()
+                    if not ok:
+                        raise RuntimeError(f"planning failed: {code}")
+                    # let the robot settle at the start, so the watcher's reference is exact
+                    _wait(lambda: not arm.call("get_state")["execution"]["executing"], 30.0, "the previous execution")
+                    time.sleep(0.05)
+                    watcher.arm()
+                    result: dict[str, Any] = {}
+                    started = time.perf_counter()
+                    thread = threading.Thread(target=lambda: result.setdefault("code", arm.execute(trajectory)))
+                    thread.start()
+                    _wait(lambda: watcher.moved_at is not None, 30.0, "the first controller motion")
+                    samples.append(watcher.moved_at - started)
+                    thread.join(60.0)
+                    if not result.get("code"):
+                        raise RuntimeError(f"execution failed: {result.get('code')}")
+                record = {"scenario": "exec_latency", "repeat": index, "executions": len(samples)}
+                record.update(stats(samples, 1e3, "ms"))
+                medians.append(record["median_ms"])
+                emit(record)
+                all_samples += samples
+        finally:
+            arm.close()
+            watcher.close()
+    summary = {"scenario": "exec_latency", "summary": True}
+    summary.update({k: v for k, v in stats(all_samples, 1e3, "ms").items() if k in ("median_ms", "p90_ms")})
+    emit({**summary, **spread(medians), **machine()})
+
+
+def _boxes(rng: np.random.Generator, prefix: str) -> list[CollisionObject]:
+    """50 small boxes at random poses around the robot (never touching it matters not: world
+    objects are not checked against each other)."""
+    boxes = []
+    for k in range(SCENE_OBJECTS):
+        position = [float(rng.uniform(0.15, 0.3)), float(rng.uniform(-0.25, 0.25)), float(rng.uniform(0.0, 0.3))]
+        yaw = float(rng.uniform(-np.pi, np.pi))
+        boxes.append(CollisionObject.box(f"{prefix}{k}", [float(v) for v in rng.uniform(0.01, 0.05, 3)],
+                                         Pose.from_xyz_rpy(position, (0.0, 0.0, yaw))))
+    return boxes
+
+
+def _check_read_back(objects: dict[str, CollisionObject], boxes: list[CollisionObject]) -> None:
+    missing = [b.id for b in boxes if b.id not in objects]
+    if missing:
+        raise RuntimeError(f"objects missing after the update: {missing[:5]}...")
+    for box in boxes:
+        if not np.allclose(objects[box.id].pose.position, box.pose.position, atol=1e-9):
+            raise RuntimeError(f"object '{box.id}' read back at {objects[box.id].pose.position}, "
+                               f"applied at {box.pose.position}")
+
+
+def bench_scene_update(repeat: int, seed: int) -> None:
+    """Apply 50 objects and read them back: batched (summary) and one by one (see module)."""
+    from interfaces_py.clients import PlanningSceneInterface
+
+    rng = np.random.default_rng(seed)
+    with RobotProcesses(bench_domain_id()):
+        with PlanningSceneInterface(timeout=30.0) as scene:
+            if not scene.wait_for_server(30.0):
+                raise RuntimeError("the planning_server does not answer")
+            remove = lambda boxes: scene.apply_collision_objects(  # noqa: E731
+                [CollisionObject(id=b.id, operation=CollisionObject.REMOVE) for b in boxes])
+            warm = _boxes(rng, "warm_")  # first requests pay for discovery and caches: untimed
+            scene.apply_collision_objects(warm)
+            _check_read_back(scene.get_objects(), warm)
+            remove(warm)
+            batched_all: list[float] = []
+            single_all: list[float] = []
+            medians: list[float] = []
+            for index in range(repeat):
+                batched, single = [], []
+                for run in range(SCENE_RUNS_PER_REPEAT):
+                    boxes = _boxes(rng, f"box_{index}_{run}_")
+                    start = time.perf_counter()
+                    scene.apply_collision_objects(boxes)
+                    objects = scene.get_objects()
+                    batched.append(time.perf_counter() - start)
+                    _check_read_back(objects, boxes)
+                    remove(boxes)
+
+                    boxes = _boxes(rng, f"one_{index}_{run}_")
+                    start = time.perf_counter()
+                    for box in boxes:
+                        scene.add_object(box)
+                    objects = scene.get_objects()
+                    single.append(time.perf_counter() - start)
+                    _check_read_back(objects, boxes)
+                    remove(boxes)
+                record = {"scenario": "scene_update", "repeat": index, "runs": len(batched), "objects": SCENE_OBJECTS}
+                record.update(stats(batched, 1e3, "ms"))
+                record.update({f"one_by_one_{k}": v for k, v in stats(single, 1e3, "ms").items()})
+                medians.append(record["median_ms"])
+                emit(record)
+                batched_all += batched
+                single_all += single
+    summary = {"scenario": "scene_update", "summary": True, "objects": SCENE_OBJECTS}
+    summary.update({k: v for k, v in stats(batched_all, 1e3, "ms").items() if k in ("median_ms", "p90_ms")})
+    summary["one_by_one_median_ms"] = stats(single_all, 1e3, "ms")["median_ms"]
+    summary["batch_speedup"] = round(summary["one_by_one_median_ms"] / summary["median_ms"], 2)
+    emit({**summary, **spread(medians), **machine()})
+
+
+ROS_SCENARIOS = {"exec_latency": bench_exec_latency, "scene_update": bench_scene_update}
