@@ -15,6 +15,7 @@ from mycobot_planning.paths import example_robot_data_dir
 from mycobot_planning.core.transforms import make_pose
 
 from .common import emit, machine, spread, stats, timed
+from .perception_scenarios import bench_perception
 from .ros_scenarios import ROS_SCENARIOS
 from .task_scenarios import TASK_SCENARIOS
 
@@ -288,6 +289,7 @@ SCENARIOS: dict[str, Callable[..., None]] = {
     "fk": bench_fk,
     "ik": bench_ik,
     "peers": bench_peers,
+    "perception": bench_perception,
     "plan_ompl": bench_plan_ompl,
     "ptp": bench_ptp,
     **TASK_SCENARIOS,
