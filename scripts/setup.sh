@@ -8,6 +8,18 @@ VENV="$ROOT/.venv"
 STAMP="$VENV/.mycobot_planning_setup"
 PYTHON="${PYTHON:-python3}"
 
+# Debian packages: Chromium for the task viewer's browser test. Pinned; if the mirror no longer
+# carries that build (security updates replace it), the current one is installed and we say so.
+CHROMIUM_VERSION="156.0.8078.79-1~deb12u1"
+if ! command -v chromium >/dev/null 2>&1 && command -v apt-get >/dev/null 2>&1 && [[ "$(id -u)" == 0 ]]; then
+  echo "[setup] installing Debian package chromium=$CHROMIUM_VERSION (headless browser tests)"
+  apt-get update -qq >/dev/null
+  if ! DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "chromium=$CHROMIUM_VERSION" >/dev/null; then
+    echo "[setup] chromium $CHROMIUM_VERSION is no longer available; installing the current build"
+    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null || echo "[setup] chromium could not be installed; browser tests will be skipped"
+  fi
+fi
+
 want="$(cat "$ROOT/scripts/requirements.txt" "$ROOT/scripts/constraints.txt" "$ROOT/setup.py" "$ROOT/setup.cfg" "$ROOT/package.xml" | sha256sum | cut -d' ' -f1)"
 if [[ -x "$VENV/bin/python" && -f "$STAMP" && "$(cat "$STAMP")" == "$want" ]]; then
   exit 0
@@ -27,6 +39,6 @@ if ! "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check --no-
   exit 1
 fi
 # Prove the stack loads together before declaring success.
-"$VENV/bin/python" -c "import rclpy, pinocchio, coal, ompl, ruckig, numpy, scipy, yaml, mycobot_planning, interfaces_py"
+"$VENV/bin/python" -c "import rclpy, pinocchio, coal, ompl, ruckig, numpy, scipy, yaml, viser, matplotlib, mycobot_planning, interfaces_py"
 echo "$want" > "$STAMP"
 echo "[setup] done: activate with 'source .venv/bin/activate'"

@@ -18,6 +18,7 @@ from .common import emit, machine, spread, stats, timed
 from .perception_scenarios import bench_perception
 from .ros_scenarios import ROS_SCENARIOS
 from .task_scenarios import TASK_SCENARIOS
+from .viewer_scenarios import VIEWER_SCENARIOS
 
 
 def random_arm_states(
@@ -294,4 +295,5 @@ SCENARIOS: dict[str, Callable[..., None]] = {
     "ptp": bench_ptp,
     **TASK_SCENARIOS,
     **ROS_SCENARIOS,
+    **VIEWER_SCENARIOS,
 }
