@@ -34,6 +34,8 @@ setup(
             f"fake_marker_publisher = {PACKAGE}.nodes.fake_marker_publisher:main",
             f"part_localizer = {PACKAGE}.nodes.part_localizer:main",
             f"scan_n_plan = {PACKAGE}.nodes.scan_n_plan:main",
+            f"mtc_node = {PACKAGE}.nodes.mtc_node:main",
+            f"pick_place_demo = {PACKAGE}.nodes.pick_place_demo:main",
             f"task_viewer = {PACKAGE}.nodes.task_viewer:main",
             f"plot_solution = {PACKAGE}.nodes.plot_solution:main",
             f"ros2 = {PACKAGE}.ros2cli.__main__:main",

@@ -1,7 +1,168 @@
 #!/usr/bin/env bash
-# README command one: set up if needed, then run the main demo.
-# Today: load the myCobot, solve IK for a pose over the seeds' table and print the solutions.
+# README command one: the seeds' pick and place, planned and executed end to end.
+#
+#   ./scripts/demo.sh [ROS_ARGS...]      e.g. ./scripts/demo.sh -p max_solutions:=3
+#
+# 1. sets up .venv if needed (scripts/setup.sh);
+# 2. brings up the mock controllers and the planning_server (scripts/robot.sh, with a log and
+#    PID folder of this run's own, so a robot you started yourself is never touched);
+# 3. runs mtc_node with config/mtc_node_params.yaml, execute:=true and exit_when_done:=true (extra
+#    arguments go to mtc_node after those, e.g. -p place_pose:=[-0.183,0.14,0.0,0.0,0.0,0.0]),
+#    showing its log: the stage tree (printState), the stage summary, the execution;
+# 4. prints the stage tree again and the object's final pose, read from the planning_server's
+#    monitored planning scene, next to the place pose the parameters ask for;
+# 5. stops everything it started (also on Ctrl-C or an error).
+# Exit code 0 only if planning and execution succeeded and the object stands within 1 cm of the
+# place pose; 1 otherwise.
+#
+# ROS_DOMAIN_ID: yours if set, else one picked for this run (printed, so that other terminals can
+# watch, e.g. `ROS_DOMAIN_ID=<n> ros2 run mycobot_planning task_viewer`). Logs stay in
+# $MYCOBOT_DEMO_DIR (default /tmp/mycobot_planning/demo-<pid>).
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+if [[ "${1:-}" == "-h" || "${1:-}" == "--help" ]]; then
+  sed -n '2,/^set -euo/p' "${BASH_SOURCE[0]}" | sed '$d' | sed 's/^# \{0,1\}//'
+  exit 0
+fi
 "$ROOT/scripts/setup.sh"
-exec "$ROOT/.venv/bin/python" -m mycobot_planning.demos.ik_over_table "$@"
+PY="$ROOT/.venv/bin/python"
+PARAMS="$ROOT/config/mtc_node_params.yaml"
+DEMO_DIR="${MYCOBOT_DEMO_DIR:-/tmp/mycobot_planning/demo-$$}"
+NODE_TIMEOUT="${MYCOBOT_DEMO_TIMEOUT:-600}"  # s for planning + execution
+mkdir -p "$DEMO_DIR"
+NODE_LOG="$DEMO_DIR/mtc_node.log"
+
+export ROS_AUTOMATIC_DISCOVERY_RANGE="${ROS_AUTOMATIC_DISCOVERY_RANGE:-LOCALHOST}"
+export ROS_DOMAIN_ID="${ROS_DOMAIN_ID:-$((1 + $$ % 100))}"
+export PYTHONUNBUFFERED=1
+ROBOT=("$ROOT/scripts/robot.sh" --log-dir "$DEMO_DIR" --run-dir "$DEMO_DIR/run")
+
+NODE_PID=""
+cleanup() {
+  local code=$?
+  trap - EXIT INT TERM
+  if [[ -n "$NODE_PID" ]] && kill -0 "$NODE_PID" 2>/dev/null; then
+    # SIGTERM: a background job of a script ignores SIGINT; the node shuts down cleanly on TERM.
+    kill -TERM "$NODE_PID" 2>/dev/null || true
+    for _ in $(seq 100); do kill -0 "$NODE_PID" 2>/dev/null || break; sleep 0.1; done
+    kill -KILL "$NODE_PID" 2>/dev/null || true
+  fi
+  echo "[demo] stopping the robot"
+  "${ROBOT[@]}" stop >/dev/null 2>&1 || echo "[demo] robot.sh stop reported a problem; see $DEMO_DIR" >&2
+  echo "[demo] logs: $DEMO_DIR"
+  exit "$code"
+}
+trap cleanup EXIT
+trap 'exit 130' INT TERM
+
+echo "[demo] ROS_DOMAIN_ID=$ROS_DOMAIN_ID; logs in $DEMO_DIR"
+echo "[demo] starting the mock controllers and the planning_server"
+if ! "${ROBOT[@]}" start; then
+  # robot.sh stops what it started when a start fails; one more try rides out a slow machine.
+  echo "[demo] the robot did not come up; trying once more" >&2
+  "${ROBOT[@]}" start
+fi
+
+echo "[demo] running mtc_node (plan, then execute)"
+cd "$ROOT"
+"$PY" -m mycobot_planning.nodes.mtc_node --ros-args --params-file "$PARAMS" \
+  -p execute:=true -p exit_when_done:=true "$@" >"$NODE_LOG" 2>&1 &
+NODE_PID=$!
+tail -n +1 -f --pid="$NODE_PID" "$NODE_LOG" &
+TAIL_PID=$!
+deadline=$((SECONDS + NODE_TIMEOUT))
+while kill -0 "$NODE_PID" 2>/dev/null; do
+  if [[ $SECONDS -ge $deadline ]]; then
+    echo "[demo] mtc_node did not finish within ${NODE_TIMEOUT} s; stopping it" >&2
+    kill -TERM "$NODE_PID" 2>/dev/null || true
+    break
+  fi
+  sleep 0.2
+done
+set +e
+wait "$NODE_PID"
+node_code=$?
+set -e
+NODE_PID=""
+wait "$TAIL_PID" 2>/dev/null || true
+
+echo
+echo "[demo] mtc_node exited with code $node_code"
+set +e
+"$PY" - "$NODE_LOG" "$PARAMS" "$node_code" "$@" <<'PYEOF'
+"""Print the stage tree and the object's final pose; exit 0 only if it is at the place pose."""
+import sys
+
+import numpy as np
+import yaml
+
+from mycobot_planning.nodes.node_runtime import use_fast_discovery
+
+use_fast_discovery()
+from interfaces_py.clients import PlanningSceneInterface, RpcError  # noqa: E402
+from mycobot_planning.task.pick_place import expected_place_pose, load_parameters  # noqa: E402
+
+log_path, params_path, node_code, ros_args = sys.argv[1], sys.argv[2], int(sys.argv[3]), sys.argv[4:]
+log = open(log_path, encoding="utf-8", errors="replace").read()
+
+# The stage tree mtc_node logged (printState), the first block after "Task state:".
+if "Task state:\n" in log:
+    lines = []
+    for line in log.split("Task state:\n", 1)[1].splitlines():
+        if line.startswith("["):
+            break
+        lines.append(line)
+    print("Stage tree (printState of the planned task):")
+    print("\n".join(lines))
+else:
+    print("No stage tree: mtc_node did not get to planning (see its log above).")
+
+# The place pose the parameters ask for (the file, then any -p name:=value given to the demo).
+params = load_parameters(params_path)
+overrides = {}
+for flag, item in zip(ros_args, ros_args[1:]):
+    if flag == "-p" and ":=" in item:
+        name, value = item.split(":=", 1)
+        overrides[name] = yaml.safe_load(value)
+known = set(params.as_dict())
+params = params.with_changes(**{k: v for k, v in overrides.items() if k in known})
+expected = expected_place_pose(params)[:3, 3]
+
+ok = node_code == 0
+try:
+    with PlanningSceneInterface(timeout=10.0) as scene:
+        poses = scene.get_object_poses([params.object_name])
+        attached = scene.get_attached_objects([params.object_name])
+        state = scene.call("get_state").get("robot_state", {})
+except RpcError as exc:
+    print(f"Cannot read the planning scene from the planning_server: {exc}")
+    sys.exit(1)
+if params.object_name not in poses:
+    print(f"The planning scene has no object '{params.object_name}'.")
+    sys.exit(1)
+pose = poses[params.object_name]
+position = np.asarray(pose.position, dtype=float)
+error = float(np.linalg.norm(position - expected))
+print(f"Object '{params.object_name}' final pose (monitored planning scene): "
+      f"position [{position[0]:.4f}, {position[1]:.4f}, {position[2]:.4f}], "
+      f"orientation (x, y, z, w) [{', '.join(f'{q:.4f}' for q in pose.orientation)}]"
+      f"{' (still attached to the robot)' if attached else ''}")
+print(f"Place pose asked for: position [{expected[0]:.4f}, {expected[1]:.4f}, {expected[2]:.4f}]; "
+      f"distance {error * 1000:.1f} mm")
+joints = dict(zip(state.get("joint_names", []), state.get("positions", [])))
+if joints:
+    print("Joints now: " + ", ".join(f"{k} {v:+.3f}" for k, v in joints.items()))
+if attached:
+    ok = False
+if error > 0.01:
+    print("FAILED: the object is not within 1 cm of the place pose.")
+    ok = False
+elif not ok:
+    print("FAILED: mtc_node reported a failure (see its log above).")
+else:
+    print("SUCCESS: the object stands at the place pose (within 1 cm).")
+sys.exit(0 if ok else 1)
+PYEOF
+check=$?
+set -e
+exit "$check"

@@ -95,6 +95,16 @@ alive() {
   tr '\0' ' ' < "/proc/$pid/cmdline" | grep -q -- "mycobot_planning.nodes.$name"
 }
 
+# True while the recorded PID runs (not a zombie). Used right after start: until setsid has
+# exec'd Python, /proc/PID/cmdline still shows the forking shell, so alive() would say no.
+pid_running() {
+  local pid state
+  pid="$(recorded_pid "$1")"
+  [[ -n "$pid" ]] || return 1
+  state="$(awk '{print $3}' "/proc/$pid/stat" 2>/dev/null || true)"
+  [[ -n "$state" && "$state" != Z && "$state" != X ]]
+}
+
 # True while any process of the group led by the node's PID remains.
 group_alive() { kill -0 -- "-$1" 2>/dev/null; }
 
@@ -268,7 +278,7 @@ do_start() {
   while [[ ${#pending[@]} -gt 0 ]]; do
     local still=()
     for name in "${pending[@]}"; do
-      if ! alive "$name"; then
+      if ! pid_running "$name"; then
         echo "robot.sh: $name exited during start-up; last lines of $(log_file "$name"):" >&2
         tail -n 20 "$(log_file "$name")" >&2 || true
         abort_start "${started[@]}"

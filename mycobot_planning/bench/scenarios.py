@@ -16,6 +16,7 @@ from mycobot_planning.core.transforms import make_pose
 
 from .common import emit, machine, spread, stats, timed
 from .perception_scenarios import bench_perception
+from .pick_place_scenarios import PICK_PLACE_SCENARIOS
 from .ros_scenarios import ROS_SCENARIOS
 from .task_scenarios import TASK_SCENARIOS
 from .viewer_scenarios import VIEWER_SCENARIOS
@@ -295,5 +296,6 @@ SCENARIOS: dict[str, Callable[..., None]] = {
     "ptp": bench_ptp,
     **TASK_SCENARIOS,
     **ROS_SCENARIOS,
+    **PICK_PLACE_SCENARIOS,
     **VIEWER_SCENARIOS,
 }
