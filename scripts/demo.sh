@@ -15,6 +15,8 @@
 # Exit code 0 only if planning and execution succeeded and the object stands within 1 cm of the
 # place pose; 1 otherwise.
 #
+# MYCOBOT_DEMO_VIEWER=1 also starts the task viewer (port MYCOBOT_VIEWER_PORT, default 8080) and
+# prints its address.
 # ROS_DOMAIN_ID: yours if set, else one picked for this run (printed, so that other terminals can
 # watch, e.g. `ROS_DOMAIN_ID=<n> ros2 run mycobot_planning task_viewer`). Logs stay in
 # $MYCOBOT_DEMO_DIR (default /tmp/mycobot_planning/demo-<pid>).
@@ -38,9 +40,15 @@ export PYTHONUNBUFFERED=1
 ROBOT=("$ROOT/scripts/robot.sh" --log-dir "$DEMO_DIR" --run-dir "$DEMO_DIR/run")
 
 NODE_PID=""
+VIEWER_PID=""
 cleanup() {
   local code=$?
   trap - EXIT INT TERM
+  if [[ -n "$VIEWER_PID" ]] && kill -0 "$VIEWER_PID" 2>/dev/null; then
+    kill -TERM "$VIEWER_PID" 2>/dev/null || true
+    for _ in $(seq 50); do kill -0 "$VIEWER_PID" 2>/dev/null || break; sleep 0.1; done
+    kill -KILL "$VIEWER_PID" 2>/dev/null || true
+  fi
   if [[ -n "$NODE_PID" ]] && kill -0 "$NODE_PID" 2>/dev/null; then
     # SIGTERM: a background job of a script ignores SIGINT; the node shuts down cleanly on TERM.
     kill -TERM "$NODE_PID" 2>/dev/null || true
@@ -61,6 +69,26 @@ if ! "${ROBOT[@]}" start; then
   # robot.sh stops what it started when a start fails; one more try rides out a slow machine.
   echo "[demo] the robot did not come up; trying once more" >&2
   "${ROBOT[@]}" start
+fi
+
+if [[ "${MYCOBOT_DEMO_VIEWER:-0}" == 1 ]]; then
+  # The task viewer (browser page): the stage tree and the robot moving among the objects.
+  VIEWER_LOG="$DEMO_DIR/task_viewer.log"
+  "$PY" -m mycobot_planning.nodes.task_viewer --ros-args -p port:="${MYCOBOT_VIEWER_PORT:-8080}" >"$VIEWER_LOG" 2>&1 &
+  VIEWER_PID=$!
+  for _ in $(seq 200); do
+    grep -q "in a browser" "$VIEWER_LOG" 2>/dev/null && break
+    kill -0 "$VIEWER_PID" 2>/dev/null || break
+    sleep 0.1
+  done
+  url="$(grep -o 'http://[^ ]*' "$VIEWER_LOG" 2>/dev/null | head -n 1 || true)"
+  if [[ -n "$url" ]]; then
+    echo "[demo] task viewer running: open $url in a browser"
+  else
+    echo "[demo] the task viewer did not start; see $VIEWER_LOG" >&2
+  fi
+else
+  echo "[demo] to watch in a browser, run with MYCOBOT_DEMO_VIEWER=1 (serves http://127.0.0.1:8080/)"
 fi
 
 echo "[demo] running mtc_node (plan, then execute)"
