@@ -36,6 +36,8 @@ setup(
             f"scan_n_plan = {PACKAGE}.nodes.scan_n_plan:main",
             f"mtc_node = {PACKAGE}.nodes.mtc_node:main",
             f"pick_place_demo = {PACKAGE}.nodes.pick_place_demo:main",
+            f"camera_simulator = {PACKAGE}.nodes.camera_simulator:main",
+            f"perception_server = {PACKAGE}.nodes.perception_server:main",
             f"task_viewer = {PACKAGE}.nodes.task_viewer:main",
             f"plot_solution = {PACKAGE}.nodes.plot_solution:main",
             f"ros2 = {PACKAGE}.ros2cli.__main__:main",

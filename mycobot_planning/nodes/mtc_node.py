@@ -21,6 +21,7 @@ from typing import Any, Sequence
 
 from interfaces_py.clients import RpcError
 from mycobot_planning.nodes.node_runtime import ParameterSpec
+from mycobot_planning.nodes.perception_object_source import PerceptionObjectSource, perception_parameter_specs
 from mycobot_planning.nodes.task_node import TaskNode, main_for
 from mycobot_planning.task import Task
 from mycobot_planning.task.pick_place import (
@@ -67,10 +68,12 @@ class PickPlaceTaskNode(TaskNode):
     def __init__(self, node_name: str = NODE_NAME, names: Sequence[str] = MTC_NODE_PARAMETER_NAMES,
                  title: str = "MTC pick and place") -> None:
         self._task_names = [n for n in names if n not in _BASE_NAMES]
-        specs = [self._spec(name) for name in self._task_names]
+        specs = [self._spec(name) for name in self._task_names] + perception_parameter_specs()
         super().__init__(node_name, title=title, parameters=specs, max_solutions=10, seed=0)
         self._scene_key: tuple | None = None
         self._spawned_table: str | None = None
+        # use_perception:=true takes the cylinder from the perception_server instead of object_pose.
+        self.perception = PerceptionObjectSource(self)
         self.info("All parameters have been declared with descriptions")
 
     def _spec(self, name: str) -> ParameterSpec:
@@ -119,7 +122,11 @@ class PickPlaceTaskNode(TaskNode):
 
     def build_task(self) -> Task:
         params = self.task_parameters()
-        self.setup_planning_scene(params)
+        if self.perception.enabled:
+            params = self.perception.setup_planning_scene(params)
+            self._scene_key = None  # perception replaced the seed's objects: redo them if switched off
+        else:
+            self.setup_planning_scene(params)
         self.info("Creating MTC task")
         return build_pick_place_task(self.model, params, self.fetch_scene, seed=self.seed)
 

@@ -214,7 +214,8 @@ MTC_NODE_PARAMETER_NAMES: tuple[str, ...] = tuple(n for n in PARAMETERS if n not
 #: Parameters every task node has (nodes/task_node.py) that are not the task's: a parameter
 #: file may hold them, load_parameters skips them.
 TASK_NODE_PARAMETER_NAMES = frozenset({"exit_when_done", "planning_timeout", "seed", "planning_server",
-                                       "server_timeout", "exit_linger"})
+                                       "server_timeout", "exit_linger",
+                                       "use_perception", "perception_server", "perception_timeout"})
 #: The seed's Example 1 parameter file (pick_place_demo_parameters.yaml), in its order.
 PICK_PLACE_DEMO_PARAMETERS: tuple[str, ...] = (
     "execute", "controller_names", "table_name", "table_reference_frame", "table_dimensions", "table_pose",
