@@ -1,0 +1,87 @@
+"""The move_group workflow as a user types it: `ros2 run` the nodes, `ros2 param set` a goal,
+`ros2 service call` the plan Trigger, `ros2 topic echo /display_planned_path`."""
+from __future__ import annotations
+
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from ros_testing import REPO, ros_env
+
+ROS2 = [sys.executable, "-m", "mycobot_planning.ros2cli"]
+CONSOLE_SCRIPTS = re.findall(r'f"(\w+) = \{PACKAGE\}', (REPO / "setup.py").read_text())
+
+
+def ros2(*args: str, timeout: float = 60.0) -> subprocess.CompletedProcess:
+    result = subprocess.run([*ROS2, *args], cwd=REPO, env=ros_env(), capture_output=True, text=True, timeout=timeout)
+    assert "Traceback" not in result.stdout + result.stderr, result.stderr
+    return result
+
+
+@pytest.fixture(scope="module")
+def robot(tmp_path_factory):
+    """mock_controllers and planning_server started with `ros2 run`, as a user would."""
+    log_dir = tmp_path_factory.mktemp("ros_workflow")
+    procs = []
+    try:
+        for name in ("mock_controllers", "planning_server"):
+            log = open(log_dir / f"{name}.log", "w")
+            procs.append((subprocess.Popen([*ROS2, "run", "mycobot_planning", name], cwd=REPO, env=ros_env(),
+                                           stdout=log, stderr=subprocess.STDOUT, start_new_session=True), log))
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:
+            if "/planning_server" in ros2("node", "list").stdout:
+                break
+            time.sleep(0.5)
+        yield log_dir
+    finally:
+        for proc, log in procs:
+            if proc.poll() is None:
+                os.killpg(proc.pid, signal.SIGINT)
+                try:
+                    proc.wait(15)
+                except subprocess.TimeoutExpired:
+                    os.killpg(proc.pid, signal.SIGKILL)
+                    proc.wait(5)
+            log.close()
+
+
+def test_every_console_script_is_a_ros2_executable():
+    listed = ros2("pkg", "executables", "mycobot_planning").stdout.split("\n")
+    for name in CONSOLE_SCRIPTS:
+        if name == "ros2":
+            continue
+        assert f"mycobot_planning {name}" in listed, name
+
+
+def test_plan_from_parameters_and_echo_the_planned_path(robot):
+    assert "/controller_manager" in ros2("node", "list").stdout
+    result = ros2("param", "set", "/planning_server", "goal.named_target", "ready")
+    assert "Set parameter successful" in result.stdout, result.stdout + result.stderr
+    # Subscribe first, then plan: the echo must print the JointTrajectory of that plan.
+    echo = subprocess.Popen(
+        [*ROS2, "topic", "echo", "/display_planned_path", "trajectory_msgs/msg/JointTrajectory", "--once"],
+        cwd=REPO, env=ros_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )
+    try:
+        time.sleep(3.0)  # let the echo's subscription be discovered
+        call = ros2("service", "call", "/planning_server/plan", "std_srvs/srv/Trigger")
+        assert "success=True" in call.stdout, call.stdout + call.stderr
+        out, err = echo.communicate(timeout=60)
+    finally:
+        if echo.poll() is None:
+            echo.kill()
+    assert "joint_names:" in out and "- link1_to_link2" in out, out + err
+    assert "points:" in out and "time_from_start:" in out
+
+
+def test_refused_parameter_keeps_the_server_alive(robot):
+    result = ros2("param", "set", "/planning_server", "goal.group", "legs")
+    assert "Setting parameter failed" in result.stdout + result.stderr
+    assert "/planning_server" in ros2("node", "list").stdout
