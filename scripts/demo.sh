@@ -71,25 +71,9 @@ if ! "${ROBOT[@]}" start; then
   "${ROBOT[@]}" start
 fi
 
-if [[ "${MYCOBOT_DEMO_VIEWER:-0}" == 1 ]]; then
-  # The task viewer (browser page): the stage tree and the robot moving among the objects.
-  VIEWER_LOG="$DEMO_DIR/task_viewer.log"
-  "$PY" -m mycobot_planning.nodes.task_viewer --ros-args -p port:="${MYCOBOT_VIEWER_PORT:-8080}" >"$VIEWER_LOG" 2>&1 &
-  VIEWER_PID=$!
-  for _ in $(seq 200); do
-    grep -q "in a browser" "$VIEWER_LOG" 2>/dev/null && break
-    kill -0 "$VIEWER_PID" 2>/dev/null || break
-    sleep 0.1
-  done
-  url="$(grep -o 'http://[^ ]*' "$VIEWER_LOG" 2>/dev/null | head -n 1 || true)"
-  if [[ -n "$url" ]]; then
-    echo "[demo] task viewer running: open $url in a browser"
-  else
-    echo "[demo] the task viewer did not start; see $VIEWER_LOG" >&2
-  fi
-else
-  echo "[demo] to watch in a browser, run with MYCOBOT_DEMO_VIEWER=1 (serves http://127.0.0.1:8080/)"
-fi
+# shellcheck source=viewer_common.sh
+source "$ROOT/scripts/viewer_common.sh"
+start_task_viewer "$DEMO_DIR" demo
 
 echo "[demo] running mtc_node (plan, then execute)"
 cd "$ROOT"

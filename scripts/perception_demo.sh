@@ -26,6 +26,7 @@
 #
 # ROS_DOMAIN_ID: yours if set, else one picked for this run (printed). Logs stay in
 # $MYCOBOT_DEMO_DIR (default /tmp/mycobot_planning/perception-demo-<pid>).
+# MYCOBOT_DEMO_VIEWER=1 also starts the task viewer and prints its address.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 if [[ "${1:-}" == "-h" || "${1:-}" == "--help" ]]; then
@@ -135,6 +136,11 @@ if not result:
     sys.exit(1)
 print("\n".join("  " + line for line in detection_lines(result.response)))
 PYEOF
+
+# shellcheck source=viewer_common.sh
+source "$ROOT/scripts/viewer_common.sh"
+start_task_viewer "$DEMO_DIR" "perception demo"
+[[ -n "$VIEWER_PID" ]] && BACKGROUND+=("$VIEWER_PID")
 
 echo "[perception demo] running mtc_node with use_perception:=true (plan, then execute)"
 "$PY" -m mycobot_planning.nodes.mtc_node --ros-args --params-file "$PARAMS" \
