@@ -106,7 +106,7 @@ class _RosHandle:
         context, self._context = self._context, None
         try:
             self._executor.shutdown(timeout_sec=1.0)
-        except Exception:
+        except Exception:  # best-effort teardown: the context may already be shut down (Ctrl-C)
             pass
         try:
             self.node.destroy_node()
