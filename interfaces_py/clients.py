@@ -110,7 +110,7 @@ class _RosHandle:
             pass
         try:
             self.node.destroy_node()
-        except Exception:
+        except Exception:  # best-effort teardown, as above
             pass
         rclpy.try_shutdown(context=context)
         if self._thread is not None:

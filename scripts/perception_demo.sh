@@ -168,73 +168,7 @@ wait "$TAIL_PID" 2>/dev/null || true
 echo
 echo "[perception demo] mtc_node exited with code $node_code"
 set +e
-"$PY" - "$NODE_LOG" "$PARAMS" "$node_code" "$@" <<'PYEOF'
-"""The target's final pose; exit 0 only if mtc_node used perception and the object is at the place pose."""
-import re
-import sys
-
-import numpy as np
-import yaml
-
-from mycobot_planning.nodes.node_runtime import use_fast_discovery
-
-use_fast_discovery()
-from interfaces_py.clients import PlanningSceneInterface, RpcError  # noqa: E402
-from mycobot_planning.task.pick_place import expected_place_pose, load_parameters  # noqa: E402
-
-log_path, params_path, node_code, ros_args = sys.argv[1], sys.argv[2], int(sys.argv[3]), sys.argv[4:]
-log = open(log_path, encoding="utf-8", errors="replace").read()
-# The line PerceptionObjectSource logs once it put the detected objects into the scene.
-found = re.search(r"Perception target '([^']+)': height ([0-9.]+) m, radius ([0-9.]+) m", log)
-if found is None:
-    print("FAILED: mtc_node did not take the object from perception (no \"Perception target\" line in its log).")
-    if "use_perception" not in log and "Taking the object from perception" not in log:
-        print("mtc_node has no use_perception hook yet (mycobot_planning/nodes/perception_object_source.py "
-              "describes the change), or it failed before asking; see its log above.")
-    sys.exit(1)
-target, height, radius = found.group(1), float(found.group(2)), float(found.group(3))
-
-# The place pose the parameters ask for (the file, then any -p name:=value given to the demo),
-# for the detected object's height.
-params = load_parameters(params_path)
-overrides = {}
-for flag, item in zip(ros_args, ros_args[1:]):
-    if flag == "-p" and ":=" in item:
-        name, value = item.split(":=", 1)
-        overrides[name] = yaml.safe_load(value)
-known = set(params.as_dict())
-params = params.with_changes(**{k: v for k, v in overrides.items() if k in known})
-params = params.with_changes(object_dimensions=[height, radius])
-expected = expected_place_pose(params)[:3, 3]
-
-try:
-    with PlanningSceneInterface(timeout=10.0) as scene:
-        poses = scene.get_object_poses([target])
-        attached = scene.get_attached_objects([target])
-        names = scene.get_known_object_names()
-except RpcError as exc:
-    print(f"Cannot read the planning scene from the planning_server: {exc}")
-    sys.exit(1)
-print(f"Planning scene objects: {', '.join(names)}")
-if target not in poses:
-    print(f"FAILED: the planning scene has no object '{target}'.")
-    sys.exit(1)
-position = np.asarray(poses[target].position, dtype=float)
-error = float(np.linalg.norm(position - expected))
-print(f"Perceived target '{target}' (height {height:.4f} m, radius {radius:.4f} m) final pose: position "
-      f"[{position[0]:.4f}, {position[1]:.4f}, {position[2]:.4f}]{' (still attached to the robot)' if attached else ''}")
-print(f"Place pose asked for: position [{expected[0]:.4f}, {expected[1]:.4f}, {expected[2]:.4f}]; "
-      f"distance {error * 1000:.1f} mm")
-ok = node_code == 0 and not attached
-if error > 0.01:
-    print("FAILED: the object is not within 1 cm of the place pose.")
-    ok = False
-elif not ok:
-    print("FAILED: mtc_node reported a failure (see its log above).")
-else:
-    print("SUCCESS: perception found the cylinder, mtc_node picked it and placed it at the place pose.")
-sys.exit(0 if ok else 1)
-PYEOF
+"$PY" -m mycobot_planning.demos.pick_place_report --perception "$NODE_LOG" "$PARAMS" "$node_code" "$@"
 check=$?
 set -e
 exit "$check"

@@ -150,7 +150,7 @@ class _JointWatcher:
     def _spin(self) -> None:
         try:
             self.executor.spin()
-        except Exception:
+        except Exception:  # the probe's context is shut down under the spinning executor at the end
             pass
 
     def _on_joint_state(self, msg: Any) -> None:

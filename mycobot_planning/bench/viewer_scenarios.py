@@ -57,7 +57,7 @@ class _PageClient:
                 data = self._ws.recv(timeout=0.5)
             except TimeoutError:
                 continue
-            except Exception:
+            except Exception:  # connection closed by close() or by the viewer: the reader is done
                 return
             self.bytes += len(data)
             self.messages += 1
@@ -66,7 +66,7 @@ class _PageClient:
         self._stop = True
         try:
             self._ws.close()
-        except Exception:
+        except Exception:  # already closed by the viewer going away
             pass
         self._thread.join(timeout=2.0)
 

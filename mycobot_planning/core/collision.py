@@ -348,17 +348,14 @@ class RobotCollisionInfo:
         self.q_matrix: np.ndarray | None = None
         self.q_offset: np.ndarray | None = None
         self.q_identity = False
-        try:
-            base = np.array(model.to_q(np.zeros(n)), dtype=float)
-            columns = [np.array(model.to_q(np.eye(n)[i]), dtype=float) - base for i in range(n)]
-            matrix = np.column_stack(columns) if columns else np.zeros((nq, 0))
-            rng = np.random.default_rng(12345)
-            for _ in range(3):  # verify the map is affine (continuous joints are not)
-                p = rng.uniform(-1.0, 1.0, n)
-                if not np.allclose(matrix @ p + base, np.asarray(model.to_q(p), dtype=float), atol=1e-12):
-                    return
-        except Exception:  # pragma: no cover - a model without to_q semantics we understand
-            return
+        base = np.array(model.to_q(np.zeros(n)), dtype=float)
+        columns = [np.array(model.to_q(np.eye(n)[i]), dtype=float) - base for i in range(n)]
+        matrix = np.column_stack(columns) if columns else np.zeros((nq, 0))
+        rng = np.random.default_rng(12345)
+        for _ in range(3):  # verify the map is affine (continuous joints are not)
+            p = rng.uniform(-1.0, 1.0, n)
+            if not np.allclose(matrix @ p + base, np.asarray(model.to_q(p), dtype=float), atol=1e-12):
+                return
         if matrix.shape == (n, n) and np.array_equal(matrix, np.eye(n)) and not base.any():
             self.q_identity = True
         self.q_matrix = np.ascontiguousarray(matrix)

@@ -46,6 +46,7 @@ from dataclasses import dataclass, field
 from typing import Any, Iterable, Sequence
 
 import numpy as np
+from rclpy.exceptions import ParameterNotDeclaredException
 from rclpy.node import Node
 
 from interfaces_py.clients import PlanningSceneInterface, RpcError
@@ -181,7 +182,7 @@ class PerceptionObjectSource:
                 return params.get(name)
             if self.node.has_parameter(name):
                 return self.node.get_parameter(name).value
-        except Exception:  # not declared by this node: the default applies
+        except (KeyError, ParameterNotDeclaredException):  # not declared by this node: the default applies
             pass
         return default
 
