@@ -223,13 +223,17 @@ class Chromium:
                 " o.scrollIntoView({block: 'nearest'}); const r = o.getBoundingClientRect();"
                 " return [r.left + r.width / 2, r.top + r.height / 2]; })()", timeout)
             if not option:
-                raise BrowserError(f"the dropdown '{label}' offers no '{option_text}'")
+                # The click may have landed while the page was still laying out (a loaded machine):
+                # like a user, click elsewhere to close whatever opened and try the dropdown again.
+                self.click_at(1.0, 1.0)
+                continue
             self.click_at(*option)
             chosen = self.wait_for(f"(() => {{ const e = {field_script}; return e && e.value.replace(/\\u00a0/g, ' ')"
                                    f".trim() === {json.dumps(option_text)}; }})()", 3.0)
             if chosen:
                 return
-        raise BrowserError(f"could not choose '{option_text}' in the dropdown '{label}'")
+        raise BrowserError(f"could not choose '{option_text}' in the dropdown '{label}' "
+                           f"(the dropdown offered no such option or did not take it, {attempts} tries)")
 
     def rect_of_text(self, text: str, max_width: float = 450.0) -> list[float] | None:
         """[left, top, right, bottom] of the widest element (at most ``max_width`` px wide) that

@@ -24,6 +24,11 @@ def ros2(*args: str, timeout: float = 60.0) -> subprocess.CompletedProcess:
     return result
 
 
+def node_listed(name: str, tries: int = 5) -> bool:
+    """`ros2 node list` shows the node (each call discovers the graph afresh, so ask again)."""
+    return any(name in ros2("node", "list").stdout.split() for _ in range(tries))
+
+
 @pytest.fixture(scope="module")
 def robot(tmp_path_factory):
     """mock_controllers and planning_server started with `ros2 run`, as a user would."""
@@ -36,7 +41,8 @@ def robot(tmp_path_factory):
                                            stdout=log, stderr=subprocess.STDOUT, start_new_session=True), log))
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline:
-            if "/planning_server" in ros2("node", "list").stdout:
+            listed = ros2("node", "list").stdout
+            if "/planning_server" in listed and "/controller_manager" in listed:
                 break
             time.sleep(0.5)
         yield log_dir
@@ -61,7 +67,7 @@ def test_every_console_script_is_a_ros2_executable():
 
 
 def test_plan_from_parameters_and_echo_the_planned_path(robot):
-    assert "/controller_manager" in ros2("node", "list").stdout
+    assert node_listed("/controller_manager")
     result = ros2("param", "set", "/planning_server", "goal.named_target", "ready")
     assert "Set parameter successful" in result.stdout, result.stdout + result.stderr
     # Subscribe first, then plan: the echo must print the JointTrajectory of that plan.
@@ -84,4 +90,4 @@ def test_plan_from_parameters_and_echo_the_planned_path(robot):
 def test_refused_parameter_keeps_the_server_alive(robot):
     result = ros2("param", "set", "/planning_server", "goal.group", "legs")
     assert "Setting parameter failed" in result.stdout + result.stderr
-    assert "/planning_server" in ros2("node", "list").stdout
+    assert node_listed("/planning_server")
