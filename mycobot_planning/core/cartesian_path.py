@@ -374,11 +374,7 @@ class _StepSolver:
         self.fid = model.frame_id(link)
         self.idx = jmg.variable_indices
         jmap = np.ascontiguousarray(model.jacobian_map(self.idx))
-        # Usually each group variable is one velocity column (no mimic followers in the group):
-        # then picking columns is cheaper than the matrix product with the map.
-        ones = (jmap == 1.0).sum(axis=0) == 1
-        zeros = (jmap == 0.0).sum(axis=0) == jmap.shape[0] - 1
-        self.columns = np.argmax(jmap, axis=0) if bool(np.all(ones & zeros)) else None
+        self.columns = model.jacobian_columns(self.idx)
         self.jmap = jmap
         self.lower = model.lower_limits[self.idx]
         self.upper = model.upper_limits[self.idx]
@@ -555,7 +551,8 @@ def _compute(
     revolute = np.array([model.joint(j).type in ("revolute", "continuous") for j in jmg.joint_names])
     prismatic = np.array([model.joint(j).type == "prismatic" for j in jmg.joint_names])
     continuous = np.array([model.joint(j).type == "continuous" for j in jmg.joint_names])
-    is_valid = scene.is_valid_positions
+    # States are within the limits by construction (every IK step is clipped to them).
+    is_valid = scene.validity_checker(jmg.name, start, check_bounds=False)
     check_buffer = full.copy()
     fallback: IKSolver | None = None
 
@@ -605,8 +602,9 @@ def _compute(
             largest = float(np.abs(delta).max())
             between = int(math.ceil(largest / resolution)) if largest > resolution else 1
             for j in range(1, between + 1):
-                check_buffer[idx] = x if j == between else previous + (j / between) * delta
-                if not is_valid(check_buffer):
+                values = x if j == between else previous + (j / between) * delta
+                if not is_valid(values):
+                    check_buffer[idx] = values
                     colliding = check_buffer.copy()
                     break
             if colliding is not None:

@@ -15,6 +15,7 @@ from typing import Callable, Protocol
 
 import numpy as np
 import pinocchio as pin
+from scipy.linalg import get_lapack_funcs
 from scipy.spatial import cKDTree
 
 from .errors import KinematicsError
@@ -86,6 +87,12 @@ class IKSolver:
         self._sample_upper = np.where(np.isfinite(self._upper), self._upper, math.pi)
         self._continuous = np.array([model.joint(j).type == "continuous" for j in self.group.joint_names])
         self._has_continuous = bool(self._continuous.any())
+        # Per-iteration shortcuts for _descend (see there).
+        self._q_slots = model.q_slots(self._indices)
+        self._columns = model.jacobian_columns(self._indices)
+        self._damping3 = options.damping * np.eye(3)
+        self._damping6 = options.damping * np.eye(6)
+        self._gesv = get_lapack_funcs(("gesv",), (np.zeros((6, 6)),))[0]
 
     # ------------------------------------------------------------------ one descent
     def _seed_table(self, position_only: bool) -> tuple[cKDTree, np.ndarray]:
@@ -145,46 +152,70 @@ class IKSolver:
             yield rng.uniform(self._sample_lower, self._sample_upper), self.options.max_iterations_restart
 
     def _descend(self, full: np.ndarray, target: pin.SE3, position_only: bool, max_iterations: int) -> bool:
-        """Run damped Gauss-Newton from full[group] in place; True when the tolerance is met."""
+        """Run damped Gauss-Newton from full[group] in place; True when the tolerance is met.
+
+        This loop is IK's whole cost (tens of thousands of iterations per pick-and-place plan),
+        so it avoids NumPy's per-call wrappers on 6-vectors: the configuration is updated in
+        place when the group's variables map 1:1 onto it, the Jacobian columns are picked rather
+        than multiplied by the variable map, and the damped system goes to LAPACK's gesv.
+        """
         model, opts = self.model, self.options
         pmodel, pdata = model.pin_model, model.pin_data
-        idx, jmap, fid = self._indices, self._jmap, self.frame_id
+        idx, fid = self._indices, self.frame_id
+        columns, jmap = self._columns, self._jmap
+        slots = self._q_slots
         x = full[idx].copy()
         lower, upper = self._lower, self._upper
-        damping = opts.damping * np.eye(3 if position_only else 6)
+        minimum, maximum = np.minimum, np.maximum
+        damping = self._damping3 if position_only else self._damping6
+        gesv = self._gesv
         pos_tol2 = opts.position_tolerance**2
         rot_tol2 = opts.orientation_tolerance**2
         max_step = opts.max_step
         wrap = self._has_continuous
         local = pin.ReferenceFrame.LOCAL
         world = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+        compute_jacobians, frame_placement, frame_jacobian = (
+            pin.computeJointJacobians, pin.updateFramePlacement, pin.getFrameJacobian)
+        log6, jlog6 = pin.log6, pin.Jlog6
+        q = model.to_q(full).copy() if slots is not None else None
         for _ in range(max_iterations):
-            full[idx] = x
-            pin.computeJointJacobians(pmodel, pdata, model.to_q(full))
-            current = pin.updateFramePlacement(pmodel, pdata, fid)
+            if slots is None:
+                full[idx] = x
+                q = model.to_q(full)
+            else:
+                q[slots] = x
+            compute_jacobians(pmodel, pdata, q)
+            current = frame_placement(pmodel, pdata, fid)
             if position_only:
                 err = target.translation - current.translation
                 if err @ err < pos_tol2:
+                    full[idx] = x
                     return True
-                jac = pin.getFrameJacobian(pmodel, pdata, fid, world)[:3] @ jmap
+                jac = frame_jacobian(pmodel, pdata, fid, world)[:3]
             else:
                 delta = current.actInv(target)
-                err = pin.log6(delta).vector
+                err = log6(delta).vector
                 lin, ang = err[:3], err[3:]
                 if lin @ lin < pos_tol2 and ang @ ang < rot_tol2:
+                    full[idx] = x
                     return True
                 # d log6(current^-1 target) = -Jlog6(target^-1 current) J_local dq; we solve
                 # J' dq = err with J' = Jlog6(delta^-1) J_local (Pinocchio's IK example).
-                jac = pin.Jlog6(delta.inverse()) @ (pin.getFrameJacobian(pmodel, pdata, fid, local) @ jmap)
-            step = jac.T @ np.linalg.solve(jac @ jac.T + damping, err)
-            largest = max(step.max(), -step.min())
+                jac = jlog6(delta.inverse()) @ frame_jacobian(pmodel, pdata, fid, local)
+            jac = jac[:, columns] if columns is not None else jac @ jmap
+            _, _, y, info = gesv(jac @ jac.T + damping, err)
+            if info != 0:
+                break
+            step = jac.T @ y
+            largest = abs(step).max()
             if largest > max_step:
                 step *= max_step / largest
             x += step
             if wrap:
                 mask = self._continuous
                 x[mask] = (x[mask] + math.pi) % (2 * math.pi) - math.pi
-            np.clip(x, lower, upper, out=x)
+            minimum(maximum(x, lower, out=x), upper, out=x)
         full[idx] = x
         return False
 

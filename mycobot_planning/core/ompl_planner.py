@@ -43,6 +43,7 @@ from .planning_interface import (
     time_group_path,
 )
 from .planning_scene import PlanningScene
+from .trajectory_validator import validate_trajectory
 from .robot_model import JointModelGroup
 
 _STATUS_CODES = {
@@ -58,24 +59,13 @@ _STATUS_CODES = {
 #: Share of the planning time that IK for pose goals may use before OMPL starts.
 IK_TIME_SHARE = 0.25
 
-#: Joint step (rad) at which the final path is re-checked, as fine as the trajectory validator's.
-#: OMPL checks edges at longest_valid_segment_fraction x the joint box diagonal (0.07 rad for the
-#: myCobot at MoveIt's 0.005), which lets a gripper sweep through a 5 mm wall between two checks;
-#: MoveIt has the same gap and closes it with its ValidateSolution adapter, as we do here.
-DENSE_CHECK_STEP = 0.005
-
-#: Re-plans (each with a 4x finer edge resolution) when the dense check finds a collision.
+#: Re-plans (each with a 4x finer edge resolution) when the timed path collides between OMPL's
+#: checks. OMPL checks edges at longest_valid_segment_fraction x the joint box diagonal (0.07 rad
+#: for the myCobot at MoveIt's 0.005), which lets a gripper sweep through a 5 mm wall between two
+#: checks; MoveIt has the same gap and closes it with its ValidateSolution adapter. Here the
+#: trajectory validator does that job on the timed trajectory (what is executed), every
+#: 0.005 rad, once: the response says so (``validated``), so callers need not check again.
 MAX_REPLANS = 3
-
-
-def first_invalid_segment(validity, path: np.ndarray, step: float = DENSE_CHECK_STEP) -> int | None:
-    """Index of the first path segment whose interior collides at `step` resolution, or None."""
-    for index, (a, b) in enumerate(zip(path[:-1], path[1:])):
-        count = int(np.ceil(np.max(np.abs(b - a)) / step))
-        for t in np.arange(1, count) / count:
-            if not validity(a + t * (b - a)):
-                return index
-    return None
 
 
 class OmplPlanner:
@@ -142,7 +132,7 @@ class OmplPlanner:
         upper = model.upper_limits[jmg.variable_indices]
         lower = np.where(np.isfinite(lower), lower, -math.pi)
         upper = np.where(np.isfinite(upper), upper, math.pi)
-        validity = scene.validity_checker(jmg.name, start)
+        validity = scene.validity_checker(jmg.name, start, check_bounds=False)  # OMPL stays in bounds
 
         best = None
         last = None
@@ -172,16 +162,21 @@ class OmplPlanner:
                 stop_on_first_solution=True,
             )
             last = result
-            if result.success and first_invalid_segment(validity, result.path) is not None:
-                # An edge passes through an obstacle between OMPL's checks: plan again, finer.
-                if replans < MAX_REPLANS:
-                    replans += 1
-                    fraction /= 4.0
-                    continue
-                result.success, result.status = False, "INVALID_PATH"
-                result.message = "every path found crossed an obstacle between collision checks"
-            if result.success and (best is None or _length(result.path) < _length(best.path)):
-                best = result
+            trajectory = None
+            if result.success:
+                trajectory = time_group_path(model, jmg, result.path, velocity_scaling, acceleration_scaling)
+                report = validate_trajectory(scene, trajectory, jmg.name, start)
+                if not report.valid:
+                    if report.contacts and replans < MAX_REPLANS:
+                        # An edge passes through an obstacle between OMPL's checks: plan again, finer.
+                        replans += 1
+                        fraction /= 4.0
+                        continue
+                    result.success, result.status = False, "INVALID_PATH"
+                    result.message = ("every path found crossed an obstacle between collision checks"
+                                      if report.contacts else "; ".join(report.problems[:2]))
+            if result.success and (best is None or _length(result.path) < _length(best[0].path)):
+                best = (result, trajectory)
             attempt += 1
         if best is None:
             status = last.status if last is not None else "TIMEOUT"
@@ -192,14 +187,15 @@ class OmplPlanner:
                 f"{resolved.config_name} found no path for group '{jmg.name}' in "
                 f"{budget:.3g} s: {status}{detail}",
             )
-        trajectory = time_group_path(model, jmg, best.path, velocity_scaling, acceleration_scaling)
+        best_result, trajectory = best
         response = success(
             trajectory,
             started,
             request,
             start,
-            path=best.path,
-            message=f"{resolved.config_name}: {len(best.path)} waypoints, {trajectory.duration:.3f} s",
+            path=best_result.path,
+            message=f"{resolved.config_name}: {len(best_result.path)} waypoints, {trajectory.duration:.3f} s",
+            validated=True,
         )
         response.planner_id = f"{jmg.name}[{resolved.config_name}]"
         return response

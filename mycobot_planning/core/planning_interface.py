@@ -86,6 +86,9 @@ class MotionPlanResponse:
     planner_id: str = ""
     start_state: RobotState | None = None
     path: np.ndarray | None = field(default=None, repr=False)  # geometric waypoints before timing
+    #: The pipeline already ran the trajectory validator on this trajectory (start state, limits,
+    #: collisions at its resolution) and it passed: callers need not check it again.
+    validated: bool = False
 
     @property
     def success(self) -> bool:
@@ -327,6 +330,7 @@ def success(
     start: RobotState,
     path: np.ndarray | None = None,
     message: str = "",
+    validated: bool = False,
 ) -> MotionPlanResponse:
     return MotionPlanResponse(
         error_code=MoveItErrorCode(MoveItErrorCode.SUCCESS, message),
@@ -336,4 +340,5 @@ def success(
         planner_id=request.planner_id,
         start_state=start,
         path=path,
+        validated=validated,
     )

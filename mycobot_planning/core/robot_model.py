@@ -682,6 +682,29 @@ class RobotModel:
             q[self._mimic_q] = self._mimic_mult * positions[self._mimic_src] + self._mimic_off
         return q
 
+    def q_slots(self, variable_indices: np.ndarray) -> np.ndarray | None:
+        """Configuration slots of these variables when writing them there is all to_q does for
+        them (no continuous joint, no mimic follower), else None.
+
+        Solvers that change only a group's variables in a loop then update a configuration
+        vector in place instead of rebuilding it with to_q on every iteration.
+        """
+        indices = np.asarray(variable_indices, dtype=int)
+        if self._has_continuous and bool(self._continuous_mask[indices].any()):
+            return None
+        if self._mimic_src.size and bool(np.isin(indices, self._mimic_src).any()):
+            return None
+        return self._q_index[indices].copy()
+
+    def jacobian_columns(self, variable_indices: np.ndarray) -> np.ndarray | None:
+        """The velocity columns the Jacobian map merely picks for these variables (each one
+        column with factor 1), or None when a variable combines columns (it drives mimic
+        followers). Picking columns is cheaper than the product with the map in hot loops."""
+        jmap = self.jacobian_map(np.asarray(variable_indices, dtype=int))
+        ones = (jmap == 1.0).sum(axis=0) == 1
+        zeros = (jmap == 0.0).sum(axis=0) == jmap.shape[0] - 1
+        return np.argmax(jmap, axis=0) if bool(np.all(ones & zeros)) else None
+
     def jacobian_map(self, variable_indices: np.ndarray | None = None) -> np.ndarray:
         """Matrix taking Pinocchio velocity space to the given variables (nv x k): J_vars = J @ M.
 

@@ -11,7 +11,7 @@ execute it) and checks, densely *between* the stored points, everything MoveIt's
 pipeline would care about:
 
 * collisions of the full robot (group joints from the trajectory, every other joint held at the
-  start state) through :meth:`PlanningScene.is_valid_positions`, the scene's hot path;
+  start state) through the scene's collision-only checker (:meth:`PlanningScene.validity_checker`);
 * position limits, and velocity / acceleration limits scaled by the request's factors;
 * continuity: no position jump at a stored point (a cubic interpolation built from velocities can
   hide one) and no pair of stored points further apart than the unscaled velocity limit allows;
@@ -371,14 +371,15 @@ def _check_collisions(
     findings: _Findings,
 ) -> None:
     model = scene.robot_model
-    full = np.tile(np.asarray(start.positions, dtype=float), (q.shape[0], 1))
-    full[:, indices] = q
-    is_valid = scene.is_valid_positions
-    invalid = np.fromiter((not is_valid(row) for row in full), dtype=bool, count=full.shape[0])
+    # Collisions only: the limits are the limit check's business.
+    collision_free = scene.validity_checker(indices, start, check_bounds=False)
+    invalid = np.fromiter((not collision_free(row) for row in q), dtype=bool, count=q.shape[0])
     if not np.any(invalid):
         return
-    # is_valid_positions also rejects states outside the joint limits: those are the limit
-    # check's business, so settle them with a collision-only query.
+    full = np.tile(np.asarray(start.positions, dtype=float), (q.shape[0], 1))
+    full[:, indices] = q
+    # Without a direct configuration map the checker also rejects states outside the joint
+    # limits: settle those with a collision-only query.
     lower, upper = model.lower_limits, model.upper_limits
     for i in np.flatnonzero(invalid):
         row = full[i]

@@ -218,7 +218,8 @@ class PipelinePlanner(PlannerInterface):
         p.declare("goal_position_tolerance", 1e-4, "tolerance for reaching position goals", type=float)
         p.declare("goal_orientation_tolerance", 1e-3, "tolerance for reaching orientation goals", type=float)
         p.declare("validate_solution", True, "check every planned trajectory with the trajectory validator and "
-                  "re-plan (new seed) when it fails", type=bool)
+                  "re-plan (new seed) when it fails (skipped when the pipeline already validated it, as "
+                  "the OMPL pipeline does)", type=bool)
         p.declare("max_validation_retries", 2, "re-plans after a trajectory failed validation", type=int)
         object.__setattr__(self, "_pipeline", pipeline)
         object.__setattr__(self, "_last_planner", "")
@@ -275,7 +276,7 @@ class PipelinePlanner(PlannerInterface):
                 if not response.success:
                     messages.append(f"{pipeline_id}{'/' + planner_id if planner_id else ''}: {response.error_code}")
                     break
-                if self._properties["validate_solution"]:
+                if self._properties["validate_solution"] and not response.validated:
                     # Joint limits unscaled: the industrial LIN/CIRC scale Cartesian limits, not joint ones.
                     report = validate_trajectory(scene, response.trajectory, group, scene.current_state)
                     if not report.valid:

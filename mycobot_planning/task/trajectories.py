@@ -98,6 +98,41 @@ def check_path(scene: PlanningScene, start: RobotState, indices: np.ndarray, pat
     return True, ""
 
 
+def _stationary(traj: TimedTrajectory) -> bool:
+    return bool(np.all(np.abs(traj.positions - traj.positions[0]) <= 1e-12))
+
+
+def _at_start(model: RobotModel, start: RobotState, traj: TimedTrajectory) -> bool:
+    indices = [model.variable_index(n) for n in traj.joint_names]
+    return bool(np.all(np.abs(traj.positions[0] - start.positions[indices]) <= 1e-12))
+
+
+def _extend(model: RobotModel, jmg: JointModelGroup, start: RobotState, traj: TimedTrajectory) -> TimedTrajectory:
+    """``traj`` over all of ``jmg``'s joints, the joints it lacks held at ``start``'s values."""
+    n = len(traj.times)
+    own = {name: k for k, name in enumerate(traj.joint_names)}
+    positions = np.empty((n, len(jmg.joint_names)))
+    velocities = np.zeros_like(positions)
+    accelerations = np.zeros_like(positions)
+    path = None if traj.path is None else np.empty((len(traj.path), len(jmg.joint_names)))
+    for j, name in enumerate(jmg.joint_names):
+        k = own.get(name)
+        if k is None:
+            value = start.positions[model.variable_index(name)]
+            positions[:, j] = value
+            if path is not None:
+                path[:, j] = value
+        else:
+            positions[:, j] = traj.positions[:, k]
+            velocities[:, j] = traj.velocities[:, k]
+            accelerations[:, j] = traj.accelerations[:, k]
+            if path is not None:
+                path[:, j] = traj.path[:, k]
+    waypoint_times = None if traj.waypoint_times is None else np.array(traj.waypoint_times, dtype=float)
+    return TimedTrajectory(list(jmg.joint_names), np.array(traj.times, dtype=float), positions, velocities,
+                           accelerations, interpolation=traj.interpolation, path=path, waypoint_times=waypoint_times)
+
+
 def find_group(model: RobotModel, joint_names: set[str]) -> str | None:
     """A planning group whose active joints are exactly ``joint_names`` (for merged motions)."""
     for name in model.group_names:
@@ -112,7 +147,10 @@ def merge_trajectories(scene: PlanningScene, start: RobotState, parts: Sequence[
     """Merge trajectories of disjoint groups into one simultaneous motion (MTC's merge()).
 
     Waypoints are paired by index (shorter paths hold their last waypoint), the merged path is
-    checked against ``scene`` and timed for the merged group. Returns ``(trajectory, group,
+    checked against ``scene`` and timed for the merged group. When only one part moves and the
+    others hold ``start``'s values (Connect's usual case: the gripper does not move), that part's
+    trajectory is kept as it is, extended by the held joints: no new states, so no re-check
+    (planners return trajectories checked in the scene they planned in) and no re-timing. Returns ``(trajectory, group,
     message)``; the trajectory is None (and the message says why) when the groups overlap, no
     planning group covers the union of their joints, or the merged path collides.
     """
@@ -128,6 +166,11 @@ def merge_trajectories(scene: PlanningScene, start: RobotState, parts: Sequence[
         return None, "", (f"cannot merge: no planning group has exactly the joints {sorted(names)} "
                           "(add one to the SRDF, e.g. 'arm_with_gripper')")
     jmg = model.group(merged_group)
+    moving = [traj for _, traj in parts if not _stationary(traj)]
+    if len(moving) <= 1 and all(_at_start(model, start, traj) for _, traj in parts if _stationary(traj)):
+        # One motion and the rest holding the start state: the merged motion is that motion,
+        # state for state, and its planner checked those states in this scene already.
+        return _extend(model, jmg, start, moving[0] if moving else parts[0][1]), merged_group, ""
     paths = [geometric_path(traj) for _, traj in parts]
     length = max(len(p) for p in paths)
     columns = {}
