@@ -374,7 +374,12 @@ class _StepSolver:
         self.fid = model.frame_id(link)
         self.idx = jmg.variable_indices
         jmap = np.ascontiguousarray(model.jacobian_map(self.idx))
-        self.columns = model.jacobian_columns(self.idx)
+        columns = model.jacobian_columns(self.idx)
+        if columns is not None and np.array_equal(columns, np.arange(columns[0], columns[0] + len(columns))):
+            columns = slice(int(columns[0]), int(columns[0]) + len(columns))  # a view, no copy
+        self.columns = columns
+        self.slots = model.q_slots(self.idx)
+        self.q = np.array(model.to_q(full), dtype=float)
         self.jmap = jmap
         self.lower = model.lower_limits[self.idx]
         self.upper = model.upper_limits[self.idx]
@@ -390,7 +395,12 @@ class _StepSolver:
         self.x = x
         self.full[self.idx] = x
         pmodel, pdata, fid = self.pmodel, self.pdata, self.fid
-        pin.computeJointJacobians(pmodel, pdata, self.model.to_q(self.full))
+        if self.slots is not None:
+            q = self.q
+            q[self.slots] = x
+        else:
+            q = self.model.to_q(self.full)
+        pin.computeJointJacobians(pmodel, pdata, q)
         placement = pin.updateFramePlacement(pmodel, pdata, fid)
         self.position = placement.translation
         self.rotation = placement.rotation
@@ -423,7 +433,7 @@ class _StepSolver:
             err[:3] = lin
             err[3:] = ang
             step = self._solve(err)
-            if not max(step.max(), -step.min()) <= _CORRECTOR_MAX_STEP:  # also catches NaN
+            if not abs(step).max() <= _CORRECTOR_MAX_STEP:  # also catches NaN
                 return False
             self.update(np.minimum(np.maximum(self.x + step, lower), upper))
         return False
