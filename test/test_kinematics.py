@@ -162,3 +162,54 @@ def test_refine_stays_on_the_seed_branch(mycobot: RobotModel):
     assert np.allclose(refined.frame_pose("link6_flange"), target, atol=1e-5)
     assert np.max(np.abs(refined.positions - seed.positions)) < 0.05
     assert solver.refine(make_pose([2.0, 0.0, 0.0]), seed) is None
+
+
+def test_batched_descents_converge_where_single_descents_do(mycobot: RobotModel):
+    """The batch runs the same Gauss-Newton per start: it converges for every start a lone
+    descent converges from, to a state at the target, and stops at the start's budget."""
+    solver = IKSolver(mycobot, "arm")
+    jmg = mycobot.group("arm")
+    rng = np.random.default_rng(3)
+    base = mycobot.default_positions()
+    single_total = batch_total = 0
+    for pose in random_reachable_poses(mycobot, "arm", 8, seed=21):
+        target = pin_se3(pose)
+        starts = rng.uniform(solver._sample_lower, solver._sample_upper, size=(12, len(jmg.variable_indices)))
+        budgets = np.full(12, 15)
+        final, converged = solver._descend_batch(base, starts, budgets, target, False)
+        for k, start in enumerate(starts):
+            full = base.copy()
+            full[jmg.variable_indices] = start
+            single = solver._descend(full, target, False, 15)
+            single_total += single
+            batch_total += bool(converged[k])
+            if single:
+                assert converged[k]
+            if converged[k]:
+                state = RobotState(mycobot, base.copy())
+                state.set_group_positions("arm", final[k])
+                assert np.allclose(state.frame_pose(jmg.tip_link), pose, atol=1e-4)
+                assert state.satisfies_bounds()
+    assert single_total > 0
+    assert batch_total - single_total <= 2  # at most the final iterate's extra check
+
+
+def test_solve_with_attempts_counts_every_start(mycobot: RobotModel):
+    """An unreachable target: exactly ``attempts`` descents, whatever the batching."""
+    solver = IKSolver(mycobot, "arm")
+    seen = []
+    original = solver._descend_batch
+
+    def counting(base, starts, budgets, target, position_only):
+        seen.append(len(starts))
+        return original(base, starts, budgets, target, position_only)
+
+    solver._descend_batch = counting  # type: ignore[method-assign]
+    assert solver.solve(make_pose([1.0, 1.0, 1.0]), rng=0, timeout=5.0, attempts=24, max_solutions=8) == []
+    assert 1 + sum(seen) == 24  # the first start runs alone, the rest in batches
+
+
+def pin_se3(pose: np.ndarray):
+    import pinocchio as pin
+
+    return pin.SE3(pose[:3, :3].copy(), pose[:3, 3].copy())

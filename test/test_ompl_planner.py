@@ -162,3 +162,35 @@ def test_no_path_crosses_the_thin_wall_between_checks(mycobot: RobotModel, plann
     for seed in range(1, 41):
         response = planner.plan(scene, MotionPlanRequest("arm", goal, start_state=start, seed=seed))
         assert_valid(scene, response, "arm", start)
+
+
+def test_the_response_says_the_trajectory_was_validated(mycobot: RobotModel, planner: OmplPlanner):
+    """The OMPL pipeline runs the trajectory validator on what it returns, so task solvers skip
+    a second pass: the flag must only be set on trajectories that do validate."""
+    scene = fallback_scene(mycobot, with_box=True)
+    start = ready_with(mycobot, link1_to_link2=-TAU / 8)
+    goal = JointGoal(dict(mycobot.named_state("ready", "arm"), link1_to_link2=TAU / 8))
+    response = planner.plan(scene, MotionPlanRequest("arm", goal, start_state=start, seed=5))
+    assert response.validated
+    assert_valid(scene, response, "arm", start)
+    failed = planner.plan(scene, MotionPlanRequest("arm", JointGoal(ready_with(mycobot).group_positions("arm") + 9.0),
+                                                   start_state=start, seed=5))
+    assert not failed.success and not failed.validated
+
+
+def test_collision_only_checker_agrees_with_the_full_check_within_limits(mycobot: RobotModel):
+    scene = fallback_scene(mycobot, with_box=True)
+    start = ready_with(mycobot)
+    jmg = mycobot.group("arm")
+    full_check = scene.validity_checker("arm", start)
+    collision_only = scene.validity_checker("arm", start, check_bounds=False)
+    rng = np.random.default_rng(0)
+    lower, upper = mycobot.lower_limits[jmg.variable_indices], mycobot.upper_limits[jmg.variable_indices]
+    verdicts = [(full_check(x), collision_only(x)) for x in rng.uniform(lower, upper, size=(300, len(lower)))]
+    assert all(a == b for a, b in verdicts)
+    assert any(a for a, _ in verdicts) and not all(a for a, _ in verdicts)
+    # It follows later changes of the scene, like the full check: 'ready' reaches into the wall.
+    inside_wall = ready_with(mycobot).group_positions("arm")
+    assert not collision_only(inside_wall) and not full_check(inside_wall)
+    scene.remove_object("box")
+    assert collision_only(inside_wall) and full_check(inside_wall)

@@ -283,3 +283,31 @@ def test_preempt_and_timeout(mycobot):
     task.add(stages.CurrentState("current"), _move("to ready", "ready", group="arm"))
     task.setTimeout(1e-9)
     assert task.plan().val == MoveItErrorCode.TIMED_OUT
+
+
+def test_connect_keeps_the_arm_trajectory_when_the_gripper_does_not_move(mycobot):
+    """A lone moving group is merged without re-checking or re-timing: the merged trajectory is
+    the arm's, state for state, with the gripper held where it was."""
+    from mycobot_planning.task.trajectories import merge_trajectories, single_point, time_path
+
+    start = scene_at(mycobot, "home")
+    goal = scene_at(mycobot, "ready")
+    arm = mycobot.group("arm")
+    path = np.array([start.current_state.group_positions("arm"), goal.current_state.group_positions("arm")])
+    arm_traj = time_path(mycobot, arm, path)
+    gripper = mycobot.group("gripper")
+    held = single_point(gripper.joint_names, start.current_state.group_positions("gripper"))
+    merged, group, message = merge_trajectories(start, start.current_state, [("arm", arm_traj), ("gripper", held)])
+    assert group == "arm_with_gripper" and message == ""
+    assert np.array_equal(merged.times, arm_traj.times)
+    names = merged.joint_names
+    for k, name in enumerate(arm_traj.joint_names):
+        assert np.array_equal(merged.positions[:, names.index(name)], arm_traj.positions[:, k])
+        assert np.array_equal(merged.velocities[:, names.index(name)], arm_traj.velocities[:, k])
+    for k, name in enumerate(gripper.joint_names):
+        assert np.all(merged.positions[:, names.index(name)] == held.positions[0, k])
+        assert np.all(merged.velocities[:, names.index(name)] == 0.0)
+    # A held group somewhere else than the start state is a real merge: checked and re-timed.
+    moved = single_point(gripper.joint_names, start.current_state.group_positions("gripper") - 0.2)
+    remerged, _, _ = merge_trajectories(start, start.current_state, [("arm", arm_traj), ("gripper", moved)])
+    assert remerged is not None and not np.array_equal(remerged.positions[0], merged.positions[0])

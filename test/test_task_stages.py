@@ -559,3 +559,36 @@ def test_pipeline_planner_industrial_lin_to_a_pose(mycobot):
     assert task.plan(), task.explainFailure(stream=None)
     assert np.allclose(_flange(task.solutions[0]), goal, atol=1e-3)
     assert_solution_valid(task.solutions[0])
+
+
+def test_spread_order_visits_every_target_once_and_covers_the_range_early():
+    from mycobot_planning.task.stages.compute_ik import spread_order
+
+    for n in (1, 2, 3, 7, 24, 33):
+        order = spread_order(n)
+        assert sorted(order) == list(range(n))
+    assert spread_order(24)[:4] == [0, 16, 8, 4]
+    # Any run of 6 neighbouring targets out of 24 (e.g. the reachable grasp angles) is hit
+    # within the first 8 tries.
+    order = spread_order(24)
+    for first in range(24 - 6 + 1):
+        assert min(order.index(i) for i in range(first, first + 6)) < 8
+
+
+def test_compute_ik_gives_up_on_an_unreachable_target_after_the_first_attempts(mycobot, monkeypatch):
+    from mycobot_planning.core.kinematics import IKSolver
+    from mycobot_planning.task.stages.compute_ik import UNREACHABLE_ATTEMPTS
+
+    task, ik = _ik_task(mycobot, target=make_pose([1.0, 1.0, 1.0]))
+    ik.setTimeout(10.0)  # the attempt count ends the search, not the time
+    calls = []
+    original = IKSolver.solve
+
+    def counting(self, *args, **kwargs):
+        calls.append(kwargs.get("attempts"))
+        return original(self, *args, **kwargs)
+
+    monkeypatch.setattr(IKSolver, "solve", counting)
+    assert not task.plan()
+    assert calls == [UNREACHABLE_ATTEMPTS]
+    assert ik.failures[0].comment.endswith("no IK found")

@@ -374,10 +374,7 @@ class _StepSolver:
         self.fid = model.frame_id(link)
         self.idx = jmg.variable_indices
         jmap = np.ascontiguousarray(model.jacobian_map(self.idx))
-        columns = model.jacobian_columns(self.idx)
-        if columns is not None and np.array_equal(columns, np.arange(columns[0], columns[0] + len(columns))):
-            columns = slice(int(columns[0]), int(columns[0]) + len(columns))  # a view, no copy
-        self.columns = columns
+        self.columns = model.jacobian_columns(self.idx)
         self.slots = model.q_slots(self.idx)
         self.q = np.array(model.to_q(full), dtype=float)
         self.jmap = jmap

@@ -43,8 +43,8 @@ class IKOptions:
     orientation_weight: float = 0.05  # metres per unit of rotation-matrix difference in the table
 
 
-#: Most starts descended together (see IKSolver._descend_batch); batches grow 1, 2, 4... to it.
-BATCH_SIZE = 16
+#: Most starts descended together (see IKSolver._descend_batch); batches grow 1, 4, 16... to it.
+BATCH_SIZE = 32
 #: Batches this small run start by start: the batched algebra costs more than it saves for them.
 SEQUENTIAL_BELOW = 2
 
@@ -255,7 +255,7 @@ class IKSolver:
         target_inverse = target.inverse()
         pos_tol2, rot_tol2 = opts.position_tolerance**2, opts.orientation_tolerance**2
         for iteration in range(int(budgets.max()) + 1):
-            for k in active:
+            for k in active.tolist():
                 if slots is None:
                     full[idx] = x[k]
                     q = model.to_q(full)
@@ -267,7 +267,7 @@ class IKSolver:
                     errors[k] = target.translation - current.translation
                     jac = frame_jacobian(pmodel, pdata, fid, world)[:3]
                 else:
-                    errors[k] = log6(current.actInv(target))
+                    errors[k] = log6(current.actInv(target)).vector
                     jac = jlog6(target_inverse * current) @ frame_jacobian(pmodel, pdata, fid, local)
                 jacobians[k] = jac[:, columns] if columns is not None else jac @ jmap
             err = errors[active]
@@ -376,7 +376,7 @@ class IKSolver:
                 break
             if time.perf_counter() > deadline:
                 break
-            chunk = min(2 * chunk, BATCH_SIZE)  # 1, 2, 4, ...: little waste when one more start suffices
+            chunk = min(4 * chunk, BATCH_SIZE)  # 1, 4, 16, 32: little waste when a few more starts suffice
         return solutions
 
 
