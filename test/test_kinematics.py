@@ -164,9 +164,12 @@ def test_refine_stays_on_the_seed_branch(mycobot: RobotModel):
     assert solver.refine(make_pose([2.0, 0.0, 0.0]), seed) is None
 
 
-def test_batched_descents_converge_where_single_descents_do(mycobot: RobotModel):
-    """The batch runs the same Gauss-Newton per start: it converges for every start a lone
-    descent converges from, to a state at the target, and stops at the start's budget."""
+def test_batched_descents_converge_where_single_descents_do(mycobot: RobotModel, monkeypatch):
+    """Without its early abort the batch runs the same Gauss-Newton per start: it converges for
+    every start a lone descent converges from, to a state at the target."""
+    import mycobot_planning.core.kinematics as kinematics
+
+    monkeypatch.setattr(kinematics, "ABORT_ITERATION", 10**6)
     solver = IKSolver(mycobot, "arm")
     jmg = mycobot.group("arm")
     rng = np.random.default_rng(3)
@@ -213,3 +216,34 @@ def pin_se3(pose: np.ndarray):
     import pinocchio as pin
 
     return pin.SE3(pose[:3, :3].copy(), pose[:3, 3].copy())
+
+
+def test_batched_descents_drop_only_starts_still_far_off(mycobot: RobotModel):
+    """The early abort keeps every start that a lone descent brings within ABORT_ERROR by
+    ABORT_ITERATION steps, and whatever converges is at the target."""
+    import mycobot_planning.core.kinematics as kinematics
+
+    solver = IKSolver(mycobot, "arm")
+    jmg = mycobot.group("arm")
+    rng = np.random.default_rng(9)
+    base = mycobot.default_positions()
+    pose = random_reachable_poses(mycobot, "arm", 1, seed=5)[0]
+    target = pin_se3(pose)
+    starts = rng.uniform(solver._sample_lower, solver._sample_upper, size=(40, len(jmg.variable_indices)))
+    final, converged = solver._descend_batch(base, starts, np.full(40, 15), target, False)
+    import pinocchio as pin
+
+    for k, start in enumerate(starts):
+        full = base.copy()
+        full[jmg.variable_indices] = start
+        close = solver._descend(full.copy(), target, False, 15)
+        probe = full.copy()
+        solver._descend(probe, target, False, kinematics.ABORT_ITERATION)
+        state = RobotState(mycobot, probe)
+        error = np.linalg.norm(pin.log6(pin_se3(state.frame_pose(jmg.tip_link)).actInv(target)).vector)
+        if close and error <= kinematics.ABORT_ERROR * 0.99:
+            assert converged[k]
+        if converged[k]:
+            done = RobotState(mycobot, base.copy())
+            done.set_group_positions("arm", final[k])
+            assert np.allclose(done.frame_pose(jmg.tip_link), pose, atol=1e-4)
