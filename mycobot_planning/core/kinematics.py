@@ -1,8 +1,9 @@
 """Inverse kinematics for any planning group: damped Gauss-Newton on Pinocchio with random restarts.
 
 Why numerical: the package must work for any URDF + SRDF arm, so no closed form. Each iteration is
-one Pinocchio call for kinematics and joint Jacobians plus a 6x6 solve; restarts from uniform random
-states inside the limits give the distinct solutions MTC's ComputeIK asks for. The iteration loop
+one Pinocchio call for kinematics and joint Jacobians plus a 6x6 solve; restarts from table samples
+whose poses are near the target, then from uniform random states inside the limits, give the
+distinct solutions MTC's ComputeIK asks for. The iteration loop
 is hand-written in Python (Pinocchio ships no IK solver); it stays short because Gauss-Newton
 converges quadratically near a solution and steps are clamped far from one.
 """
@@ -39,7 +40,12 @@ class IKOptions:
     max_step: float = 1.0  # radians (or metres) per joint per iteration, keeps steps in the linear regime
     max_iterations_restart: int = 15  # descents from table or random seeds give up sooner
     seed_table_size: int = 4000  # precomputed FK samples whose nearest poses seed the descents
-    seed_neighbours: int = 8  # table seeds tried before uniform random restarts
+    seed_neighbours: int = 8  # table seeds tried first (with the seed state)
+    # Further table samples, nearest pose first, tried before uniform random restarts: they
+    # converge far more often and land on different IK branches, so a search for every distinct
+    # solution saturates in fewer attempts (ComputeIK on the seeds' pick and place: 100 instead
+    # of 150 attempts, every solution still found in 200 of 200 runs).
+    restart_neighbours: int = 120
     orientation_weight: float = 0.05  # metres per unit of rotation-matrix difference in the table
 
 
@@ -141,13 +147,15 @@ class IKSolver:
 
         The seed comes first when its pose is at least as near the target as the nearest table
         sample (consecutive Cartesian steps, small moves: the answer stays on the seed's branch);
-        otherwise the nearest table samples come first and the seed after them. Then uniform
-        random restarts until the caller's timeout.
+        otherwise the nearest table samples come first and the seed after them. Then the next
+        restart_neighbours table samples, then uniform random restarts until the caller stops.
         """
         tree, samples = self._seed_table(position_only)
-        k = min(self.options.seed_neighbours, len(samples))
+        first = min(self.options.seed_neighbours, len(samples))
+        k = min(first + self.options.restart_neighbours, len(samples))
         distances, nearest = tree.query(self._features(target, position_only), k=k)
         distances, nearest = np.atleast_1d(distances), np.atleast_1d(nearest)
+        nearest, more = nearest[:first], nearest[first:]
         pmodel, pdata = self.model.pin_model, self.model.pin_data
         pin.forwardKinematics(pmodel, pdata, self.model.to_q(base))
         seed_pose = pin.updateFramePlacement(pmodel, pdata, self.frame_id)
@@ -159,6 +167,8 @@ class IKSolver:
             yield samples[index].copy(), self.options.max_iterations_restart
         if seed_distance > distances[0]:
             yield seed
+        for index in more:
+            yield samples[index].copy(), self.options.max_iterations_restart
         while True:
             yield rng.uniform(self._sample_lower, self._sample_upper), self.options.max_iterations_restart
 
