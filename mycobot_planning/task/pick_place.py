@@ -460,7 +460,7 @@ def _check_model(model: RobotModel, params: PickPlaceParameters) -> None:
 
 
 #: IK time budget per grasp / place target (s): ours, the seed leaves it to MTC (see
-#: build_pick_place_task). Enough for the table seeds and ~150 random restarts on this machine.
+#: build_pick_place_task). ComputeIK's own stopping rules usually end the search sooner.
 GRASP_IK_TIMEOUT = 0.02
 PLACE_IK_TIMEOUT = 0.02
 
@@ -480,10 +480,9 @@ def build_pick_place_task(model: RobotModel, params: PickPlaceParameters | None 
     (None: the group's kinematics_solver_timeout, 0.05 s). The seed leaves it to MTC, whose
     ComputeIK spends its whole 1 s timeout on every target with fewer than
     ``max_ik_solutions`` solutions (most of the seed's 8.7 s). Our ComputeIK stops earlier: a
-    target none of its first 24 attempts reaches is out of reach (~5 ms; 17 of the 24 grasp
-    angles here), and otherwise once 150 random restarts find no new solution. 20 ms bounds
-    the reachable targets: the nearest-pose seeds plus ~150 restarts, which found every
-    distinct solution in 99 of 100 of our runs (the last new one came at attempt 165 once).
+    target none of its first 16 attempts reaches is out of reach (a few ms; 17 of the 24 grasp
+    angles here), and otherwise once 100 restarts in a row find no new solution (~13 ms here).
+    20 ms only bounds that search on a slow or loaded machine.
 
     Raises ValueError when the parameters name groups, states, links or an end effector the
     model lacks; the Task's init() reports anything else per stage.
