@@ -8,8 +8,8 @@ announcement (every 3 s by default), so:
   LOOKUP_TIMEOUT), before the verb reports it missing: present things are found fast, absent
   things cost the full wait;
 - *list* verbs have no name to wait for: they poll until the graph has stopped changing
-  (LIST_QUIET after at least LIST_MIN, at most LIST_MAX); with `--spin-time T` they spin for
-  exactly T seconds, as ros2cli does without its daemon.
+  (LIST_QUIET after at least LIST_MIN, at most LIST_MAX; an empty graph is not "stopped"); with
+  `--spin-time T` they spin for exactly T seconds, as ros2cli does without its daemon.
 Nodes that announce themselves more often than every 3 s are found faster (see the Fast DDS
 `leaseAnnouncement` setting in the test fixture of test_ros2cli.py).
 """
@@ -132,7 +132,10 @@ def wait_for(probe: Callable[[], T | None], timeout: float) -> T | None:
 
 
 def settled(snapshot: Callable[[], T], max_time: float) -> T:
-    """The graph snapshot once it has been quiet for LIST_QUIET (after LIST_MIN), or at max_time."""
+    """The graph snapshot once it has been quiet for LIST_QUIET (after LIST_MIN), or at max_time.
+
+    An empty snapshot does not count as quiet: on a busy machine discovery can take longer than
+    LIST_MIN, and "nothing there" is then the wrong answer (a node started a moment ago)."""
     start = time.monotonic()
     last = snapshot()
     last_change = start
@@ -140,7 +143,7 @@ def settled(snapshot: Callable[[], T], max_time: float) -> T:
         now = time.monotonic()
         if now - start >= max_time:
             return last
-        if now - start >= min(LIST_MIN, max_time) and now - last_change >= LIST_QUIET:
+        if last and now - start >= min(LIST_MIN, max_time) and now - last_change >= LIST_QUIET:
             return last
         time.sleep(0.05)
         current = snapshot()
