@@ -158,9 +158,11 @@ def system():
         controllers.stop()
 
 
-def _run(module: str, *params: str, linger: float = 3.0, timeout: float = 90.0) -> tuple[int, str]:
+def _run(module: str, *params: str, linger: float = 6.0, timeout: float = 90.0) -> tuple[int, str]:
     """Run a demo with exit_when_done; (exit code, log). ``linger``: exit_linger, long enough
-    for the probe to receive the latched topics of a fast demo (0 when they do not matter)."""
+    for the probe to receive the latched topics of a fast demo (0 when they do not matter).
+    The demos plan in tens of milliseconds; 3 s once proved too short for discovery on a loaded
+    machine (nothing received from ik_clearance_cost)."""
     node = NodeProcess(f"mycobot_planning.nodes.{module}",
                        ["--ros-args", "-p", "exit_when_done:=true", "-p", f"exit_linger:={linger}",
                         *[a for p in params for a in ("-p", p)]])
