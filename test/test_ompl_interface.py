@@ -385,6 +385,28 @@ def test_same_seed_same_path(ptype):
     assert np.array_equal(first.path, second.path)
 
 
+def test_edge_validator_checks_the_same_states_as_ompls(monkeypatch):
+    """RRTConnect's edges are checked by our _EdgeValidator: the same states in the same order
+    as OMPL's DiscreteMotionValidator, so the same seed gives the same path and check count."""
+    import mycobot_planning.core.ompl_interface as ompl_interface
+
+    world, start, goal = narrow_passage_world()
+    spec = ompl_interface._PLANNERS["geometric::RRTConnect"]
+    assert spec.plain_motion_checks
+
+    def run():
+        return plan_joint_space(world.lower, world.upper, world.planner_validity(), start, [goal], "RRTConnect",
+                                {}, timeout=30.0, seed=11, interpolate_states=0)
+
+    ours = run()
+    monkeypatch.setitem(ompl_interface._PLANNERS, "geometric::RRTConnect",
+                        ompl_interface._PlannerSpec(**{**spec.__dict__, "plain_motion_checks": False}))
+    theirs = run()
+    world.assert_valid_path(ours, start, [goal])
+    assert ours.validity_checks == theirs.validity_checks
+    assert np.array_equal(ours.path, theirs.path)
+
+
 def test_interpolation_and_simplification_options():
     world, start, goal = easy_world(6)
     common = dict(timeout=10.0, seed=9)

@@ -233,12 +233,17 @@ class _PlannerSpec:
     optimizing: bool = False  # keeps improving until the time limit unless told to stop
     goals_as_starts: bool = False  # multi-goal given as starts: PRM deadlock, bidirectional starvation
     one_goal_at_a_time: bool = False  # multi-goal solved goal by goal: BFMT crash, AORRTC bugs
+    # Only checks motions as (from, to) -> bool (never asks for the last valid state), so the
+    # edge checks can run in one Python loop per edge (_EdgeValidator) instead of one callback
+    # per state. The path simplifier only asks that question too.
+    plain_motion_checks: bool = False
 
 
 _ALL_SPECS = [
     _PlannerSpec("geometric::RRT", "RRT", {"range": _RANGE, "goal_bias": _GOAL_BIAS, "intermediate_states": _INTERMEDIATE}),
     _PlannerSpec(
-        "geometric::RRTConnect", "RRTConnect", {"range": _RANGE, "intermediate_states": _INTERMEDIATE}, goals_as_starts=True
+        "geometric::RRTConnect", "RRTConnect", {"range": _RANGE, "intermediate_states": _INTERMEDIATE}, goals_as_starts=True,
+        plain_motion_checks=True,
     ),
     _PlannerSpec("geometric::RRTstar", "RRTstar", {**_RRTSTAR_COMMON, **_RRTSTAR_ONLY}, optimizing=True),
     _PlannerSpec("geometric::InformedRRTstar", "InformedRRTstar", dict(_RRTSTAR_COMMON), optimizing=True),
@@ -827,6 +832,93 @@ def _make_validity_bridge(
     return is_valid
 
 
+class _EdgeValidator(ob.MotionValidator):
+    """OMPL's DiscreteMotionValidator, with each edge's states made by NumPy and checked in one
+    Python loop: the end state first, then the interior by repeated halving (the same states in
+    the same order, so plans are identical), but without an OMPL-to-Python call, a state copy
+    and an array per state. Edge checks are most of a plan's validity checks (the simplifier
+    alone makes two thirds of them). Used only for planners that ask plain (from, to)
+    questions (``_PlannerSpec.plain_motion_checks``)."""
+
+    def __init__(self, si: Any, fn: Callable[[np.ndarray], bool], dim: int, ctx: _CallbackContext,
+                 counter: list[int], cancel: Any = None) -> None:
+        super().__init__(si)
+        self._space = si.getStateSpace()
+        self._fn = fn
+        self._dim = dim
+        self._ctx = ctx
+        self._counter = counter
+        self._cancel = cancel
+        self._orders: dict[int, np.ndarray] = {}
+
+    def _order(self, segments: int) -> np.ndarray:
+        """Interior fractions in DiscreteMotionValidator's order (breadth-first halving)."""
+        order = self._orders.get(segments)
+        if order is None:
+            mids: list[int] = []
+            queue = [(1, segments - 1)] if segments >= 2 else []
+            while queue:
+                first, last = queue.pop(0)
+                mid = (first + last) // 2
+                mids.append(mid)
+                if first < mid:
+                    queue.append((first, mid - 1))
+                if last > mid:
+                    queue.append((mid + 1, last))
+            order = np.array(mids, dtype=float) / segments
+            self._orders[segments] = order
+        return order
+
+    def _valid(self, q: np.ndarray) -> bool:
+        ctx = self._ctx
+        self._counter[0] += 1
+        if ctx.error is not None or ctx.cancelled:
+            return False
+        if self._cancel is not None and self._cancel.is_set():
+            ctx.cancelled = True
+            if ctx.ptc is not None:
+                ctx.ptc.terminate()
+            return False
+        try:
+            return bool(self._fn(q))
+        except BaseException as e:  # noqa: BLE001 - re-raised by plan_joint_space
+            ctx.error = e
+            if ctx.ptc is not None:
+                ctx.ptc.terminate()
+            return False
+
+    def checkMotion(self, s1: Any, s2: Any, *last_valid: Any) -> bool:  # noqa: N802 - OMPL's name
+        if last_valid:  # never asked by the planners this is installed for
+            raise RuntimeError("_EdgeValidator cannot report the last valid state")
+        dim = self._dim
+        b = np.array(s2[0:dim])
+        if not self._valid(b.copy()):  # a copy: the user function may write into its argument
+            return False
+        fractions = self._order(self._space.validSegmentCount(s1, s2))
+        if fractions.size:
+            a = np.array(s1[0:dim])
+            for q in a + fractions[:, None] * (b - a):
+                if not self._valid(q):
+                    return False
+        return True
+
+
+_IDLE: list[Any] = []
+
+
+def _idle_motion_validator() -> _EdgeValidator:
+    """A validator bound to a one-dimensional space of its own, never asked anything: what a
+    finished plan's SpaceInformation holds instead of the _EdgeValidator that points back at it."""
+    if not _IDLE:
+        space = ob.RealVectorStateSpace(1)
+        bounds = ob.RealVectorBounds(1)
+        bounds.setLow(0.0)
+        bounds.setHigh(1.0)
+        space.setBounds(bounds)
+        _IDLE.append(_EdgeValidator(ob.SpaceInformation(space), lambda q: True, 1, _CallbackContext(), [0]))
+    return _IDLE[0]
+
+
 def _as_vector(name: str, value: Any, dim: int | None) -> np.ndarray:
     try:
         v = np.asarray(value, dtype=float)
@@ -1015,6 +1107,8 @@ def plan_joint_space(
     si = ob.SpaceInformation(space)
     si.setStateValidityChecker(bridge)
     si.setStateValidityCheckingResolution(float(longest_valid_segment_fraction))
+    if spec.plain_motion_checks:
+        si.setMotionValidator(_EdgeValidator(si, is_state_valid, dim, ctx, counter, cancel))
     si.setup()
 
     planning_time = 0.0
@@ -1051,6 +1145,10 @@ def plan_joint_space(
     finally:
         ctx.ptc = None
         si.setStateValidityChecker(ob.AllValidStateValidityChecker(si))
+        if spec.plain_motion_checks:
+            # The validator keeps its SpaceInformation alive and the SpaceInformation keeps the
+            # validator: a C++ cycle Python's collector cannot see. Swap in an idle one.
+            si.setMotionValidator(_idle_motion_validator())
 
     goal_index = next((i for i, g in valid_goals if np.allclose(waypoints[-1], g, rtol=0, atol=1e-9)), None)
     return result(
