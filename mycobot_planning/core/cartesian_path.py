@@ -380,7 +380,7 @@ class _StepSolver:
         self.jmap = jmap
         self.lower = model.lower_limits[self.idx]
         self.upper = model.upper_limits[self.idx]
-        self.full = full  # shared buffer: group entries are rewritten, the rest stays the start's
+        self.full = full  # the start's positions; its group entries are rewritten only to build q
         self.nan = np.full(len(self.idx), np.nan)
         self.damping = _DAMPING * np.eye(6)
         self.frame = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
@@ -390,12 +390,12 @@ class _StepSolver:
 
     def update(self, x: np.ndarray) -> None:
         self.x = x
-        self.full[self.idx] = x
         pmodel, pdata, fid = self.pmodel, self.pdata, self.fid
         if self.slots is not None:
             q = self.q
             q[self.slots] = x
         else:
+            self.full[self.idx] = x
             q = self.model.to_q(self.full)
         pin.computeJointJacobians(pmodel, pdata, q)
         placement = pin.updateFramePlacement(pmodel, pdata, fid)
