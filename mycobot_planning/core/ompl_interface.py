@@ -794,14 +794,13 @@ class _CallbackContext:
         self.cancelled = False
 
 
-def _make_validity_bridge(
+def _guarded_validity(
     fn: Callable[[np.ndarray], bool],
-    dim: int,
     ctx: _CallbackContext,
     counter: list[int],
     cancel: Any = None,
-) -> Callable[[Any], bool]:
-    """The callable OMPL calls per state: state -> fresh numpy array -> user function -> bool.
+) -> Callable[[np.ndarray], bool]:
+    """The user function as OMPL may call it: counted, never raising, and cancellable.
 
     An exception from the user function must not unwind through OMPL (PRM would hit
     std::terminate with its helper thread still running), so it is stored, the planner is told
@@ -810,9 +809,8 @@ def _make_validity_bridge(
     is not an option (PRM evaluates it from its own thread), and every planner checks states
     continuously, so this is where a cancel request is seen soonest.
     """
-    array = np.array
 
-    def is_valid(state: Any) -> bool:
+    def valid(q: np.ndarray) -> bool:
         counter[0] += 1
         if ctx.error is not None or ctx.cancelled:
             return False
@@ -822,12 +820,22 @@ def _make_validity_bridge(
                 ctx.ptc.terminate()
             return False
         try:
-            return bool(fn(array(state[0:dim])))
+            return bool(fn(q))
         except BaseException as e:  # noqa: BLE001 - re-raised by plan_joint_space
             ctx.error = e
             if ctx.ptc is not None:
                 ctx.ptc.terminate()
             return False
+
+    return valid
+
+
+def _make_validity_bridge(valid: Callable[[np.ndarray], bool], dim: int) -> Callable[[Any], bool]:
+    """The callable OMPL calls per state: state -> fresh numpy array -> guarded user function."""
+    array = np.array
+
+    def is_valid(state: Any) -> bool:
+        return valid(array(state[0:dim]))
 
     return is_valid
 
@@ -840,15 +848,11 @@ class _EdgeValidator(ob.MotionValidator):
     alone makes two thirds of them). Used only for planners that ask plain (from, to)
     questions (``_PlannerSpec.plain_motion_checks``)."""
 
-    def __init__(self, si: Any, fn: Callable[[np.ndarray], bool], dim: int, ctx: _CallbackContext,
-                 counter: list[int], cancel: Any = None) -> None:
+    def __init__(self, si: Any, valid: Callable[[np.ndarray], bool], dim: int) -> None:
         super().__init__(si)
         self._space = si.getStateSpace()
-        self._fn = fn
+        self._valid = valid  # _guarded_validity's function: counted, never raising, cancellable
         self._dim = dim
-        self._ctx = ctx
-        self._counter = counter
-        self._cancel = cancel
         self._orders: dict[int, np.ndarray] = {}
 
     def _order(self, segments: int) -> np.ndarray:
@@ -868,24 +872,6 @@ class _EdgeValidator(ob.MotionValidator):
             order = np.array(mids, dtype=float) / segments
             self._orders[segments] = order
         return order
-
-    def _valid(self, q: np.ndarray) -> bool:
-        ctx = self._ctx
-        self._counter[0] += 1
-        if ctx.error is not None or ctx.cancelled:
-            return False
-        if self._cancel is not None and self._cancel.is_set():
-            ctx.cancelled = True
-            if ctx.ptc is not None:
-                ctx.ptc.terminate()
-            return False
-        try:
-            return bool(self._fn(q))
-        except BaseException as e:  # noqa: BLE001 - re-raised by plan_joint_space
-            ctx.error = e
-            if ctx.ptc is not None:
-                ctx.ptc.terminate()
-            return False
 
     def checkMotion(self, s1: Any, s2: Any, *last_valid: Any) -> bool:  # noqa: N802 - OMPL's name
         if last_valid:  # never asked by the planners this is installed for
@@ -915,7 +901,7 @@ def _idle_motion_validator() -> _EdgeValidator:
         bounds.setLow(0.0)
         bounds.setHigh(1.0)
         space.setBounds(bounds)
-        _IDLE.append(_EdgeValidator(ob.SpaceInformation(space), lambda q: True, 1, _CallbackContext(), [0]))
+        _IDLE.append(_EdgeValidator(ob.SpaceInformation(space), lambda q: True, 1))
     return _IDLE[0]
 
 
@@ -1043,7 +1029,8 @@ def plan_joint_space(
 
     counter = [0]
     ctx = _CallbackContext()
-    bridge = _make_validity_bridge(is_state_valid, dim, ctx, counter, cancel)
+    guarded = _guarded_validity(is_state_valid, ctx, counter, cancel)
+    bridge = _make_validity_bridge(guarded, dim)
 
     def result(status: str, path: np.ndarray | None = None, **kw: Any) -> OmplResult:
         return OmplResult(
@@ -1108,7 +1095,7 @@ def plan_joint_space(
     si.setStateValidityChecker(bridge)
     si.setStateValidityCheckingResolution(float(longest_valid_segment_fraction))
     if spec.plain_motion_checks:
-        si.setMotionValidator(_EdgeValidator(si, is_state_valid, dim, ctx, counter, cancel))
+        si.setMotionValidator(_EdgeValidator(si, guarded, dim))
     si.setup()
 
     planning_time = 0.0

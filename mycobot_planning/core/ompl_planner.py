@@ -43,8 +43,8 @@ from .planning_interface import (
     time_group_path,
 )
 from .planning_scene import PlanningScene
-from .trajectory_validator import validate_trajectory
 from .robot_model import JointModelGroup
+from .trajectory_validator import validate_trajectory
 
 _STATUS_CODES = {
     "INVALID_START": MoveItErrorCode.START_STATE_IN_COLLISION,

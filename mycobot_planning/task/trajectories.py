@@ -150,9 +150,10 @@ def merge_trajectories(scene: PlanningScene, start: RobotState, parts: Sequence[
     checked against ``scene`` and timed for the merged group. When only one part moves and the
     others hold ``start``'s values (Connect's usual case: the gripper does not move), that part's
     trajectory is kept as it is, extended by the held joints: no new states, so no re-check
-    (planners return trajectories checked in the scene they planned in) and no re-timing. Returns ``(trajectory, group,
-    message)``; the trajectory is None (and the message says why) when the groups overlap, no
-    planning group covers the union of their joints, or the merged path collides.
+    (planners return trajectories checked in the scene they planned in) and no re-timing.
+    Returns ``(trajectory, group, message)``; the trajectory is None (and the message says why)
+    when the groups overlap, no planning group covers the union of their joints, or the merged
+    path collides.
     """
     model = scene.robot_model
     names: list[str] = []
