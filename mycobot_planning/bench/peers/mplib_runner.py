@@ -160,11 +160,11 @@ def main() -> int:
 
 
 def _version() -> str:
-    try:
-        import importlib.metadata as metadata
+    import importlib.metadata as metadata
 
+    try:
         return metadata.version("mplib")
-    except Exception:
+    except metadata.PackageNotFoundError:  # run from a source tree without package metadata
         return "unknown"
 
 
