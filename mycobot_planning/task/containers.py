@@ -36,6 +36,7 @@ from .stage import (
     UNKNOWN,
     WRITES_NEXT_START,
     WRITES_PREV_END,
+    GENERATOR_KEY,
     Connecting,
     Interface,
     InterfaceState,
@@ -192,6 +193,14 @@ class ContainerBase(Stage):
     def _required_interface(self) -> int:
         return self._required
 
+    def _schedule_key(self) -> tuple | None:
+        """The most urgent work of the children. (A container's own interfaces keep the states
+        it has handed on, so they say nothing about pending work.)"""
+        if not self._can_compute():
+            return None
+        keys = [key for key in (child._schedule_key() for child in self._children) if key is not None]
+        return min(keys) if keys else GENERATOR_KEY
+
     def _validate_connectivity(self) -> None:
         for child in self._children:
             child._validate_connectivity()
@@ -210,7 +219,7 @@ class ContainerBase(Stage):
             for internal in self._external_to_internal.get(id(external), ()):
                 update_state_priorities(internal, external.priority, BACKWARD if direction == FORWARD else FORWARD)
             return
-        internal = InterfaceState(external.scene, external.properties, external.priority)
+        internal = InterfaceState(external.scene, external.properties, external.priority, external.lineage_depth)
         self._states.append(internal)
         self._internal_to_external[id(internal)] = external
         self._external_to_internal[id(external)].append(internal)
@@ -239,7 +248,7 @@ class ContainerBase(Stage):
         self._new_solution(solution)
 
     def _external_copy(self, internal: InterfaceState) -> InterfaceState:
-        external = InterfaceState(internal.scene, internal.properties, internal.priority)
+        external = InterfaceState(internal.scene, internal.properties, internal.priority, internal.lineage_depth)
         self._states.append(external)
         self._internal_to_external[id(internal)] = external
         self._external_to_internal[id(external)].append(internal)
@@ -344,9 +353,15 @@ class SerialContainer(ContainerBase):
         return any(child._can_compute() for child in self._children)
 
     def _compute(self) -> None:
+        # One child per step, the one with the most urgent work (see the schedule note in
+        # stage.py; MTC computes every child once per round). Ties go to the earlier child.
+        chosen, best = None, None
         for child in self._children:
-            if child._can_compute():
-                child._run_compute()
+            key = child._schedule_key()
+            if key is not None and (best is None or key < best):
+                chosen, best = child, key
+        if chosen is not None:
+            chosen._run_compute()
 
     def _on_new_solution(self, current: SolutionBase) -> None:
         children = self._children
@@ -444,7 +459,7 @@ class ParallelContainerBase(ContainerBase):
 
     # pushing own results (ComputeIK, Merger)
     def spawn(self, state: InterfaceState, solution: SolutionBase) -> None:
-        self._spawn(state, InterfaceState(state.scene, state.properties, state.priority), solution)
+        self._spawn(state, InterfaceState(state.scene, state.properties, state.priority, state.lineage_depth), solution)
 
     def sendForward(self, from_state: InterfaceState, to_state: InterfaceState, solution: SolutionBase) -> None:
         self._send_forward(from_state, to_state, solution)
@@ -587,6 +602,14 @@ class Fallbacks(ParallelContainerBase):
     def _compute(self) -> None:
         index = self._active if self._mode == CONNECT else self._current
         self._children[index]._run_compute()
+
+    def _schedule_key(self) -> tuple | None:
+        key = super()._schedule_key()
+        if key is not None and self._mode in (PROPAGATE_FORWARDS, PROPAGATE_BACKWARDS):
+            waiting = self._pull().front_key()  # jobs not yet handed to a child
+            if waiting is not None and waiting < key:
+                key = waiting
+        return key
 
     def _on_new_solution(self, solution: SolutionBase) -> None:
         self._job_has_solutions = True

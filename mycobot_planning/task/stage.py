@@ -29,6 +29,18 @@ States waiting in an interface are processed best first: the longest partial sol
 belong to, then the lowest cost (MTC's state priority), so planning effort goes to the
 branches closest to a full solution.
 
+Where we differ from MTC: the schedule. MTC's SerialContainer computes every child that can
+compute once per round, so every open branch advances at the same pace, and on the seeds' pick
+and place the first solution waits for lifts, approaches and connects of grasps that are not
+needed yet. Here a SerialContainer computes one child per step: the one holding the most
+promising pending work (:meth:`Stage._schedule_key`), ranked like the states themselves, with
+one addition: a state made by a monitoring generator (the place poses derived from a lifted
+grasp) carries the depth of the partial solution it derives from (``lineage_depth``), so the
+place side of a grasp that got far is worked on before new grasps. Every pending item is still
+processed (each step consumes one), so a task planned to exhaustion still works through every
+state and pair MTC would; with ``max_solutions`` the first solutions come sooner (on the pick and
+place about a third sooner) and may be other ones than MTC would find first.
+
 Nothing here imports rclpy.
 """
 from __future__ import annotations
@@ -152,20 +164,38 @@ class Priority(NamedTuple):
         return (0, -self.depth, self.cost)
 
 
+def schedule_key(priority: Priority, lineage_depth: int = 0) -> tuple:
+    """How urgent work on a state (or pair of states) is, smallest first: finite cost first,
+    then the deeper of the partial solution's depth and the lineage depth, then the partial
+    solution's own depth, then its cost. Without lineage it orders as ``Priority.key``."""
+    if math.isinf(priority.cost):
+        return (1, -priority.depth, -priority.depth, 0.0)
+    return (0, -max(priority.depth, lineage_depth), -priority.depth, priority.cost)
+
+
+#: The schedule key of work that derives from no state (a generator with nothing upstream):
+#: after every pending state of finite cost.
+GENERATOR_KEY = (0, 0, 0, math.inf)
+
+
 class InterfaceState:
     """A planning scene (never modified once shared) plus properties for the next stage
     (e.g. GenerateGraspPose's ``target_pose`` for ComputeIK), and the solutions that start or
     end here."""
 
-    __slots__ = ("scene", "properties", "priority", "incoming", "outgoing", "owner", "_order", "__weakref__")
+    __slots__ = ("scene", "properties", "priority", "lineage_depth", "incoming", "outgoing", "owner", "_order",
+                 "__weakref__")
 
     def __init__(self, scene: PlanningScene, properties: dict[str, Any] | None = None,
-                 priority: Priority = Priority()) -> None:
+                 priority: Priority = Priority(), lineage_depth: int = 0) -> None:
         if not isinstance(scene, PlanningScene):
             raise TaskError(f"an interface state needs a PlanningScene, got {type(scene).__name__}")
         self.scene = scene
         self.properties: dict[str, Any] = dict(properties) if properties else {}
         self.priority = priority
+        # Depth of the partial solution this state derives from through a monitoring generator
+        # (kept along the states computed from it); used only to schedule work (schedule_key).
+        self.lineage_depth = lineage_depth
         self.incoming: list[SolutionBase] = []
         self.outgoing: list[SolutionBase] = []
         self.owner: Interface | None = None
@@ -175,6 +205,14 @@ class InterfaceState:
     def state(self):
         """The robot state of the scene (a shortcut for ``scene.current_state``)."""
         return self.scene.current_state
+
+    @property
+    def schedule_depth(self) -> int:
+        """The depth that ranks work on this state: its own partial solution's or its lineage's."""
+        return max(self.priority.depth, self.lineage_depth)
+
+    def schedule_key(self) -> tuple:
+        return schedule_key(self.priority, self.lineage_depth)
 
     def __repr__(self) -> str:
         return f"InterfaceState(priority={tuple(self.priority)}, properties={sorted(self.properties)})"
@@ -210,7 +248,13 @@ class Interface:
     def front(self) -> InterfaceState | None:
         if not self._states:
             return None
-        return min(self._states, key=lambda s: (s.priority.key(), s._order))
+        return min(self._states, key=lambda s: (s.schedule_key(), s._order))
+
+    def front_key(self) -> tuple | None:
+        """The schedule key of the most urgent state (None when empty)."""
+        if not self._states:
+            return None
+        return min(s.schedule_key() for s in self._states)
 
     def pop(self) -> InterfaceState:
         state = self.front()
@@ -235,7 +279,7 @@ class Interface:
         return bool(self._states)
 
     def __iter__(self) -> Iterator[InterfaceState]:
-        return iter(sorted(self._states, key=lambda s: (s.priority.key(), s._order)))
+        return iter(sorted(self._states, key=lambda s: (s.schedule_key(), s._order)))
 
     def __contains__(self, state: object) -> bool:
         return any(s is state for s in self._states)
@@ -656,6 +700,12 @@ class Stage:
     def _compute(self) -> None:
         raise NotImplementedError
 
+    def _schedule_key(self) -> tuple | None:
+        """How urgent this stage's pending work is (smallest first; see ``schedule_key``), or
+        None when it cannot compute. A container computes its most urgent child. Stages whose
+        work derives from no state rank last (GENERATOR_KEY)."""
+        return GENERATOR_KEY if self._can_compute() else None
+
     def _run_compute(self) -> None:
         started = time.perf_counter()
         try:
@@ -702,6 +752,7 @@ class Stage:
         if not self._store_solution(solution, from_state, None):
             return
         self.forwardProperties(from_state, to_state)
+        to_state.lineage_depth = max(to_state.lineage_depth, from_state.lineage_depth)
         self._states.append(to_state)
         solution.set_start_state(from_state)
         solution.set_end_state(to_state)
@@ -714,6 +765,7 @@ class Stage:
         if not self._store_solution(solution, None, to_state):
             return
         self.forwardProperties(to_state, from_state)
+        from_state.lineage_depth = max(from_state.lineage_depth, to_state.lineage_depth)
         self._states.append(from_state)
         solution.set_start_state(from_state)
         solution.set_end_state(to_state)
@@ -812,7 +864,7 @@ class Generator(ComputeBase):
         if solution is None or isinstance(solution, (int, float)):
             solution = SubTrajectory(cost=0.0 if solution is None else float(solution))
         if to_state is None:
-            to_state = InterfaceState(state.scene, state.properties, state.priority)
+            to_state = InterfaceState(state.scene, state.properties, state.priority, state.lineage_depth)
         self._spawn(state, to_state, solution)
 
 
@@ -945,6 +997,11 @@ class PropagatingEitherWay(ComputeBase):
     def _can_compute(self) -> bool:
         return bool(self._starts) or bool(self._ends)
 
+    def _schedule_key(self) -> tuple | None:
+        keys = [k for k in (self._starts.front_key() if self._starts else None,
+                            self._ends.front_key() if self._ends else None) if k is not None]
+        return min(keys) if keys else None
+
     def _compute(self) -> None:
         if self._starts:
             state = self._starts.pop()
@@ -1031,10 +1088,17 @@ class Connecting(ComputeBase):
 
     @staticmethod
     def _pair_key(pair: tuple[InterfaceState, InterfaceState]) -> tuple:
-        return ((pair[0].priority + pair[1].priority).key(), pair[0]._order, pair[1]._order)
+        start, end = pair
+        return (schedule_key(start.priority + end.priority, max(start.lineage_depth, end.lineage_depth)),
+                start._order, end._order)
 
     def _can_compute(self) -> bool:
         return bool(self._pending)
+
+    def _schedule_key(self) -> tuple | None:
+        if not self._pending:
+            return None
+        return min(self._pair_key(pair) for pair in self._pending)[0]
 
     def _compute(self) -> None:
         best = min(range(len(self._pending)), key=lambda i: self._pair_key(self._pending[i]))

@@ -21,6 +21,7 @@ distinct solutions" to milliseconds instead of the full timeout.
 """
 from __future__ import annotations
 
+import itertools
 from collections import deque
 from typing import Any
 
@@ -126,6 +127,14 @@ class ComputeIK(WrapperBase):
     def _can_compute(self) -> bool:
         return bool(self._upstream or self._arrived) or self._children[0]._can_compute()
 
+    def _schedule_key(self) -> tuple | None:
+        keys = [solution.start.schedule_key() for solution in itertools.chain(self._upstream, self._arrived)
+                if solution.start is not None]
+        child = self._children[0]._schedule_key()
+        if child is not None:
+            keys.append(child)
+        return min(keys) if keys else None
+
     def _compute(self) -> None:
         child = self._children[0]
         if child._can_compute():
@@ -197,7 +206,7 @@ class ComputeIK(WrapperBase):
             else:
                 sub.markAsFailure(f"Collision between '{contact[0]}' and '{contact[1]}'" if contact
                                   else "outside joint limits")
-            new_state = InterfaceState(solution_scene)
+            new_state = InterfaceState(solution_scene, lineage_depth=upstream.start.lineage_depth)  # type: ignore[union-attr]
             self.forwardProperties(upstream.start, new_state)  # type: ignore[arg-type]
             self.spawn(new_state, sub)
         if not solutions:

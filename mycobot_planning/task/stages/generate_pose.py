@@ -64,6 +64,12 @@ class GeneratePose(MonitoringGenerator):
     def canCompute(self) -> bool:
         return bool(self._upstream)
 
+    def _schedule_key(self) -> tuple | None:
+        # Work derived from a monitored solution is as urgent as that solution's end state.
+        if not self._upstream:
+            return None
+        return min(solution.end.schedule_key() for solution in self._upstream)  # type: ignore[union-attr]
+
     def compute(self) -> None:
         solution = self._upstream.popleft()
         scene = solution.end.scene.diff()  # type: ignore[union-attr]
@@ -76,7 +82,7 @@ class GeneratePose(MonitoringGenerator):
         except ValueError as exc:
             self.spawn(InterfaceState(scene), SubTrajectory.failure(f"unknown frame '{target.frame_id}': {exc}"))
             return
-        state = InterfaceState(scene)
+        state = InterfaceState(scene, lineage_depth=solution.end.schedule_depth)  # type: ignore[union-attr]
         self.forwardProperties(solution.end, state)  # type: ignore[arg-type]
         state.properties["target_pose"] = target
         self.spawn(state, SubTrajectory(cost=0.0))
@@ -194,7 +200,7 @@ class GenerateGraspPose(GeneratePose):
             pose = np.eye(4)
             pose[:3, :3] = pin.exp3(axis * angle)
             angle += delta
-            state = InterfaceState(scene)
+            state = InterfaceState(scene, lineage_depth=solution.end.schedule_depth)  # type: ignore[union-attr]
             state.properties["target_pose"] = PoseStamped(p["object"], pose)
             for name in ("pregrasp", "grasp"):
                 if p[name] is not None:
@@ -263,7 +269,7 @@ class GeneratePlacePose(GeneratePose):
                 rotation = pin.exp3(np.array([0.0, 0.0, i * 2.0 * math.pi / rotations]))
                 pose = flipped.copy()
                 pose[:3, :3] = rotation @ flipped[:3, :3]
-                state = InterfaceState(scene)
+                state = InterfaceState(scene, lineage_depth=solution.end.schedule_depth)  # type: ignore[union-attr]
                 self.forwardProperties(solution.end, state)  # type: ignore[arg-type]
                 state.properties["target_pose"] = PoseStamped("world", pose)
                 state.properties["ik_frame"] = ik_frame
