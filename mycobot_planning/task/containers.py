@@ -196,10 +196,10 @@ class ContainerBase(Stage):
     def _schedule_key(self) -> tuple | None:
         """The most urgent work of the children. (A container's own interfaces keep the states
         it has handed on, so they say nothing about pending work.)"""
-        if not self._can_compute():
-            return None
         keys = [key for key in (child._schedule_key() for child in self._children) if key is not None]
-        return min(keys) if keys else GENERATOR_KEY
+        if keys:
+            return min(keys)
+        return GENERATOR_KEY if self._can_compute() else None
 
     def _validate_connectivity(self) -> None:
         for child in self._children:
@@ -351,6 +351,10 @@ class SerialContainer(ContainerBase):
 
     def _can_compute(self) -> bool:
         return any(child._can_compute() for child in self._children)
+
+    def _schedule_key(self) -> tuple | None:
+        keys = [key for key in (child._schedule_key() for child in self._children) if key is not None]
+        return min(keys) if keys else None
 
     def _compute(self) -> None:
         # One child per step, the one with the most urgent work (see the schedule note in
@@ -604,6 +608,8 @@ class Fallbacks(ParallelContainerBase):
         self._children[index]._run_compute()
 
     def _schedule_key(self) -> tuple | None:
+        if not self._can_compute():  # (also hands the next job to a child)
+            return None
         key = super()._schedule_key()
         if key is not None and self._mode in (PROPAGATE_FORWARDS, PROPAGATE_BACKWARDS):
             waiting = self._pull().front_key()  # jobs not yet handed to a child
