@@ -15,8 +15,10 @@ into an error response so that a bad request can never take the node down.
 from __future__ import annotations
 
 import json
+import re
 import threading
 import time
+import traceback
 import uuid
 from typing import Any, Callable
 
@@ -32,6 +34,89 @@ RPC_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE, durabili
 BAD_REQUEST = -1001
 UNKNOWN_METHOD = -1002
 INTERNAL_ERROR = -1003
+
+#: Largest request a server decodes (bytes of JSON text). The biggest legitimate requests are
+#: scene batches and meshes: 1,000 boxes are about 0.4 MB, the perception pipeline's meshes a few
+#: hundred kB; 16 MiB leaves room for large meshes and refuses a flood before json.loads holds it
+#: twice in memory.
+MAX_REQUEST_BYTES = 16 * 1024 * 1024
+#: Deepest nesting of JSON arrays/objects a request may have. Our deepest message (a task
+#: solution: solution -> sub_trajectory -> trajectory -> points -> positions) is about 10 levels;
+#: a hostile 5,000-level request would otherwise exhaust the recursion of json.loads and of the
+#: message classes.
+MAX_REQUEST_DEPTH = 64
+
+_ID_PATTERN = re.compile(r'"id"\s*:\s*"([0-9A-Za-z_-]{1,64})"')
+
+
+def log_safe(text: Any, limit: int = 2000) -> str:
+    """``text`` as a log line can always take it: lone surrogates (which JSON can carry but
+    UTF-8 cannot, and which make rclpy's logging raise) and control characters other than newline
+    and tab are escaped, and long texts are cut with an ellipsis."""
+    text = str(text)
+    if len(text) > limit:
+        text = text[:limit] + f"... ({len(text) - limit} more characters)"
+    if text.isprintable() and text.isascii():
+        return text
+    # isprintable() is False for control characters and for lone surrogates (category Cs).
+    out = [ch if ch in "\n\t" or ch.isprintable() else ascii(ch)[1:-1] for ch in text]
+    return "".join(out)
+
+
+def _depth_problem(value: Any, limit: int) -> str | None:
+    """Why ``value`` (decoded JSON) is unacceptable as text or shape, or None.
+
+    Strings that UTF-8 cannot encode (lone surrogates from ``"\\ud800"`` escapes) are refused here,
+    once, at the boundary: every later log line and message may then echo request strings.
+    """
+    stack = [(value, 1, "request")]
+    while stack:
+        item, depth, path = stack.pop()
+        if depth > limit:
+            return f"{path} is nested more than {limit} levels deep"
+        if isinstance(item, dict):
+            for k, v in item.items():
+                if not _encodable(k):
+                    return f"{path} has a key that is not valid Unicode: {log_safe(k, 80)!s}"
+                if isinstance(v, (dict, list)):
+                    stack.append((v, depth + 1, f"{path}.{log_safe(k, 40)}"))
+                elif isinstance(v, str) and not _encodable(v):
+                    return f"{path}.{log_safe(k, 40)} is not valid Unicode (a lone surrogate): {log_safe(v, 80)}"
+        elif isinstance(item, list):
+            for i, v in enumerate(item):
+                if isinstance(v, (dict, list)):
+                    stack.append((v, depth + 1, f"{path}[{i}]"))
+                elif isinstance(v, str) and not _encodable(v):
+                    return f"{path}[{i}] is not valid Unicode (a lone surrogate): {log_safe(v, 80)}"
+    return None
+
+
+def _encodable(text: str) -> bool:
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return True
+
+
+def decode_request(text: str, what: str = "request") -> Any:
+    """JSON text from the wire, checked once at the boundary: size, nesting, Unicode.
+
+    Raises RpcError(BAD_REQUEST) with a sentence; the decoded value is safe to echo in logs and
+    answers afterwards.
+    """
+    if len(text) > MAX_REQUEST_BYTES:
+        raise RpcError(BAD_REQUEST, f"{what} is {len(text)} bytes; the limit is {MAX_REQUEST_BYTES} bytes")
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise RpcError(BAD_REQUEST, f"malformed JSON: {exc}") from None
+    except RecursionError:
+        raise RpcError(BAD_REQUEST, f"{what} is nested more than {MAX_REQUEST_DEPTH} levels deep") from None
+    problem = _depth_problem(value, MAX_REQUEST_DEPTH)
+    if problem is not None:
+        raise RpcError(BAD_REQUEST, problem)
+    return value
 
 
 class RpcError(Exception):
@@ -87,38 +172,60 @@ class JsonRpcServer:
         return sorted(self._handlers)
 
     def _on_request(self, msg: String) -> None:
+        """Answer one request; nothing in it can raise out of here (a bad request gets an error
+        answer, a handler bug gets INTERNAL_ERROR with a sentence, its traceback goes to the log)."""
         request_id = None
         try:
-            envelope = json.loads(msg.data)
+            try:
+                envelope = decode_request(msg.data)
+            except RpcError:
+                match = _ID_PATTERN.search(msg.data[:4096])  # answer the caller even so
+                request_id = match.group(1) if match else None
+                raise
             if not isinstance(envelope, dict):
                 raise RpcError(BAD_REQUEST, "request must be a JSON object")
             request_id = envelope.get("id")
+            if not isinstance(request_id, str) or not request_id:
+                request_id = None
+                raise RpcError(BAD_REQUEST, "request lacks a string 'id'")
             method = envelope.get("method")
             params = envelope.get("params", {}) or {}
-            if not isinstance(request_id, str) or not request_id:
-                raise RpcError(BAD_REQUEST, "request lacks a string 'id'")
+            unknown = sorted(str(k) for k in envelope if k not in ("id", "method", "params"))
+            if unknown:
+                raise RpcError(BAD_REQUEST, f"request has unknown keys {unknown}; known: id, method, params")
             if not isinstance(params, dict):
                 raise RpcError(BAD_REQUEST, "'params' must be a JSON object")
-            handler = self._handlers.get(method)
+            handler = self._handlers.get(method) if isinstance(method, str) else None
             if handler is None:
-                raise RpcError(UNKNOWN_METHOD, f"unknown method '{method}'; known: {', '.join(self.methods)}")
+                raise RpcError(UNKNOWN_METHOD, f"unknown method {log_safe(repr(method), 80)}; known: {', '.join(self.methods)}")
             result = handler(params)
             reply = {"id": request_id, "ok": True, "result": result if result is not None else {}}
-        except json.JSONDecodeError as exc:
-            self._node.get_logger().warning(f"rejected a request that is not JSON: {exc}")
-            reply = {"id": request_id, "ok": False, "error": {"code": BAD_REQUEST, "message": f"malformed JSON: {exc}"}}
         except RpcError as exc:
-            self._node.get_logger().warning(f"request {request_id}: {exc.message}")
-            reply = {"id": request_id, "ok": False, "error": {"code": exc.code, "message": exc.message}}
+            self._warn(f"request {request_id}: {exc.message}" if request_id else f"rejected a request: {exc.message}")
+            reply = {"id": request_id, "ok": False, "error": {"code": exc.code, "message": log_safe(exc.message)}}
+        except RecursionError:
+            self._warn(f"request {request_id}: nested too deeply")
+            reply = {"id": request_id, "ok": False, "error": {
+                "code": BAD_REQUEST, "message": f"request is nested more than {MAX_REQUEST_DEPTH} levels deep"}}
         except Exception as exc:  # a bad request must never take the node down: answer it instead
-            self._node.get_logger().error(f"request {request_id} failed: {type(exc).__name__}: {exc}")
-            reply = {
-                "id": request_id,
-                "ok": False,
-                "error": {"code": INTERNAL_ERROR, "message": f"{type(exc).__name__}: {exc}"},
-            }
+            self._error(f"request {request_id} failed inside the server: {type(exc).__name__}: {exc}\n"
+                        + traceback.format_exc())
+            reply = {"id": request_id, "ok": False, "error": {
+                "code": INTERNAL_ERROR,
+                "message": "the server could not process this request (an internal error; its log has the details)"}}
         if request_id is not None:
-            self._publisher.publish(String(data=json.dumps(reply)))
+            try:
+                self._publisher.publish(String(data=json.dumps(reply)))
+            except Exception as exc:  # e.g. a result that is not JSON-able: still answer
+                self._error(f"request {request_id}: the answer could not be sent: {type(exc).__name__}: {exc}")
+                self._publisher.publish(String(data=json.dumps({"id": request_id, "ok": False, "error": {
+                    "code": INTERNAL_ERROR, "message": "the server could not encode its answer (see its log)"}})))
+
+    def _warn(self, text: str) -> None:
+        self._node.get_logger().warning(log_safe(text))
+
+    def _error(self, text: str) -> None:
+        self._node.get_logger().error(log_safe(text, limit=8000))
 
 
 class JsonRpcClient:

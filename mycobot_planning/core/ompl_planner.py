@@ -142,7 +142,7 @@ class OmplPlanner:
         attempt = 0
         while attempt < attempts:
             remaining = budget - (time.perf_counter() - started)
-            if remaining <= 0:
+            if remaining <= 0 or (request.cancel is not None and request.cancel.is_set()):
                 break
             seed = None if request.seed is None else int(request.seed) + 1 + attempt + 1000 * replans
             result = plan_joint_space(
@@ -160,8 +160,11 @@ class OmplPlanner:
                 seed=seed,
                 projection_dims=self._projection_dims(jmg, resolved),
                 stop_on_first_solution=True,
+                cancel=request.cancel,
             )
             last = result
+            if result.status == "ABORT":
+                break
             trajectory = None
             if result.success:
                 trajectory = time_group_path(model, jmg, result.path, velocity_scaling, acceleration_scaling)
@@ -178,6 +181,8 @@ class OmplPlanner:
             if result.success and (best is None or _length(result.path) < _length(best[0].path)):
                 best = (result, trajectory)
             attempt += 1
+        if request.cancel is not None and request.cancel.is_set():  # preempted: no partial answers
+            raise failure(MoveItErrorCode.PREEMPTED, f"planning for group '{jmg.name}' was cancelled (stop requested)")
         if best is None:
             status = last.status if last is not None else "TIMEOUT"
             code = _STATUS_CODES.get(status, MoveItErrorCode.PLANNING_FAILED)

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Mapping, Sequence, Union
+from typing import Any, Mapping, Sequence, Union
 
 import numpy as np
 
@@ -73,6 +73,9 @@ class MotionPlanRequest:
     circ_center: Sequence[float] | None = None
     circ_interim: Sequence[float] | None = None
     num_ik_goals: int = 8  # IK-sampled goal states for pose goals (sampling planners)
+    #: Anything with ``is_set()`` (a threading.Event): set from another thread, it ends a running
+    #: sampling planner early with PREEMPTED (the planning server's stop / an action's cancel).
+    cancel: Any = field(default=None, repr=False, compare=False)
 
 
 @dataclass

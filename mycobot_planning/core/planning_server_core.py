@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 import threading
 import time
+import traceback
 from dataclasses import dataclass
 from typing import Any, Callable, Mapping, Sequence
 
@@ -53,6 +54,7 @@ from .execution import (
     parse_trajectory,
     timed_to_joint_trajectory,
 )
+from .planning_contexts import ContextFactory, PlanningContextPool
 from .planning_interface import JointGoal, MotionPlanRequest, NamedGoal, PoseGoal
 from .planning_scene import PlanningScene
 from .robot_model import RobotModel
@@ -63,6 +65,21 @@ __all__ = ["PlanningDefaults", "PlanningServerCore", "RequestError", "goal_from_
 SOURCE = "planning_server"
 # error codes for scene requests (JSON-RPC answers)
 BAD_REQUEST = -1001
+
+# Request budgets: a request beyond them is refused with the bound, so no client can occupy the
+# planner for hours (move_group has no such bounds; one careless request there blocks everyone).
+#: s: the longest allowed_planning_time a plan request may ask for.
+MAX_PLANNING_TIME = 300.0
+#: num_planning_attempts at most (each attempt shares the planning time).
+MAX_PLANNING_ATTEMPTS = 1000
+#: waypoints of one Cartesian request at most (each is one IK target).
+MAX_WAYPOINTS = 10_000
+#: m: the largest coordinate a goal pose, waypoint or ik_frame_offset may have. A myCobot reaches
+#: 0.28 m and even large industrial arms a few metres; beyond this a pose is a unit mistake or an
+#: attack, and numbers like 1e308 overflow the planners' arithmetic.
+WORKSPACE_BOUND = 1000.0
+#: rad: a start state may lie this far outside a joint limit (the controllers' readback noise).
+START_STATE_LIMIT_TOLERANCE = 1e-4
 
 _PLAN_KEYS = {
     "group", "goal", "pipeline_id", "planner_id", "allowed_planning_time", "num_planning_attempts",
@@ -108,22 +125,30 @@ def pose_from_json(value: Any, what: str = "pose") -> np.ndarray:
     """A 4x4 world pose from a Pose dict, [x, y, z, qx, qy, qz, qw] or a 4x4 nested list."""
     try:
         if isinstance(value, Pose):
-            return value.to_matrix()
+            return _bounded(value.to_matrix())
         if isinstance(value, Mapping):
-            return Pose.from_dict(value).to_matrix()
+            return _bounded(Pose.from_dict(value).to_matrix())
         if isinstance(value, (list, tuple, np.ndarray)):
             arr = np.asarray(value, dtype=float)
             if arr.shape == (7,):
                 if not np.all(np.isfinite(arr)):
                     raise ValueError("contains NaN or infinite values")
-                return make_pose(arr[:3], quat_xyzw=arr[3:])
+                return _bounded(make_pose(arr[:3], quat_xyzw=arr[3:]))
             if arr.shape == (4, 4):
-                return check_pose(arr, what)
+                return _bounded(check_pose(arr, what))
             raise ValueError(f"expected 7 numbers (x, y, z, qx, qy, qz, qw) or a 4x4 matrix, got shape {arr.shape}")
     except (MessageError, ValueError, TypeError) as exc:
         raise RequestError(MoveItErrorCode.INVALID_GOAL_CONSTRAINTS, f"invalid {what}: {exc}") from None
     raise RequestError(MoveItErrorCode.INVALID_GOAL_CONSTRAINTS,
                        f"invalid {what}: expected a Pose object, 7 numbers or a 4x4 matrix, got {type(value).__name__}")
+
+
+def _bounded(pose: np.ndarray) -> np.ndarray:
+    far = float(np.max(np.abs(pose[:3, 3])))
+    if far > WORKSPACE_BOUND:
+        raise ValueError(f"position {[float(v) for v in pose[:3, 3]]} is beyond the workspace bound of "
+                         f"{WORKSPACE_BOUND:g} m")
+    return pose
 
 
 def goal_from_parameters(values: Mapping[str, Any], last_set: str | None = None) -> dict[str, Any]:
@@ -176,14 +201,19 @@ class PlanningServerCore:
         defaults: PlanningDefaults | None = None,
         clock: Callable[[], float] = time.monotonic,
         log: Callable[[str, str], None] | None = None,
+        context_factory: ContextFactory | None = None,
     ) -> None:
+        """``context_factory`` builds another (model, pipeline) pair like ``model`` and ``pipeline``:
+        with it, plans of several clients run at once (see planning_contexts.py); without it,
+        one after the other."""
         self.model = model
         self.pipeline = pipeline
+        self.contexts = PlanningContextPool(model, pipeline, context_factory)
+        self._cancels: set[threading.Event] = set()
         self.defaults = defaults or PlanningDefaults()
         self._clock = clock
         self._log = log or (lambda level, text: None)
         self._lock = threading.RLock()
-        self._plan_lock = threading.Lock()
         self.scene = PlanningScene(model)
         self._joint_values: dict[str, float] = {}
         self._joint_stamp: float | None = None
@@ -433,6 +463,15 @@ class PlanningServerCore:
         if unknown:
             raise RequestError(MoveItErrorCode.INVALID_ROBOT_STATE,
                                f"start_state names joints {unknown} that robot '{self.model.name}' does not have")
+        outside = []
+        for name, value in active.items():
+            i = self.model.variable_index(name)
+            low, high = float(self.model.lower_limits[i]), float(self.model.upper_limits[i])
+            if not (low - START_STATE_LIMIT_TOLERANCE <= value <= high + START_STATE_LIMIT_TOLERANCE):
+                outside.append(f"{name}={value:.6g} outside [{low:.4f}, {high:.4f}]")
+        if outside:
+            raise RequestError(MoveItErrorCode.INVALID_ROBOT_STATE,
+                               "start_state is outside the joint limits: " + "; ".join(outside))
         complete = all(n in active for n in self.model.variable_names)
         if not complete:
             problem = self.joint_state_problem([j for j in group_joints if j not in active])
@@ -459,7 +498,7 @@ class PlanningServerCore:
         kinds = [k for k in ("named", "joints", "pose") if goal.get(k) is not None]
         if len(kinds) != 1:
             raise RequestError(bad, f"goal needs exactly one of 'named', 'joints' or 'pose', got {kinds or 'none'}")
-        tolerance = self._number(goal.get("tolerance", 1e-4), "goal tolerance", bad)
+        tolerance = self._tolerance(goal.get("tolerance", 1e-4), "goal tolerance")
         if kinds[0] == "named":
             if not isinstance(goal["named"], str) or not goal["named"]:
                 raise RequestError(bad, "goal 'named' must be a named state string such as 'home'")
@@ -483,9 +522,16 @@ class PlanningServerCore:
             pose,
             link or None,
             pose_from_json(offset, "ik_frame_offset") if offset is not None else None,
-            self._number(goal.get("position_tolerance", 1e-4), "position_tolerance", bad),
-            self._number(goal.get("orientation_tolerance", 1e-3), "orientation_tolerance", bad),
+            self._tolerance(goal.get("position_tolerance", 1e-4), "position_tolerance"),
+            self._tolerance(goal.get("orientation_tolerance", 1e-3), "orientation_tolerance"),
         )
+
+    @classmethod
+    def _tolerance(cls, value: Any, what: str) -> float:
+        number = cls._number(value, what, MoveItErrorCode.INVALID_GOAL_CONSTRAINTS)
+        if number < 0:
+            raise RequestError(MoveItErrorCode.INVALID_GOAL_CONSTRAINTS, f"{what} must not be negative, got {number:g}")
+        return number
 
     @staticmethod
     def _number(value: Any, what: str, code: int = MoveItErrorCode.INVALID_MOTION_PLAN) -> float:
@@ -522,9 +568,19 @@ class PlanningServerCore:
                              ("max_acceleration_scaling_factor", d.max_acceleration_scaling_factor)):
             value = params.get(key)
             numbers[key] = default if value is None or value == 0 else self._number(value, key)
+        if not 0 < numbers["allowed_planning_time"] <= MAX_PLANNING_TIME:
+            raise RequestError(bad, f"allowed_planning_time must be in (0, {MAX_PLANNING_TIME:g}] s, "
+                                    f"got {numbers['allowed_planning_time']:g}")
+        for key in ("max_velocity_scaling_factor", "max_acceleration_scaling_factor"):
+            if not 0 < numbers[key] <= 1:
+                raise RequestError(bad, f"{key} must be in (0, 1], got {numbers[key]:g}")
         attempts = params.get("num_planning_attempts", d.num_planning_attempts)
         if isinstance(attempts, bool) or not isinstance(attempts, int):
             raise RequestError(bad, f"num_planning_attempts must be an integer, got {attempts!r}")
+        if attempts == 0:
+            attempts = d.num_planning_attempts  # MoveIt reads 0 as "the default"
+        if not 1 <= attempts <= MAX_PLANNING_ATTEMPTS:
+            raise RequestError(bad, f"num_planning_attempts must be in [1, {MAX_PLANNING_ATTEMPTS}], got {attempts}")
         seed = params.get("seed")
         if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int)):
             raise RequestError(bad, f"seed must be an integer, got {seed!r}")
@@ -561,11 +617,12 @@ class PlanningServerCore:
             self._log("warning", f"plan request refused: {exc.message}")
             return self._fail(exc.code, exc.message)
         try:
-            with self._plan_lock:
-                response = self.pipeline.plan(scene, request)
+            response = self._plan_in_context(scene, request)
         except Exception as exc:  # planners promise not to raise; if one does, answer anyway
             response = None
-            message = f"planner failed: {type(exc).__name__}: {exc}"
+            self._log("error", f"planner raised {type(exc).__name__}: {exc}\n{traceback.format_exc()}")
+            message = ("the planner failed on this request with an internal error (the planning_server's log has "
+                       "the details)")
         if response is None or not response.success or response.trajectory is None:
             code = response.error_code if response is not None else MoveItErrorCode(MoveItErrorCode.FAILURE, message)
             self._last_plan, self._last_plan_problem = None, f"the last planning request failed: {code}"
@@ -588,6 +645,20 @@ class PlanningServerCore:
             "group": request.group,
             "planner_id": response.planner_id,
         }
+
+    def _plan_in_context(self, scene: PlanningScene, request: MotionPlanRequest) -> Any:
+        """Plan on a free planning context, cancellable by stop()."""
+        cancel = threading.Event()
+        request.cancel = cancel
+        with self._lock:
+            self._cancels.add(cancel)
+        try:
+            with self.contexts.acquire() as context:
+                local = context.scene_for(scene)
+                return context.pipeline.plan(local, context.request_for(request, local))
+        finally:
+            with self._lock:
+                self._cancels.discard(cancel)
 
     def _display(self, trajectory: JointTrajectory) -> None:
         for listener in list(self.trajectory_listeners):
@@ -612,6 +683,9 @@ class PlanningServerCore:
             waypoints = params.get("waypoints")
             if not isinstance(waypoints, (list, tuple)) or not waypoints:
                 raise RequestError(bad, "waypoints must be a non-empty list of poses")
+            if len(waypoints) > MAX_WAYPOINTS:
+                raise RequestError(bad, f"{len(waypoints)} waypoints: a Cartesian request may have at most "
+                                        f"{MAX_WAYPOINTS}")
             poses = [pose_from_json(w, f"waypoint {k}") for k, w in enumerate(waypoints)]
             offset = params.get("ik_frame_offset")
             kwargs: dict[str, Any] = {}
@@ -632,14 +706,18 @@ class PlanningServerCore:
             frame = params.get("frame", "world")
             if not isinstance(frame, str) or not frame:
                 raise RequestError(bad, "frame must be a frame name")
+            if link is not None and link and not self.model.has_link(link):
+                raise RequestError(bad, f"unknown link {link!r} of robot '{self.model.name}'")
+            ik_offset = pose_from_json(offset, "ik_frame_offset") if offset is not None else None
             scene = self._start_scene(params.get("start_state"), self.model.group(group).joint_names)
+            poses = self._in_world(poses, frame, scene)
         except RequestError as exc:
             return self._fail(exc.code, exc.message, fraction=0.0, stop_reason="invalid_request")
-        with self._plan_lock:
+        with self.contexts.acquire() as context:
+            local = context.scene_for(scene)
             result = compute_cartesian_path(
-                scene, group, scene.current_state.copy(), poses, link=link or None,
-                ik_frame_offset=pose_from_json(offset, "ik_frame_offset") if offset is not None else None,
-                avoid_collisions=avoid, **kwargs,
+                local, group, local.current_state.copy(), poses, link=link or None,
+                ik_frame_offset=ik_offset, avoid_collisions=avoid, **kwargs,
             )
         out: dict[str, Any] = {
             "error_code": _code(result.error_code.val, result.error_code.message, "cartesian_path"),
@@ -656,6 +734,18 @@ class PlanningServerCore:
         self._log("info" if result.success else "warning",
                   f"cartesian path for '{group}': fraction {result.fraction:.3f} ({result.stop_reason}) {result.message}")
         return out
+
+    def _in_world(self, poses: list[np.ndarray], frame: str, scene: PlanningScene) -> list[np.ndarray]:
+        """Waypoints given in ``frame`` (the world, the robot's root link or any robot link, posed
+        at the start state, as MoveIt reads a waypoint's header.frame_id) in the world frame."""
+        if frame in ("world", "/world", self.model.root_link):
+            return poses
+        if not self.model.has_link(frame):
+            raise RequestError(MoveItErrorCode.FRAME_TRANSFORM_FAILURE,
+                               f"unknown frame {frame!r}: waypoints may be given in 'world', "
+                               f"'{self.model.root_link}' or a link of robot '{self.model.name}'")
+        base = scene.current_state.frame_pose(frame)
+        return [base @ pose for pose in poses]
 
     # ------------------------------------------------------------------ execution
     def _execution_reply(self, result: Any) -> dict[str, Any]:
@@ -758,10 +848,17 @@ class PlanningServerCore:
         )
 
     def stop(self) -> dict[str, Any]:
+        """Stop the running execution and cancel every running plan (they answer PREEMPTED)."""
+        with self._lock:
+            cancels = list(self._cancels)
+        for cancel in cancels:
+            cancel.set()
         stopped = self.executor.stop()
-        message = "stopping the running execution" if stopped else "nothing is executing"
+        parts = (["stopping the running execution"] if stopped else []) + (
+            [f"cancelling {len(cancels)} running plan{'s' if len(cancels) != 1 else ''}"] if cancels else [])
+        message = " and ".join(parts) if parts else "nothing is executing or planning"
         self._log("info", f"stop requested: {message}")
-        return {"stopped": stopped, "message": message}
+        return {"stopped": stopped or bool(cancels), "message": message, "cancelled_plans": len(cancels)}
 
     def get_state(self, controller_states: Mapping[str, Any] | None = None) -> dict[str, Any]:
         positions, age = self.joint_positions()

@@ -31,6 +31,7 @@ import os
 import sys
 import threading
 import time
+import traceback
 from collections import OrderedDict
 from pathlib import Path
 from typing import Any, Callable, Mapping
@@ -48,10 +49,12 @@ from std_srvs.srv import Trigger
 from trajectory_msgs.msg import JointTrajectory as JointTrajectoryMsg
 from visualization_msgs.msg import Marker, MarkerArray
 
-from interfaces_py.json_rpc import BAD_REQUEST, JsonRpcServer, RpcError
+from interfaces_py.json_rpc import BAD_REQUEST, JsonRpcServer, RpcError, decode_request, log_safe
 from interfaces_py.msgs import CollisionObject, JointTrajectory, MoveItErrorCode
 from interfaces_py.ros_conversions import collision_object_to_markers, joint_trajectory_to_msg
 from mycobot_planning.core.execution import ControllerInfo, ControllerState, ExecutionSettings, load_controllers
+from mycobot_planning.core.ompl_interface import OmplConfigError, resolve_planner_id
+from mycobot_planning.core.pilz import KNOWN_PLANNER_IDS
 from mycobot_planning.core.planning_pipeline import PlanningPipeline
 from mycobot_planning.core.planning_server_core import (
     PlanningDefaults,
@@ -220,7 +223,7 @@ class PlanningServer(Node):
         pipeline = PlanningPipeline(self._config.get("ompl_planning_file") or None,
                                     self._config.get("pilz_cartesian_limits_file") or None)
         controllers = load_controllers(self._config.get("controllers_file") or None)
-        self._params = _declare(self, self._specs(model, pipeline))
+        self._params = _declare(self, self._specs(model, pipeline, self._goal_group))
 
         # The high-rate streams (/joint_states and the controllers' states, 100 Hz each) are
         # served by a second node on a single-threaded executor of its own: rclpy's
@@ -231,7 +234,11 @@ class PlanningServer(Node):
         self._monitor_executor.add_node(self._monitor)
         self._bus = RosControllerBus(self, self._monitor, controllers, self._on_feedback)
         self.core = PlanningServerCore(model, pipeline, controllers, self._bus, self._execution_settings(),
-                                       self._planning_defaults(), log=self._log)
+                                       self._planning_defaults(), log=self._log,
+                                       context_factory=self._planning_context)
+        # One spare planning context, built in the background: the first plan that arrives while
+        # another runs then starts at once (see core/planning_contexts.py).
+        threading.Thread(target=self.core.contexts.prepare, name="spare planning context", daemon=True).start()
         self._goal_last_set: str | None = None
         self._params.on_change(self._on_params)
 
@@ -295,6 +302,11 @@ class PlanningServer(Node):
         )
 
     # ------------------------------------------------------------------ set-up
+    def _planning_context(self) -> tuple[RobotModel, PlanningPipeline]:
+        """Another model and pipeline like the server's own, for a plan that runs beside another."""
+        return self._load_model(), PlanningPipeline(self._config.get("ompl_planning_file") or None,
+                                                    self._config.get("pilz_cartesian_limits_file") or None)
+
     def _load_model(self) -> RobotModel:
         urdf = self._config.get("robot_description")
         srdf = self._config.get("robot_description_semantic")
@@ -316,8 +328,12 @@ class PlanningServer(Node):
         return RobotModel.from_strings(urdf, srdf or '<robot name=""/>', limits, kinematics,
                                        package_dirs=[str(Path(p) / "share") for p in prefixes])
 
+    def _goal_group(self) -> str:
+        params = getattr(self, "_params", None)  # None while the parameters are being declared
+        return params.get("goal.group") if params is not None else "arm"
+
     @staticmethod
-    def _specs(model: RobotModel, pipeline: PlanningPipeline) -> list[ParameterSpec]:
+    def _specs(model: RobotModel, pipeline: PlanningPipeline, goal_group: Callable[[], str]) -> list[ParameterSpec]:
         named = sorted({n for g in model.group_names for n in model.named_state_names(g)})
 
         def group_check(value: Any) -> str | None:
@@ -332,6 +348,31 @@ class PlanningServer(Node):
         def pipeline_check(value: Any) -> str | None:
             ids = pipeline.pipeline_ids
             return None if value in ids else f"unknown planning pipeline '{value}'; known: {ids}"
+
+        def planner_check(value: Any) -> str | None:
+            if not value or value in KNOWN_PLANNER_IDS:
+                return None
+            for group in model.group_names:
+                try:
+                    resolve_planner_id(pipeline.ompl.config, group, value)
+                    return None
+                except OmplConfigError:
+                    continue
+            return (f"unknown planner id '{value}': neither an OMPL planner of any group nor one of the industrial "
+                    f"planner's {list(KNOWN_PLANNER_IDS)}; e.g. 'RRTConnectkConfigDefault'")
+
+        joint_numbers = _numbers("goal.joint_values")
+
+        def joint_values_check(value: Any) -> str | None:
+            problem = joint_numbers(value)
+            if problem is not None or not value:
+                return problem
+            group = goal_group()
+            joints = model.group(group).joint_names if model.has_group(group) else []
+            if len(value) != len(joints):
+                return (f"goal.joint_values has {len(value)} values but group '{group}' has {len(joints)} joints "
+                        f"{list(joints)}")
+            return None
 
         ex = "trajectory_execution."
         return [
@@ -359,7 +400,9 @@ class PlanningServer(Node):
                           "to succeed; 0 trusts the controllers", range=(0.0, 10.0)),
             ParameterSpec("planning_pipeline", "ompl", "default planning pipeline: ompl, "
                           "pilz_industrial_motion_planner or joint_interpolation", validator=pipeline_check),
-            ParameterSpec("planner_id", "", "default planner id (empty: the pipeline's default)"),
+            ParameterSpec("planner_id", "", "default planner id (empty: the pipeline's default), e.g. "
+                          "'RRTConnectkConfigDefault' or, for the industrial pipeline, PTP, LIN or CIRC",
+                          validator=planner_check),
             ParameterSpec("planning_time", 5.0, "default allowed planning time in seconds", range=(0.001, 3600.0)),
             ParameterSpec("planning_attempts", 1, "default number of planning attempts", range=(1, 1000)),
             ParameterSpec("max_velocity_scaling_factor", 1.0, "default velocity scaling factor",
@@ -370,7 +413,7 @@ class PlanningServer(Node):
             ParameterSpec("goal.named_target", "", "named state goal (e.g. 'ready') of the Trigger 'plan' service; "
                           "the goal.* target set last is the one planned to", validator=named_check),
             ParameterSpec("goal.joint_values", [], "joint goal (one value per group joint, rad) of the Trigger "
-                          "'plan' service", validator=_numbers("goal.joint_values"), dynamic_typing=True),
+                          "'plan' service", validator=joint_values_check, dynamic_typing=True),
             ParameterSpec("goal.pose", [], "pose goal [x, y, z, qx, qy, qz, qw] in the world frame of the Trigger "
                           "'plan' service", validator=_numbers("goal.pose", 7), dynamic_typing=True),
             ParameterSpec("goal.link", "", "link the pose goal is for (empty: the group's tip link)",
@@ -413,7 +456,9 @@ class PlanningServer(Node):
         self.get_logger().info("parameters set: " + ", ".join(f"{k}={v!r}" for k, v in changed.items()))
 
     def _log(self, level: str, text: str) -> None:
-        # One call site per severity: rclpy refuses a call site whose severity changes.
+        # One call site per severity: rclpy refuses a call site whose severity changes. Texts may
+        # echo request strings: log_safe escapes what rclpy's logging cannot encode.
+        text = log_safe(text, limit=8000)
         logger = self.get_logger()
         if level == "error":
             logger.error(text)
@@ -494,22 +539,24 @@ class PlanningServer(Node):
                 self._js_problem_logged = now
                 self.get_logger().warning(f"ignoring /joint_states message: {problem}")
 
-    def _topic_update(self, topic: str, apply: Callable[[], Any]) -> None:
+    def _topic_update(self, topic: str, msg: String, apply: Callable[[Any], Any]) -> None:
+        """Decode (checked at the boundary like a request) and apply one scene update; a bad one
+        is logged and changes nothing."""
         try:
-            apply()
-        except RequestError as exc:
-            self.get_logger().warning(f"refused update on {topic}: {exc.message}")
+            apply(decode_request(msg.data, f"message on {topic}"))
+        except (RequestError, RpcError) as exc:
+            self._log("warning", f"refused update on {topic}: {exc.message}")
         except Exception as exc:  # never let a bad message take the node down
-            self.get_logger().error(f"update on {topic} failed: {type(exc).__name__}: {exc}")
+            self._log("error", f"update on {topic} failed: {type(exc).__name__}: {exc}\n{traceback.format_exc()}")
 
     def _on_planning_scene(self, msg: String) -> None:
-        self._topic_update("/planning_scene", lambda: self.core.apply_planning_scene(msg.data))
+        self._topic_update("/planning_scene", msg, self.core.apply_planning_scene)
 
     def _on_collision_object(self, msg: String) -> None:
-        self._topic_update("/collision_object", lambda: self.core.apply_collision_objects([msg.data]))
+        self._topic_update("/collision_object", msg, lambda data: self.core.apply_collision_objects([data]))
 
     def _on_attached_object(self, msg: String) -> None:
-        self._topic_update("/attached_collision_object", lambda: self.core.apply_attached_collision_object(msg.data))
+        self._topic_update("/attached_collision_object", msg, self.core.apply_attached_collision_object)
 
     # ------------------------------------------------------------------ Trigger services
     @staticmethod

@@ -1,0 +1,225 @@
+"""The planning server's core refuses requests that cannot be right or would never end, lets
+several clients plan at once, and stop() ends running plans (issue 13).
+
+No ROS here: PlanningServerCore with a controller bus that is never used (nothing executes).
+"""
+from __future__ import annotations
+
+import json
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from interfaces_py.json_rpc import BAD_REQUEST, MAX_REQUEST_BYTES, RpcError, decode_request, log_safe
+from interfaces_py.msgs import MoveItErrorCode
+from mycobot_planning.core.execution import ControllerInfo, ExecutionSettings
+from mycobot_planning.core.planning_contexts import PlanningContextPool
+from mycobot_planning.core.planning_pipeline import PlanningPipeline
+from mycobot_planning.core.planning_server_core import (
+    MAX_PLANNING_ATTEMPTS,
+    MAX_PLANNING_TIME,
+    MAX_WAYPOINTS,
+    WORKSPACE_BOUND,
+    PlanningServerCore,
+)
+from mycobot_planning.core.robot_model import RobotModel
+
+ARM = ["link1_to_link2", "link2_to_link3", "link3_to_link4", "link4_to_link5", "link5_to_link6", "link6_to_link6_flange"]
+INTERNAL_NAMES = ("IndexError", "KeyError", "TypeError", "ValueError", "Traceback", "AttributeError")
+
+
+class IdleBus:
+    """A controller bus for a server that only plans here."""
+
+    def is_available(self, controller: str) -> bool:
+        return False
+
+    def send(self, controller, trajectory) -> None:
+        raise AssertionError("nothing may be sent to a controller in these tests")
+
+    def stop(self, controller: str) -> None:
+        pass
+
+    def controller_state(self, controller, goal_id=None):
+        return None
+
+
+def _core(model: RobotModel, pipeline, factory=None) -> PlanningServerCore:
+    core = PlanningServerCore(model, pipeline, [ControllerInfo("arm_controller", tuple(ARM))], IdleBus(),
+                              ExecutionSettings(), context_factory=factory)
+    names = list(model.variable_names)
+    assert core.update_joint_state(names, [0.0] * len(names)) is None
+    return core
+
+
+@pytest.fixture(scope="module")
+def pipeline() -> PlanningPipeline:
+    return PlanningPipeline()
+
+
+@pytest.fixture()
+def core(mycobot, pipeline) -> PlanningServerCore:
+    return _core(mycobot, pipeline)
+
+
+def _error(result) -> tuple[int, str]:
+    return result["error_code"]["val"], result["error_code"]["message"]
+
+
+@pytest.mark.parametrize("change, code, words", [
+    ({"allowed_planning_time": 1e9}, MoveItErrorCode.INVALID_MOTION_PLAN, f"{MAX_PLANNING_TIME:g}"),
+    ({"allowed_planning_time": -1.0}, MoveItErrorCode.INVALID_MOTION_PLAN, "allowed_planning_time"),
+    ({"num_planning_attempts": 10 ** 9}, MoveItErrorCode.INVALID_MOTION_PLAN, f"{MAX_PLANNING_ATTEMPTS}"),
+    ({"num_planning_attempts": -3}, MoveItErrorCode.INVALID_MOTION_PLAN, "num_planning_attempts"),
+    ({"max_velocity_scaling_factor": 7.0}, MoveItErrorCode.INVALID_MOTION_PLAN, "max_velocity_scaling_factor"),
+    ({"max_acceleration_scaling_factor": -0.5}, MoveItErrorCode.INVALID_MOTION_PLAN, "max_acceleration_scaling"),
+    ({"goal": {"named": "ready", "tolerance": -1}}, MoveItErrorCode.INVALID_GOAL_CONSTRAINTS, "negative"),
+    ({"goal": {"pose": [0.15, 0, 0.2, 1, 0, 0, 0], "position_tolerance": -0.01}},
+     MoveItErrorCode.INVALID_GOAL_CONSTRAINTS, "position_tolerance must not be negative"),
+    ({"goal": {"pose": [1e308, 0, 0.2, 1, 0, 0, 0]}}, MoveItErrorCode.INVALID_GOAL_CONSTRAINTS, "workspace bound"),
+    ({"goal": {"pose": {"position": [0.1, -5e3, 0.1]}}}, MoveItErrorCode.INVALID_GOAL_CONSTRAINTS,
+     "workspace bound"),
+    ({"start_state": {"joint_names": ["link2_to_link3"], "positions": [9.0]}}, MoveItErrorCode.INVALID_ROBOT_STATE,
+     "link2_to_link3=9 outside"),
+])
+def test_plan_requests_beyond_their_bounds_are_refused_with_the_bound(core, change, code, words):
+    request = {"group": "arm", "goal": {"named": "ready"}, **change}
+    val, message = _error(core.plan(request))
+    assert val == code and words in message, message
+    assert not any(name in message for name in INTERNAL_NAMES), message
+
+
+def test_a_planner_that_raises_is_answered_without_its_exception_text(mycobot):
+    class Broken:
+        def plan(self, scene, request):
+            raise IndexError("index 4000 is out of bounds for axis 0 with size 4000")
+
+    logged = []
+    core = _core(mycobot, Broken())
+    core._log = lambda level, text: logged.append((level, text))
+    val, message = _error(core.plan({"group": "arm", "goal": {"named": "ready"}}))
+    assert val == MoveItErrorCode.FAILURE and "internal error" in message
+    assert not any(name in message for name in INTERNAL_NAMES), message
+    assert any(level == "error" and "IndexError" in text for level, text in logged)  # the log has the details
+
+
+def test_cartesian_requests_with_too_many_waypoints_or_an_unknown_frame_are_refused(core):
+    far = [0.9, 0.0, 0.2, 1.0, 0.0, 0.0, 0.0]
+    val, message = _error(core.compute_cartesian_path({"group": "arm", "waypoints": [far] * (MAX_WAYPOINTS + 1)}))
+    assert val == MoveItErrorCode.INVALID_MOTION_PLAN and f"at most {MAX_WAYPOINTS}" in message
+    val, message = _error(core.compute_cartesian_path({"group": "arm", "waypoints": [far], "frame": "mars"}))
+    assert val == MoveItErrorCode.FRAME_TRANSFORM_FAILURE and "unknown frame 'mars'" in message
+    val, message = _error(core.compute_cartesian_path(
+        {"group": "arm", "waypoints": [[WORKSPACE_BOUND * 2, 0, 0, 0, 0, 0, 1]]}))
+    assert val == MoveItErrorCode.INVALID_GOAL_CONSTRAINTS and "workspace bound" in message
+
+
+def test_cartesian_waypoints_in_a_link_frame_are_posed_at_the_start_state(core):
+    """2 cm along the flange's own z axis: the same motion whether given in the flange frame or,
+    transformed by hand, in the world frame."""
+    core.update_joint_state(ARM, [0.0, -0.5, -0.8, 0.3, 0.0, 0.0])
+    flange = core.scene.current_state.frame_pose("link6_flange")
+    step = np.eye(4)
+    step[2, 3] = 0.02
+    local = core.compute_cartesian_path({"group": "arm", "frame": "link6_flange", "link": "link6_flange",
+                                         "waypoints": [step.tolist()]})
+    world = core.compute_cartesian_path({"group": "arm", "link": "link6_flange",
+                                         "waypoints": [(flange @ step).tolist()]})
+    assert local["error_code"]["val"] == MoveItErrorCode.SUCCESS, local["error_code"]
+    assert local["fraction"] == pytest.approx(1.0) and world["fraction"] == pytest.approx(1.0)
+    last = lambda r: r["trajectory"]["joint_trajectory"]["points"][-1]["positions"]  # noqa: E731
+    assert np.allclose(last(local), last(world), atol=1e-6)
+
+
+def _long_request() -> dict:
+    # Every attempt solves quickly, but 1,000 attempts of an easy goal keep the planner busy for
+    # many seconds: the request is legitimate and long.
+    return {"group": "arm", "goal": {"joints": [0.5, -0.3, -0.4, 0.2, 0.1, 0.0]}, "allowed_planning_time": 120.0,
+            "num_planning_attempts": MAX_PLANNING_ATTEMPTS}
+
+
+def _start(core, request) -> tuple[threading.Thread, dict]:
+    out: dict = {}
+    thread = threading.Thread(target=lambda: out.update(core.plan(request)), daemon=True)
+    thread.start()
+    return thread, out
+
+
+def _wait_running(core, count: int = 1, timeout: float = 30.0) -> None:
+    deadline = time.monotonic() + timeout
+    while len(core._cancels) < count:
+        assert time.monotonic() < deadline, "the plan did not start"
+        time.sleep(0.01)
+
+
+def test_stop_cancels_a_running_plan_with_preempted(core):
+    thread, out = _start(core, _long_request())
+    _wait_running(core)
+    answer = core.stop()
+    assert answer["stopped"] and answer["cancelled_plans"] == 1 and "cancelling 1 running plan" in answer["message"]
+    thread.join(30.0)
+    assert not thread.is_alive()
+    val, message = _error(out)
+    assert val == MoveItErrorCode.PREEMPTED and "cancelled" in message
+    assert core.stop()["message"] == "nothing is executing or planning"
+
+
+def test_a_short_plan_is_answered_while_another_clients_long_plan_runs(mycobot, pipeline):
+    core = _core(mycobot, pipeline, factory=lambda: (RobotModel.mycobot(), PlanningPipeline()))
+    core.contexts.prepare()
+    assert core.contexts.size == 2
+    long_thread, long_out = _start(core, _long_request())
+    _wait_running(core)
+    short = core.plan({"group": "arm", "goal": {"named": "ready"}, "allowed_planning_time": 5.0})
+    assert short["error_code"]["val"] == MoveItErrorCode.SUCCESS, short["error_code"]
+    assert long_thread.is_alive() and not long_out  # the long plan was still running meanwhile
+    core.stop()
+    long_thread.join(30.0)
+    assert long_out["error_code"]["val"] == MoveItErrorCode.PREEMPTED
+
+
+def test_the_context_pool_builds_contexts_on_demand_up_to_its_bound(mycobot, pipeline):
+    built = []
+
+    def factory():
+        built.append(1)
+        return RobotModel.mycobot(), pipeline
+
+    pool = PlanningContextPool(mycobot, pipeline, factory, max_contexts=2)
+    with pool.acquire() as first:
+        assert first.primary and not built
+        with pool.acquire() as second:
+            assert not second.primary and len(built) == 1 and second.model is not mycobot
+    with pool.acquire() as again:
+        assert again.primary  # the primary is preferred: no scene copy
+    assert pool.size == 2 and len(built) == 1
+
+
+# ---------------------------------------------------------------------------- the JSON boundary
+@pytest.mark.parametrize("text, words", [
+    ('{"id": "a", "method": "plan", "params": {"group": "t\\ud800x"}}', "lone surrogate"),
+    ('{"id": "a", "method": "x", "params": {"t\\udfffx": 1}}', "not valid Unicode"),
+    ("[" * 5000 + "]" * 5000, "nested more than"),
+    ('{"id": "a", "params": ' + "[" * 100 + "]" * 100 + "}", "nested more than"),
+    ("{garbage", "malformed JSON"),
+])
+def test_wire_json_is_checked_once_at_the_boundary(text, words):
+    with pytest.raises(RpcError) as info:
+        decode_request(text)
+    assert info.value.code == BAD_REQUEST and words in info.value.message
+    info.value.message.encode("utf-8")  # safe to log and to answer
+
+
+def test_oversized_requests_are_refused_before_decoding():
+    with pytest.raises(RpcError, match=f"the limit is {MAX_REQUEST_BYTES} bytes"):
+        decode_request(" " * (MAX_REQUEST_BYTES + 1))
+
+
+def test_log_safe_escapes_what_logging_cannot_encode():
+    text = log_safe("bad\ud800id\x00\x07 caf\u00e9\nnext")
+    text.encode("utf-8")
+    assert text == "bad\\ud800id\\x00\\x07 caf\u00e9\nnext"
+    assert log_safe("x" * 50, limit=10).startswith("x" * 10 + "... (40 more")
+    assert json.loads(json.dumps({"m": log_safe("\ud800")}))["m"] == "\\ud800"
