@@ -11,6 +11,7 @@ import math
 import os
 import signal
 import sys
+import traceback
 from dataclasses import dataclass
 from typing import Any, Callable, Sequence
 
@@ -145,22 +146,25 @@ def use_fast_discovery() -> None:
 
 def run_node(factory: Callable[[], Node], args: list[str] | None = None, threads: int = 4) -> int:
     """rclpy.init, build the node, spin it on a multi-threaded executor until Ctrl-C or SIGTERM,
-    then tear down. A node that cannot start logs why and exits 1 instead of a traceback."""
+    then tear down. A node that cannot start logs why and exits 1 instead of a traceback; a
+    callback that raises is logged and the node goes on serving (one bad message must never take
+    a node down)."""
     use_fast_discovery()
     rclpy.init(args=args if args is not None else sys.argv)
     signal.signal(signal.SIGTERM, lambda *_: rclpy.try_shutdown())
     node = None
     code = 0
     try:
-        node = factory()
+        try:
+            node = factory()
+        except ValueError as exc:  # bad configuration: say what, do not print a traceback
+            print(f"[ERROR] {exc}", file=sys.stderr)
+            return 1
         executor = MultiThreadedExecutor(num_threads=threads)
         executor.add_node(node)
-        executor.spin()
+        _spin_guarded(node, executor)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
-    except ValueError as exc:  # bad configuration: say what, do not print a traceback
-        print(f"[ERROR] {exc}", file=sys.stderr)
-        code = 1
     except Exception:
         # A signal can invalidate the context while the executor is waiting; that is a shutdown,
         # not an error. Anything else while rclpy is still up is a real failure.
@@ -174,3 +178,19 @@ def run_node(factory: Callable[[], Node], args: list[str] | None = None, threads
             node.destroy_node()
         rclpy.try_shutdown()
     return code
+
+
+def _spin_guarded(node: Node, executor: MultiThreadedExecutor) -> None:
+    """executor.spin(), resumed after a callback raised: the executor re-raises a callback's
+    exception out of spin(), which would end the process."""
+    while rclpy.ok():
+        try:
+            executor.spin()
+            return
+        except (KeyboardInterrupt, ExternalShutdownException):
+            raise
+        except Exception as exc:
+            if not rclpy.ok():
+                return
+            text = f"a callback raised {type(exc).__name__}: {exc}; the node goes on\n{traceback.format_exc()}"
+            node.get_logger().error(text.encode("utf-8", "backslashreplace").decode("utf-8"))
