@@ -235,6 +235,48 @@ def test_trigger_plan_uses_the_goal_parameters_and_publishes_the_path(system, mo
     assert wait_until(lambda: list(probe.display[-1].points[-1].positions) == pytest.approx(target), 10.0)
 
 
+@pytest.mark.parametrize("values, words", [
+    ({"planner_id": "Magic"}, "unknown planner id 'Magic'"),
+    ({"goal.joint_values": [0.1, 0.2]}, "has 2 values but group 'arm' has 6 joints"),
+    ({"goal.group": "legs"}, "unknown planning group 'legs'"),
+    ({"goal.named_target": "moon"}, "unknown named state 'moon'"),
+])
+def test_parameters_that_name_nothing_are_refused_when_set(system, values, words):
+    probe = system["probe"]
+    result = probe.set_params("planning_server", values)[0]
+    assert not result.successful and words in result.reason, result.reason
+    good = {"planner_id": "RRTConnectkConfigDefault"}
+    assert probe.set_params("planning_server", good)[0].successful
+
+
+def test_two_clients_plan_at_once_and_the_short_request_is_not_held_up(system):
+    """A long request (1,000 attempts of an easy goal) runs; another client's short plan is
+    answered meanwhile, within its own planning time plus 100 ms; stop then ends the long one."""
+    probe, arm = system["probe"], system["arm"]
+    long_result: dict = {}
+    with MoveGroupClient("arm") as other:
+        thread = threading.Thread(target=lambda: long_result.update(other.call("plan", {
+            "group": "arm", "goal": {"joints": [0.5, -0.3, -0.4, 0.2, 0.1, 0.0]}, "allowed_planning_time": 120.0,
+            "num_planning_attempts": 1000}, timeout=150.0)), daemon=True)
+        thread.start()
+        assert wait_until(lambda: _planning(arm), 20.0)
+        sent = time.monotonic()
+        short = arm.call("plan", {"group": "arm", "goal": {"named": "ready"}, "display": False}, timeout=30.0)
+        answered = time.monotonic() - sent
+        assert short["error_code"]["val"] == MoveItErrorCode.SUCCESS, short["error_code"]
+        assert thread.is_alive() and not long_result
+        assert answered <= short["planning_time"] + 0.1, (answered, short["planning_time"])
+        stopped = probe.trigger("/planning_server/stop")
+        assert "cancelling 1 running plan" in stopped.message, stopped.message
+        thread.join(30.0)
+    assert long_result["error_code"]["val"] == MoveItErrorCode.PREEMPTED, long_result["error_code"]
+
+
+def _planning(arm) -> bool:
+    """Whether a plan is running now (stop would cancel it): read from get_state."""
+    return arm.call("get_state")["planning"] > 0
+
+
 def test_trigger_execute_runs_the_last_plan_to_its_end(system):
     probe = system["probe"]
     assert probe.set_params("planning_server", {"goal.named_target": "ready"})[0].successful

@@ -871,6 +871,7 @@ class PlanningServerCore:
             "joint_state_age": age,
             "joint_state_received": positions is not None,
             "execution": self.executor.status(),
+            "planning": len(self._cancels),  # plans running now (stop cancels them)
             "has_plan": self._last_plan is not None,
             "controllers": dict(controller_states or {}),
         }
