@@ -25,7 +25,7 @@ def quat_to_matrix(quat_xyzw: ArrayLike) -> np.ndarray:
     q = np.asarray(quat_xyzw, dtype=float)
     norm = float(np.linalg.norm(q))
     if not np.isfinite(norm) or norm < 1e-12:
-        raise ValueError(f"quaternion {list(q)} is not a rotation (norm {norm})")
+        raise ValueError(f"quaternion {[float(v) for v in q]} is not a rotation (norm {float(norm):g})")
     return Rotation.from_quat(q / norm).as_matrix()
 
 
