@@ -63,7 +63,7 @@ def log_safe(text: Any, limit: int = 2000) -> str:
     return "".join(out)
 
 
-def _depth_problem(value: Any, limit: int) -> str | None:
+def _depth_problem(value: Any, limit: int, check_strings: bool) -> str | None:
     """Why ``value`` (decoded JSON) is unacceptable as text or shape, or None.
 
     Strings that UTF-8 cannot encode (lone surrogates from ``"\\ud800"`` escapes) are refused here,
@@ -74,21 +74,29 @@ def _depth_problem(value: Any, limit: int) -> str | None:
         item, depth, path = stack.pop()
         if depth > limit:
             return f"{path} is nested more than {limit} levels deep"
-        if isinstance(item, dict):
-            for k, v in item.items():
-                if not _encodable(k):
-                    return f"{path} has a key that is not valid Unicode: {log_safe(k, 80)!s}"
-                if isinstance(v, (dict, list)):
-                    stack.append((v, depth + 1, f"{path}.{log_safe(k, 40)}"))
-                elif isinstance(v, str) and not _encodable(v):
-                    return f"{path}.{log_safe(k, 40)} is not valid Unicode (a lone surrogate): {log_safe(v, 80)}"
-        elif isinstance(item, list):
-            for i, v in enumerate(item):
-                if isinstance(v, (dict, list)):
-                    stack.append((v, depth + 1, f"{path}[{i}]"))
-                elif isinstance(v, str) and not _encodable(v):
-                    return f"{path}[{i}] is not valid Unicode (a lone surrogate): {log_safe(v, 80)}"
+        pairs = item.items() if isinstance(item, dict) else enumerate(item)
+        for key, v in pairs:
+            if isinstance(v, (dict, list)):
+                stack.append((v, depth + 1, f"{path}.{key}" if isinstance(key, str) else f"{path}[{key}]"))
+            elif check_strings:
+                for text in (key, v):
+                    if isinstance(text, str) and not _encodable(text):
+                        where = f"{path}.{log_safe(key, 40)}" if isinstance(key, str) else f"{path}[{key}]"
+                        return f"{where} is not valid Unicode (a lone surrogate): {log_safe(text, 80)}"
     return None
+
+
+def _max_depth(value: Any) -> int:
+    """Nesting depth of decoded JSON (1 for a flat object), without building paths."""
+    deepest = 0
+    stack = [(value, 1)] if isinstance(value, (dict, list)) else []
+    while stack:
+        item, depth = stack.pop()
+        deepest = max(deepest, depth)
+        for v in (item.values() if isinstance(item, dict) else item):
+            if isinstance(v, (dict, list)):
+                stack.append((v, depth + 1))
+    return deepest
 
 
 def _encodable(text: str) -> bool:
@@ -113,7 +121,12 @@ def decode_request(text: str, what: str = "request") -> Any:
         raise RpcError(BAD_REQUEST, f"malformed JSON: {exc}") from None
     except RecursionError:
         raise RpcError(BAD_REQUEST, f"{what} is nested more than {MAX_REQUEST_DEPTH} levels deep") from None
-    problem = _depth_problem(value, MAX_REQUEST_DEPTH)
+    # JSON text from ROS is valid UTF-8, so a lone surrogate can only come from a \\uD800-\\uDFFF
+    # escape: without one, no string needs checking.
+    suspicious = "\\ud" in text or "\\uD" in text
+    problem = None
+    if suspicious or _max_depth(value) > MAX_REQUEST_DEPTH:  # the walk with paths only when it finds something
+        problem = _depth_problem(value, MAX_REQUEST_DEPTH, suspicious) if isinstance(value, (dict, list)) else None
     if problem is not None:
         raise RpcError(BAD_REQUEST, problem)
     return value
