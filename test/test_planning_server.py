@@ -27,7 +27,9 @@ from rcl_interfaces.srv import SetParameters
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from std_srvs.srv import Trigger
+from builtin_interfaces.msg import Duration
 from trajectory_msgs.msg import JointTrajectory as JointTrajectoryMsg
+from trajectory_msgs.msg import JointTrajectoryPoint as JointTrajectoryPointMsg
 from visualization_msgs.msg import MarkerArray
 
 from interfaces_py.clients import MoveGroupClient, PlanningSceneInterface, RpcError
@@ -275,6 +277,31 @@ def test_two_clients_plan_at_once_and_the_short_request_is_not_held_up(system):
 def _planning(arm) -> bool:
     """Whether a plan is running now (stop would cancel it): read from get_state."""
     return arm.call("get_state")["planning"] > 0
+
+
+def test_a_trajectory_beyond_the_velocity_limits_moves_nothing(system):
+    """1.5 rad in 1 ms: refused by the planning server's execute and, sent straight to the
+    controller's topic, by the controller itself; the joints stay where they are."""
+    probe, arm, controllers = system["probe"], system["arm"], system["controllers"]
+    before = probe.joints()
+    whip = {"joint_names": ARM, "points": [
+        {"positions": [before[n] for n in ARM], "time_from_start": 0.0},
+        {"positions": [before[n] + (1.5 if n == "link2_to_link3" else 0.0) for n in ARM], "time_from_start": 0.001}]}
+    code = arm.execute(whip)
+    assert code.val == MoveItErrorCode.INVALID_MOTION_PLAN, code
+    assert "joint 'link2_to_link3' velocity 1500" in code.message and "exceeds its limit" in code.message, code.message
+    publisher = probe.node.create_publisher(JointTrajectoryMsg, "/arm_controller/joint_trajectory", 10)
+    assert wait_until(lambda: publisher.get_subscription_count() > 0, 10.0)
+    msg = JointTrajectoryMsg(joint_names=ARM)
+    for point in whip["points"]:
+        msg.points.append(JointTrajectoryPointMsg(positions=point["positions"], time_from_start=Duration(
+            sec=0, nanosec=int(point["time_from_start"] * 1e9))))
+    publisher.publish(msg)
+    assert controllers.wait_for_output("exceeds its limit", 10.0), controllers.output()[-2000:]
+    time.sleep(0.3)
+    after = probe.joints()
+    assert all(abs(after[n] - before[n]) < 1e-6 for n in ARM), (before, after)
+    _alive_and_answering(system)
 
 
 def test_trigger_execute_runs_the_last_plan_to_its_end(system):

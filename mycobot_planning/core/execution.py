@@ -53,6 +53,7 @@ from .errors import PlanningError, SceneError
 from .planning_scene import PlanningScene
 from .robot_model import RobotModel
 from .time_parameterization import TimedTrajectory
+from .trajectory_limits import DEFAULT_LIMIT_TOLERANCE, motion_limit_problem
 
 __all__ = [
     "ControllerBus",
@@ -105,10 +106,12 @@ class ExecutionSettings:
     execution_duration_monitoring: bool = True
     goal_tolerance: float = 0.02  # rad (m) between the last point and /joint_states; 0 disables
     joint_state_timeout: float = 1.0  # s: older joint states are stale
+    #: relative slack on the joint velocity/acceleration limits a sent trajectory must keep
+    limit_tolerance: float = DEFAULT_LIMIT_TOLERANCE
 
     def __post_init__(self) -> None:
         for name in ("allowed_execution_duration_scaling", "allowed_goal_duration_margin",
-                     "allowed_start_tolerance", "goal_tolerance", "joint_state_timeout"):
+                     "allowed_start_tolerance", "goal_tolerance", "joint_state_timeout", "limit_tolerance"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
                 raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
@@ -321,13 +324,15 @@ def parse_trajectory(value: Any, what: str = "trajectory") -> tuple[JointTraject
         raise ExecutionError(MoveItErrorCode.INVALID_MOTION_PLAN, f"invalid {what}: {exc}") from None
 
 
-def prepare_trajectory(model: RobotModel, trajectory: JointTrajectory, position_tolerance: float = 1e-4) -> JointTrajectory:
+def prepare_trajectory(model: RobotModel, trajectory: JointTrajectory, position_tolerance: float = 1e-4,
+                       limit_tolerance: float = DEFAULT_LIMIT_TOLERANCE) -> JointTrajectory:
     """The trajectory as controllers get it: active joints only, checked.
 
     Mimic joints are dropped when their source joint is in the trajectory (the controller drives
     the source); a mimic joint alone is refused. Refuses (ExecutionError INVALID_MOTION_PLAN): no
     points, unknown joints, non-finite values (also caught by the message class), positions outside
-    the joint limits, times not strictly increasing.
+    the joint limits, times not strictly increasing, velocities or accelerations beyond the joint
+    limits by more than ``limit_tolerance`` (relative; see trajectory_limits.py).
     """
     bad = MoveItErrorCode.INVALID_MOTION_PLAN
     if not trajectory.joint_names:
@@ -370,6 +375,14 @@ def prepare_trajectory(model: RobotModel, trajectory: JointTrajectory, position_
         if t <= previous:
             raise ExecutionError(bad, f"trajectory point {k}: time_from_start {t} is not after the previous point's {previous}")
         previous = t
+    problem = motion_limit_problem(
+        [names[i] for i in keep],
+        np.array([p.time_from_start for p in trajectory.points], dtype=float),
+        np.array([[p.positions[i] for i in keep] for p in trajectory.points], dtype=float),
+        _given(trajectory, "velocities", keep), _given(trajectory, "accelerations", keep),
+        model.velocity_limits[indices], model.acceleration_limits[indices], limit_tolerance)
+    if problem is not None:
+        raise ExecutionError(bad, problem)
     if not dropped:
         return trajectory
     return JointTrajectory(
@@ -377,6 +390,14 @@ def prepare_trajectory(model: RobotModel, trajectory: JointTrajectory, position_
         points=[_select_point(p, keep) for p in trajectory.points],
         frame_id=trajectory.frame_id,
     )
+
+
+def _given(trajectory: JointTrajectory, field: str, keep: Sequence[int]) -> np.ndarray | None:
+    """The points' velocities or accelerations of the kept joints, or None unless every point has them."""
+    rows = [getattr(p, field) for p in trajectory.points]
+    if not all(len(r) == len(trajectory.joint_names) for r in rows):
+        return None
+    return np.array([[r[i] for i in keep] for r in rows], dtype=float)
 
 
 def _select_point(point: JointTrajectoryPoint, keep: Sequence[int]) -> JointTrajectoryPoint:
@@ -1003,7 +1024,7 @@ class TrajectoryExecutionManager:
         with self._state_lock:
             if self._stop_requested:
                 return ExecutionResult(_code(MoveItErrorCode.PREEMPTED, "execution stopped on request before it started"))
-        prepared = prepare_trajectory(self.model, trajectory)
+        prepared = prepare_trajectory(self.model, trajectory, limit_tolerance=self.settings.limit_tolerance)
         chosen = select_controllers(prepared.joint_names, self.controllers, controllers)
         needed = sorted({j for c in chosen for j in c.joints} | set(prepared.joint_names))
         current = self._require_positions(needed)
@@ -1090,7 +1111,8 @@ class TrajectoryExecutionManager:
                                          f"{where}: scene_diff_before cannot be applied: {exc}") from None
             if step.moves:
                 try:
-                    prepared = prepare_trajectory(self.model, step.trajectory)
+                    prepared = prepare_trajectory(self.model, step.trajectory,
+                                                  limit_tolerance=self.settings.limit_tolerance)
                     select_controllers(prepared.joint_names, self.controllers, step.controllers)
                 except ExecutionError as exc:
                     raise ExecutionError(exc.code, f"{where}: {exc.message}") from None

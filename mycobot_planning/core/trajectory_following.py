@@ -58,6 +58,7 @@ import numpy as np
 import yaml
 
 from .errors import PlanningError, StateError
+from .trajectory_limits import DEFAULT_LIMIT_TOLERANCE, motion_limit_problem
 
 
 class ControllerStatus:
@@ -278,7 +279,13 @@ class JointTrajectoryFollower:
         start_tolerance: float = 0.05,
         name: str = "controller",
         limit_margin: float = 1e-6,
+        velocity_limits: Sequence[float] | None = None,
+        acceleration_limits: Sequence[float] | None = None,
+        limit_tolerance: float = DEFAULT_LIMIT_TOLERANCE,
     ) -> None:
+        """``velocity_limits`` / ``acceleration_limits`` (per joint; None: unlimited): a trajectory
+        that exceeds them by more than ``limit_tolerance`` (relative) is refused before it moves
+        anything, the controller's last line of defence (see trajectory_limits.py)."""
         self.name = name
         self.joint_names = list(joint_names)
         if not self.joint_names:
@@ -298,6 +305,15 @@ class JointTrajectoryFollower:
         self.goal_tolerance = float(goal_tolerance)
         self.start_tolerance = float(start_tolerance)
         self.limit_margin = float(limit_margin)
+        unlimited = np.full(d, np.inf)
+        self.velocity_limits = unlimited if velocity_limits is None else np.asarray(velocity_limits, dtype=float)
+        self.acceleration_limits = (unlimited if acceleration_limits is None
+                                    else np.asarray(acceleration_limits, dtype=float))
+        if self.velocity_limits.shape != (d,) or self.acceleration_limits.shape != (d,):
+            raise StateError(f"{name}: expected {d} velocity and acceleration limits for joints {self.joint_names}")
+        if not (math.isfinite(limit_tolerance) and limit_tolerance >= 0):
+            raise StateError(f"{name}: limit_tolerance must be a finite number >= 0, got {limit_tolerance}")
+        self.limit_tolerance = float(limit_tolerance)
         self._index = {n: i for i, n in enumerate(self.joint_names)}
         self.fail_after = -1.0
         self.stall_after = -1.0
@@ -461,6 +477,10 @@ class JointTrajectoryFollower:
                     f"[{_fmt(self.lower[j])}, {_fmt(self.upper[j])}]")
         vel = None if rows["velocities"] is None else rows["velocities"][:, order]
         acc = None if rows["accelerations"] is None else rows["accelerations"][:, order]
+        problem = motion_limit_problem(self.joint_names, times, pos, vel, acc, self.velocity_limits,
+                                       self.acceleration_limits, self.limit_tolerance)
+        if problem is not None:
+            return problem
         return _Plan(times, pos, vel, acc)
 
     # ------------------------------------------------------------------ commands
@@ -495,7 +515,14 @@ class JointTrajectoryFollower:
 
     def _start_reason(self, plan: _Plan, start_time: float | None, now: float) -> str | None:
         begins = max(now, start_time if start_time is not None else now)
-        if begins + plan.times[0] > now or self.start_tolerance <= 0:
+        lead = begins + plan.times[0] - now
+        if lead > 0:  # the controller interpolates from where the joints are to the first point
+            problem = motion_limit_problem(self.joint_names, np.array([0.0, lead]),
+                                           np.vstack((self._actual_pos, plan.positions[0])), None, None,
+                                           self.velocity_limits, self.acceleration_limits, self.limit_tolerance)
+            return None if problem is None else problem.replace(
+                "trajectory point 1:", "reaching the first point from where the joints are:", 1)
+        if self.start_tolerance <= 0:
             return None
         deviation = np.abs(plan.positions[0] - self._actual_pos)
         j = int(np.argmax(deviation))

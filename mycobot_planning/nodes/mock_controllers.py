@@ -52,6 +52,7 @@ from trajectory_msgs.msg import JointTrajectory
 
 from interfaces_py.ros_conversions import duration_to_seconds
 from mycobot_planning.core.robot_model import RobotModel
+from mycobot_planning.core.trajectory_limits import DEFAULT_LIMIT_TOLERANCE
 from mycobot_planning.core.trajectory_following import (
     ControllerConfig,
     ControllerStatus,
@@ -119,6 +120,10 @@ class MockControllerManager(Node):
                           read_only=True),
             ParameterSpec("publish_rate", 100.0, "rate of /joint_states in Hz", range=(1.0, 1000.0),
                           validator=_number("publish_rate"), dynamic_typing=True),
+            ParameterSpec("limit_tolerance", DEFAULT_LIMIT_TOLERANCE,
+                          "relative slack on the joint velocity and acceleration limits: a trajectory exceeding "
+                          "them by more is refused before anything moves (0.05: 5 %)", range=(0.0, 1.0),
+                          read_only=True),
         ])
         self.model = self._load_model()
         controllers_file = self._params.get("controllers_file") or str(config_file("controllers.yaml"))
@@ -156,7 +161,9 @@ class MockControllerManager(Node):
             follower = JointTrajectoryFollower(
                 c.joints, self.model.lower_limits[indices], self.model.upper_limits[indices],
                 self._positions[indices], goal_tolerance=c.goal_tolerance, start_tolerance=c.start_tolerance,
-                name=c.name)
+                name=c.name, velocity_limits=self.model.velocity_limits[indices],
+                acceleration_limits=self.model.acceleration_limits[indices],
+                limit_tolerance=float(self._params.get("limit_tolerance")))
             follower.fail_after = float(self._fault_params.get(f"{c.name}.fail_after"))
             follower.stall_after = float(self._fault_params.get(f"{c.name}.stall_after"))
             self._controllers[c.name] = self._make_endpoints(_Controller(c, follower, indices))

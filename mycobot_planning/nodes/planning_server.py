@@ -55,6 +55,7 @@ from interfaces_py.ros_conversions import collision_object_to_markers, joint_tra
 from mycobot_planning.core.execution import ControllerInfo, ControllerState, ExecutionSettings, load_controllers
 from mycobot_planning.core.ompl_interface import OmplConfigError, resolve_planner_id
 from mycobot_planning.core.pilz import KNOWN_PLANNER_IDS
+from mycobot_planning.core.trajectory_limits import DEFAULT_LIMIT_TOLERANCE
 from mycobot_planning.core.planning_pipeline import PlanningPipeline
 from mycobot_planning.core.planning_server_core import (
     PlanningDefaults,
@@ -390,6 +391,9 @@ class PlanningServer(Node):
             ParameterSpec(ex + "allowed_goal_duration_margin", 0.5,
                           "seconds added to the scaled duration before execution is cancelled as TIMED_OUT",
                           range=(0.0, 3600.0)),
+            ParameterSpec(ex + "limit_tolerance", DEFAULT_LIMIT_TOLERANCE,
+                          "relative slack on the joint velocity and acceleration limits: a trajectory exceeding "
+                          "them by more is refused before it is sent (0.05: 5 %)", range=(0.0, 1.0)),
             ParameterSpec(ex + "allowed_start_tolerance", 0.01,
                           "largest distance (rad or m) between a trajectory's first point and the current state; "
                           "0 disables the check", range=(0.0, 10.0)),
@@ -429,6 +433,7 @@ class PlanningServer(Node):
             execution_duration_monitoring=bool(self._params.get(ex + "execution_duration_monitoring")),
             goal_tolerance=float(self._params.get(ex + "goal_tolerance")),
             joint_state_timeout=float(self._params.get("joint_state_timeout")),
+            limit_tolerance=float(self._params.get(ex + "limit_tolerance")),
         )
 
     def _planning_defaults(self) -> PlanningDefaults:
