@@ -7,6 +7,7 @@ what the integration tests exercise with the real processes.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -69,6 +70,7 @@ class SimController:
         self.stall_after: float | None = None
         self.reject = False
         self.claim_success_early = False  # reports success without moving
+        self.dead = False  # the process is gone: no more reports, no more motion
         self.goal: JointTrajectory | None = None
         self.start = 0.0
         self.states: dict[str, ControllerState] = {}
@@ -93,8 +95,12 @@ class SimController:
             self._report("succeeded", trajectory.frame_id, now)
 
     def update(self, now: float) -> None:
+        if self.dead:
+            return
         goal = self.goal
-        if goal is None:
+        if goal is None:  # an idle controller keeps reporting its last state (ros2_control's rate)
+            if self.latest is not None:
+                self.latest = dataclasses.replace(self.latest, received=now)
             return
         t = now - self.start
         if self.fail_after is not None and t >= self.fail_after:
@@ -416,6 +422,29 @@ def test_a_previous_goals_success_is_not_taken_for_this_goal(mycobot):
     result = manager.execute(arm_trajectory(GOAL, [0] * 6, duration=0.5))
     assert result.error_code.val == TIMED_OUT and "'arm_controller' never reported this goal" in result.message
     assert arm.latest.status == "succeeded"  # the old goal's report was there all along
+
+
+def test_a_controller_that_stops_reporting_is_declared_lost_within_the_state_timeout(mycobot):
+    bus = SimBus(mycobot)
+    bus.hooks.append((bus.now + 0.5, lambda: setattr(bus.controllers["arm_controller"], "dead", True)))
+    result = make_manager(mycobot, bus, joint_state_timeout=0.3).execute(arm_trajectory([0] * 6, GOAL, duration=3.0))
+    assert result.error_code.val == CONTROL_FAILED
+    assert "controller 'arm_controller' stopped reporting: no state for 0.3" in result.message
+    assert "while /joint_states still arrive" in result.message
+    assert result.duration == pytest.approx(0.8, abs=0.05)  # simulated time: not the 4.1 s deadline
+
+
+def test_a_lost_controller_whose_joint_states_stopped_too_is_reported_so(mycobot):
+    bus = SimBus(mycobot)
+
+    def die() -> None:
+        bus.controllers["arm_controller"].dead = True
+        bus.joint_state_age = None  # the same process published /joint_states
+
+    bus.hooks.append((bus.now + 0.5, die))
+    result = make_manager(mycobot, bus, joint_state_timeout=0.3).execute(arm_trajectory([0] * 6, GOAL, duration=3.0))
+    assert result.error_code.val == CONTROL_FAILED
+    assert "stopped reporting" in result.message and "and /joint_states stopped too" in result.message
 
 
 def test_controllers_claiming_success_must_also_bring_the_joints_to_the_goal(mycobot):

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import signal
 import threading
 import time
 from typing import Any
@@ -603,4 +605,29 @@ def test_without_controllers_planning_answers_and_execution_fails_clearly(system
     assert code.val == MoveItErrorCode.ROBOT_STATE_STALE and "joint state" in code.message
     probe = system["probe"]
     assert probe.trigger("/planning_server/execute").success is False
+    _alive_and_answering(system)
+
+
+def test_a_controller_process_that_dies_mid_motion_is_declared_lost(system):
+    """Runs last: it replaces the (stopped) controllers with a new process and kills it while it
+    moves the arm. The execution ends CONTROL_FAILED saying the controller stopped reporting (not
+    TIMED_OUT at the duration deadline, not its last 'executing' report)."""
+    arm = system["arm"]
+    controllers = NodeProcess("mycobot_planning.nodes.mock_controllers")
+    try:
+        assert controllers.wait_for_output("controller_manager ready", 30), controllers.output()
+        assert wait_until(lambda: (arm.call("get_state")["joint_state_age"] or 9.0) < 0.5, 20.0)
+        plan = arm.call("plan", {"group": "arm", "goal": {"named": "ready"}, "max_velocity_scaling_factor": 0.05,
+                                 "max_acceleration_scaling_factor": 0.05})
+        assert plan["error_code"]["val"] == MoveItErrorCode.SUCCESS, plan["error_code"]
+        assert arm.call("execute", {"wait": False})["started"]
+        assert wait_until(lambda: arm.call("get_state")["execution"]["executing"], 10.0)
+        time.sleep(0.5)
+        os.killpg(controllers.proc.pid, signal.SIGKILL)
+        assert wait_until(lambda: not arm.call("get_state")["execution"]["executing"], 30.0)
+        last = arm.call("get_state")["execution"]["last_result"]
+        assert last["error_code"]["val"] == MoveItErrorCode.CONTROL_FAILED, last
+        assert "controller 'arm_controller' stopped reporting" in last["error_code"]["message"], last
+    finally:
+        controllers.stop()
     _alive_and_answering(system)

@@ -638,6 +638,7 @@ class ExecutionMonitor:
                                    for name, state in baseline.items()}
         self._expected = {c.name: t.frame_id for c, t in commands}
         self._latest: dict[str, ControllerState] = {}
+        self._heard: dict[str, float] = {}  # when each controller last reported anything
         self._succeeded: set[str] = set()
         self._stop_requested = False
         self._goal: dict[str, float] = {}
@@ -673,8 +674,28 @@ class ExecutionMonitor:
         if state.status == TERMINAL_SUCCESS:
             self._succeeded.add(controller)
 
+    def heard(self, controller: str, received: float) -> None:
+        """The controller reported (any state, any goal) at ``received``: it is alive."""
+        self._heard[controller] = max(received, self._heard.get(controller, -math.inf))
+
     def request_stop(self) -> None:
         self._stop_requested = True
+
+    def _lost(self, now: float, positions: Mapping[str, float] | None) -> MoveItErrorCode | None:
+        """CONTROL_FAILED for a controller that stopped reporting while its goal runs: it is
+        declared lost after ``joint_state_timeout`` of silence, not at the duration deadline."""
+        timeout = self.settings.joint_state_timeout
+        for name in self.controller_names:
+            if name in self._succeeded:
+                continue
+            silence = now - max(self._heard.get(name, -math.inf), self.started)
+            if silence > timeout:
+                joints = ("and /joint_states stopped too" if positions is None
+                          else "while /joint_states still arrive")
+                return _code(MoveItErrorCode.CONTROL_FAILED,
+                             f"controller '{name}' stopped reporting: no state for {silence:.2f} s (state timeout "
+                             f"{timeout:g} s, the joint_state_timeout) {joints}; is its process still running?")
+        return None
 
     def goal_deviation(self, positions: Mapping[str, float]) -> tuple[str, float] | None:
         """(joint, deviation) of the joint farthest from the last point; None if a joint is unknown."""
@@ -702,6 +723,9 @@ class ExecutionMonitor:
                 detail = f": {state.message}" if state.message else ""
                 return _code(MoveItErrorCode.CONTROL_FAILED,
                              f"controller '{name}' was {state.status} by something else than this execution{detail}")
+        lost = self._lost(now, positions)
+        if lost is not None:
+            return lost
         all_done = len(self._succeeded) == len(self.commands)
         if all_done:
             tolerance = self.settings.goal_tolerance
@@ -1057,6 +1081,9 @@ class TrajectoryExecutionManager:
             raise ExecutionError(MoveItErrorCode.CONTROL_FAILED, f"sending the trajectory failed: {exc}") from None
         while True:
             for controller, _ in commands:
+                latest = self.bus.controller_state(controller.name)
+                if latest is not None:
+                    monitor.heard(controller.name, latest.received)
                 monitor.update(controller.name,
                                self.bus.controller_state(controller.name, monitor.expected_goal(controller.name)))
             now = self._clock()
