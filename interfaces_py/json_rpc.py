@@ -27,6 +27,8 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import String
 
+from interfaces_py.msgs import printable
+
 #: Reliable, volatile, deep enough for bursts of scene updates.
 RPC_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
 
@@ -52,15 +54,8 @@ _ID_PATTERN = re.compile(r'"id"\s*:\s*"([0-9A-Za-z_-]{1,64})"')
 def log_safe(text: Any, limit: int = 2000) -> str:
     """``text`` as a log line can always take it: lone surrogates (which JSON can carry but
     UTF-8 cannot, and which make rclpy's logging raise) and control characters other than newline
-    and tab are escaped, and long texts are cut with an ellipsis."""
-    text = str(text)
-    if len(text) > limit:
-        text = text[:limit] + f"... ({len(text) - limit} more characters)"
-    if text.isprintable() and text.isascii():
-        return text
-    # isprintable() is False for control characters and for lone surrogates (category Cs).
-    out = [ch if ch in "\n\t" or ch.isprintable() else ascii(ch)[1:-1] for ch in text]
-    return "".join(out)
+    and tab are escaped, and long texts are cut."""
+    return printable(str(text), limit, keep="\n\t")
 
 
 def _depth_problem(value: Any, limit: int, check_strings: bool) -> str | None:

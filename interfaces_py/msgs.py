@@ -68,6 +68,56 @@ TASK_MESSAGES = (
 
 M = TypeVar("M", bound="_Message")
 
+# Bounds on values that cannot be right: a message beyond them is refused with the bound, so an
+# absurd number never reaches collision checking or planning arithmetic (1e300 m boxes overflow
+# Coal's bounding volumes; 1e308 positions overflow IK).
+#: m: the largest coordinate of any pose or mesh vertex. The myCobot reaches 0.28 m and large
+#: industrial arms a few metres; a scene beyond a kilometre is a unit mistake or an attack.
+WORKSPACE_BOUND = 1000.0
+#: m: the largest primitive dimension (box side, radius, height): a 100 m wall is already a floor.
+MAX_OBJECT_EXTENT = 100.0
+#: Vertices and triangles of one explicit mesh at most (the perception pipeline's are thousands).
+MAX_MESH_VERTICES = 1_000_000
+MAX_MESH_TRIANGLES = 2_000_000
+#: Characters of an identifier (object id, link, joint, frame or ACM entry name) at most.
+MAX_NAME_LENGTH = 256
+
+
+def printable(text: str, limit: int = 200, keep: str = "") -> str:
+    """``text`` safe to show in a log line or an error message: control characters (but those in
+    ``keep``) and lone surrogates (which UTF-8, and so rclpy's logging, cannot encode) escaped,
+    cut at ``limit`` characters with a note of how many more there were."""
+    text = str(text)
+    if len(text) > limit:
+        text = text[:limit] + f"... ({len(text) - limit} more characters)"
+    if text.isprintable():
+        return text
+    # isprintable() is False for control characters and for lone surrogates (category Cs).
+    return "".join(ch if ch in keep or ch.isprintable() else ascii(ch)[1:-1] for ch in text)
+
+
+def _text_problem(value: str) -> str | None:
+    """Why a string cannot travel in a message (UTF-8 cannot encode it, or it holds NUL)."""
+    if "\x00" in value:
+        return f"must not contain NUL characters: '{printable(value, 80)}'"
+    try:
+        value.encode("utf-8")
+    except UnicodeEncodeError:
+        return f"is not valid Unicode (it holds a lone surrogate): '{printable(value, 80)}'"
+    return None
+
+
+def _require_name(path: str, value: str, required: bool = True) -> None:
+    """An identifier: non-empty (when required), no control characters, at most MAX_NAME_LENGTH."""
+    if not value:
+        if required:
+            raise MessageError(path, "must be a non-empty string")
+        return
+    if len(value) > MAX_NAME_LENGTH:
+        raise MessageError(path, f"is {len(value)} characters long; names have at most {MAX_NAME_LENGTH}")
+    if not value.isprintable():
+        raise MessageError(path, f"must not contain control characters: '{printable(value, 80)}'")
+
 
 class MessageError(ValueError):
     """A message field is missing, mistyped or out of range, or the JSON is malformed.
@@ -89,7 +139,7 @@ class MessageError(ValueError):
 
 
 def _describe(value: Any) -> str:
-    text = repr(value)
+    text = printable(repr(value), 10_000)
     return f"{type(value).__name__} {text if len(text) <= 40 else text[:37] + '...'}"
 
 
@@ -128,6 +178,9 @@ def _convert(tp: Any, value: Any, path: str) -> Any:
     if tp is str:
         if not isinstance(value, str):
             raise MessageError(path, f"expected a string, got {_describe(value)}")
+        problem = _text_problem(value)
+        if problem is not None:
+            raise MessageError(path, problem)
         return value
     if isinstance(tp, type) and issubclass(tp, _Message):
         if isinstance(value, tp):
@@ -225,8 +278,7 @@ def _require_len(path: str, values: Sequence[Any], n: int, what: str = "values")
 def _require_unique_names(path: str, names: Sequence[str]) -> None:
     seen: set[str] = set()
     for i, n in enumerate(names):
-        if not n:
-            raise MessageError(f"{path}[{i}]", "must be a non-empty string")
+        _require_name(f"{path}[{i}]", n)
         if n in seen:
             raise MessageError(path, f"duplicate name '{n}'")
         seen.add(n)
@@ -265,6 +317,10 @@ class Pose(_Message):
     def _validate(self) -> None:
         _require_len("Pose.position", self.position, 3, "coordinates (x, y, z)")
         _require_len("Pose.orientation", self.orientation, 4, "quaternion components (x, y, z, w)")
+        far = max(abs(c) for c in self.position)
+        if far > WORKSPACE_BOUND:
+            raise MessageError("Pose.position", f"{self.position} is beyond the workspace bound of "
+                                                f"{WORKSPACE_BOUND:g} m")
         norm = math.hypot(*self.orientation)
         if norm <= 1e-9:
             raise MessageError("Pose.orientation", f"quaternion norm {norm:g} is too small to normalise")
@@ -401,6 +457,9 @@ class SolidPrimitive(_Message):
         for i, (d, dname) in enumerate(zip(self.dimensions, dnames)):
             if d <= 0:
                 raise MessageError(f"SolidPrimitive.dimensions[{i}]", f"{tname} {dname} must be > 0, got {d}")
+            if d > MAX_OBJECT_EXTENT:
+                raise MessageError(f"SolidPrimitive.dimensions[{i}]",
+                                   f"{tname} {dname} {d:g} m is larger than the bound of {MAX_OBJECT_EXTENT:g} m")
 
     @property
     def type_name(self) -> str:
@@ -451,8 +510,14 @@ class Mesh(_Message):
             return
         if not self.triangles:
             raise MessageError("Mesh.triangles", "empty: a mesh needs a resource or at least one triangle")
+        if len(self.vertices) > MAX_MESH_VERTICES or len(self.triangles) > MAX_MESH_TRIANGLES:
+            raise MessageError("Mesh", f"{len(self.vertices)} vertices and {len(self.triangles)} triangles: at most "
+                                       f"{MAX_MESH_VERTICES} and {MAX_MESH_TRIANGLES}")
         for i, v in enumerate(self.vertices):
             _require_len(f"Mesh.vertices[{i}]", v, 3, "coordinates (x, y, z)")
+            if max(abs(c * f) for c, f in zip(v, self.scale)) > WORKSPACE_BOUND:
+                raise MessageError(f"Mesh.vertices[{i}]", f"{v} (scaled) is beyond the workspace bound of "
+                                                          f"{WORKSPACE_BOUND:g} m")
         n = len(self.vertices)
         for i, tri in enumerate(self.triangles):
             _require_len(f"Mesh.triangles[{i}]", tri, 3, "vertex indices")
@@ -503,10 +568,8 @@ class CollisionObject(_Message):
     _OPERATIONS: ClassVar[dict[int, str]] = {0: "ADD", 1: "REMOVE", 2: "APPEND", 3: "MOVE"}
 
     def _validate(self) -> None:
-        if not self.id:
-            raise MessageError("CollisionObject.id", "must be a non-empty string")
-        if not self.frame_id:
-            raise MessageError("CollisionObject.frame_id", "must be a non-empty string")
+        _require_name("CollisionObject.id", self.id)
+        _require_name("CollisionObject.frame_id", self.frame_id)
         if self.operation not in self._OPERATIONS:
             raise MessageError(
                 "CollisionObject.operation",
@@ -568,8 +631,9 @@ class AttachedCollisionObject(_Message):
     weight: float = 0.0
 
     def _validate(self) -> None:
-        if not self.link_name:
-            raise MessageError("AttachedCollisionObject.link_name", "must be a non-empty string")
+        _require_name("AttachedCollisionObject.link_name", self.link_name)
+        for i, link in enumerate(self.touch_links):
+            _require_name(f"AttachedCollisionObject.touch_links[{i}]", link)
         if self.weight < 0:
             raise MessageError("AttachedCollisionObject.weight", f"must be >= 0, got {self.weight}")
 

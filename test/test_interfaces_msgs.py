@@ -102,7 +102,7 @@ SAMPLES = [
     Pose(),
     _awkward_pose(),
     Pose(position=AWKWARD[:3], orientation=[1e-5, 2e-5, 3e-5, 4e-5]),
-    SolidPrimitive.box(0.1, 1e-300, 1.7976931348623157e308),
+    SolidPrimitive.box(0.1, 1e-300, 99.99999999999999),  # awkward but within MAX_OBJECT_EXTENT
     SolidPrimitive.sphere(5e-324),
     SolidPrimitive.cylinder(1 / 3, 0.1),
     SolidPrimitive.cone(0.1, 0.2),

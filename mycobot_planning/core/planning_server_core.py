@@ -40,6 +40,7 @@ from interfaces_py.msgs import (
     Pose,
     RobotState as RobotStateMsg,
     RobotTrajectory,
+    WORKSPACE_BOUND,
 )
 
 from .cartesian_path import compute_cartesian_path
@@ -74,10 +75,6 @@ MAX_PLANNING_TIME = 300.0
 MAX_PLANNING_ATTEMPTS = 1000
 #: waypoints of one Cartesian request at most (each is one IK target).
 MAX_WAYPOINTS = 10_000
-#: m: the largest coordinate a goal pose, waypoint or ik_frame_offset may have. A myCobot reaches
-#: 0.28 m and even large industrial arms a few metres; beyond this a pose is a unit mistake or an
-#: attack, and numbers like 1e308 overflow the planners' arithmetic.
-WORKSPACE_BOUND = 1000.0
 #: rad: a start state may lie this far outside a joint limit (the controllers' readback noise).
 START_STATE_LIMIT_TOLERANCE = 1e-4
 
@@ -358,6 +355,14 @@ class PlanningServerCore:
     def apply_planning_scene(self, scene: Any) -> dict[str, Any]:
         """Apply a PlanningScene message (a diff when is_diff, else a full replacement)."""
         msg = self._message(PlanningSceneMsg, scene, "planning scene")
+        outside = self._limit_problems({n: v for n, v in msg.robot_state.joint_positions().items()
+                                        if n in self.model.variable_names})
+        if outside:
+            raise RequestError(BAD_REQUEST, "planning scene robot_state is outside the joint limits: " + "; ".join(outside))
+        unknown = self._unknown_acm_names(msg)
+        if unknown:
+            raise RequestError(BAD_REQUEST, f"allowed collision matrix names {unknown}, which are neither links of "
+                                            f"robot '{self.model.name}' nor collision objects of the scene")
         self._scene_call(f"applied a planning scene {'diff' if msg.is_diff else '(full)'}",
                          lambda: self.scene.apply_planning_scene_msg(msg))
         return {"applied": True}
@@ -371,6 +376,32 @@ class PlanningServerCore:
         summary = ", ".join(f"{m.operation_name} '{m.id}'" for m in msgs[:5]) + (" ..." if len(msgs) > 5 else "")
         self._scene_call(f"collision objects: {summary}", lambda: self.scene.apply_planning_scene_msg(diff))
         return {"applied": len(msgs), "ids": [m.id for m in msgs]}
+
+    def _unknown_acm_names(self, msg: PlanningSceneMsg) -> list[str]:
+        """ACM names of ``msg`` that name nothing: not a link or group, not an object of the scene
+        or of the message, and not already in the scene's matrix (MoveIt keeps entries of removed
+        objects, so a scene read back and applied again must still be accepted)."""
+        acm = msg.allowed_collision_matrix
+        names = set(acm.entry_names) | set(acm.default_entry_names)
+        if not names:
+            return []
+        with self._lock:
+            known = set(self.scene.world_object_ids()) | set(self.scene.attached_object_ids())
+            known |= set(self.scene.acm.entry_names)
+        known |= {o.id for o in msg.world.collision_objects}
+        known |= {a.object.id for a in msg.robot_state.attached_collision_objects}
+        return sorted(n for n in names if n not in known and not self.model.has_link(n)
+                      and not self.model.has_group(n))
+
+    def _limit_problems(self, values: Mapping[str, float]) -> list[str]:
+        """'joint=value outside [low, high]' for each value beyond its joint's limits."""
+        outside = []
+        for name, value in values.items():
+            i = self.model.variable_index(name)
+            low, high = float(self.model.lower_limits[i]), float(self.model.upper_limits[i])
+            if not (low - START_STATE_LIMIT_TOLERANCE <= value <= high + START_STATE_LIMIT_TOLERANCE):
+                outside.append(f"{name}={value:.6g} outside [{low:.4f}, {high:.4f}]")
+        return outside
 
     def apply_attached_collision_object(self, attached: Any) -> dict[str, Any]:
         msg = self._message(AttachedCollisionObject, attached, "attached collision object")
@@ -463,12 +494,7 @@ class PlanningServerCore:
         if unknown:
             raise RequestError(MoveItErrorCode.INVALID_ROBOT_STATE,
                                f"start_state names joints {unknown} that robot '{self.model.name}' does not have")
-        outside = []
-        for name, value in active.items():
-            i = self.model.variable_index(name)
-            low, high = float(self.model.lower_limits[i]), float(self.model.upper_limits[i])
-            if not (low - START_STATE_LIMIT_TOLERANCE <= value <= high + START_STATE_LIMIT_TOLERANCE):
-                outside.append(f"{name}={value:.6g} outside [{low:.4f}, {high:.4f}]")
+        outside = self._limit_problems(active)
         if outside:
             raise RequestError(MoveItErrorCode.INVALID_ROBOT_STATE,
                                "start_state is outside the joint limits: " + "; ".join(outside))
