@@ -213,6 +213,12 @@ def test_mtc_node_plans_executes_and_places_the_object(system, model):
             (Parameter("approach_object_min_dist", value=0.5), "must not exceed approach_object_max_dist (0.3)"),
             (Parameter("cartesian_step_size", value=0.0), "cartesian_step_size must be > 0"),
             (Parameter("lift_object_direction_z", value=0.0), "lift_object_direction_z must not be 0"),
+            # names checked against the robot model and the controllers configuration
+            (Parameter("arm_group_name", value="legs"), "unknown planning group 'legs'"),
+            (Parameter("gripper_frame", value="nolink"), "unknown frame 'nolink'"),
+            (Parameter("world_frame", value="mars"), "unknown frame 'mars'"),
+            (Parameter("arm_home_pose", value="moon"), "unknown named state 'moon' of group 'arm'"),
+            (Parameter("controller_names", value=["nope"]), "unknown controllers ['nope']"),
         ]
         for param, reason in refused:
             result = probe.set_param("mtc_node", param)
@@ -252,6 +258,11 @@ def test_spawn_table_false_then_execute_on_param_set_and_replan_on_trigger(syste
         assert response.success and response.message.startswith("1 solutions"), response.message
         assert "table" in scene.get_objects() and _object_at(scene, "object", start)
         assert node.output().count("Execution succeeded") == 1  # re-planning does not execute
+
+        # a plan that fails answers with the reason the log has, not an empty "Failing stage(s):"
+        assert probe.set_param("mtc_node", Parameter("object_pose", value=[0.5, 0.0, 0.0, 0.0, 0.0, 0.0])).successful
+        response = probe.trigger("/mtc_node/plan")
+        assert not response.success and "failing stage(s): grasp pose IK" in response.message, response.message
         assert node.alive()
     finally:
         node.stop()

@@ -20,6 +20,7 @@ from __future__ import annotations
 from typing import Any, Sequence
 
 from interfaces_py.clients import RpcError
+from mycobot_planning.core.execution import load_controllers
 from mycobot_planning.nodes.node_runtime import ParameterSpec
 from mycobot_planning.nodes.perception_object_source import PerceptionObjectSource, perception_parameter_specs
 from mycobot_planning.nodes.task_node import TaskNode, main_for
@@ -46,9 +47,19 @@ _PARTNERS = {
     "retreat_min_distance": ("retreat_max_distance", "max"),
     "retreat_max_distance": ("retreat_min_distance", "min"),
 }
+#: Parameters that name something of the robot, checked against its model when set.
+_GROUPS = ("arm_group_name", "gripper_group_name")
+_LINKS = ("gripper_frame", "world_frame", "table_reference_frame", "object_reference_frame")
+_NAMED_STATES = {"arm_home_pose": "arm_group_name", "gripper_open_pose": "gripper_group_name",
+                 "gripper_close_pose": "gripper_group_name"}
 #: What the scene set-up depends on: when one of them changed, a re-plan sets the scene up again.
 _SCENE_NAMES = ("spawn_table", "table_name", "table_reference_frame", "table_dimensions", "table_pose", "object_name",
                 "object_reference_frame", "object_dimensions", "object_pose", "place_pose_z_offset_factor")
+
+
+def _controller_names() -> list[str]:
+    """The controllers the planning_server executes through (config/controllers.yaml)."""
+    return [c.name for c in load_controllers(None)]
 
 
 def _default(name: str) -> Any:
@@ -85,6 +96,9 @@ class PickPlaceTaskNode(TaskNode):
                 problem = info.check(name, value)
                 if problem:
                     return problem
+            problem = self._robot_problem(name, value)
+            if problem:
+                return problem
             if partner is not None:
                 other, role = partner
                 if self.has_parameter(other):
@@ -96,6 +110,28 @@ class PickPlaceTaskNode(TaskNode):
 
         return ParameterSpec(name, _default(name), info.description, range=info.range, array_size=info.array_size,
                              non_empty=info.non_empty, validator=validator)
+
+    def _current(self, name: str) -> Any:
+        return self.get_parameter(name).value if self.has_parameter(name) else _default(name)
+
+    def _robot_problem(self, name: str, value: Any) -> str | None:
+        """Why ``value`` names nothing of the robot or its controllers, or None."""
+        model = self.model
+        if name in _GROUPS and not model.has_group(value):
+            return f"{name}: unknown planning group '{value}'; robot '{model.name}' has {list(model.group_names)}"
+        if name in _LINKS and value != "world" and not model.has_link(value):
+            return f"{name}: unknown frame '{value}': neither 'world' nor a link of robot '{model.name}'"
+        if name in _NAMED_STATES:
+            group = self._current(_NAMED_STATES[name])
+            known = model.named_state_names(group) if model.has_group(group) else []
+            if value not in known:
+                return f"{name}: unknown named state '{value}' of group '{group}'; known: {list(known)}"
+        if name == "controller_names":
+            unknown = [c for c in value if c not in _controller_names()]
+            if unknown:
+                return (f"controller_names: unknown controllers {unknown}; config/controllers.yaml has "
+                        f"{_controller_names()}")
+        return None
 
     # ------------------------------------------------------------------ the seed's log lines
     def plan(self) -> bool:

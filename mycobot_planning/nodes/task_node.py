@@ -217,8 +217,11 @@ class TaskNode(Node):
         super().__init__(node_name)
         self._created = time.monotonic()
         self.title = title or node_name
-        self.params = Parameters(self, [*task_node_parameters(max_solutions, seed), *parameters])
+        # The model first: parameters naming groups, links or named states are checked against it.
         self.model = model if model is not None else self.load_model()
+        self.params = Parameters(self, [*task_node_parameters(max_solutions, seed), *parameters])
+        #: Why the last plan failed (empty after a success): what the ~/plan service answers.
+        self.last_failure = ""
         self.task: Task | None = None
         self.exit_code: int | None = None
         self._lock = threading.Lock()  # one plan or execution at a time
@@ -307,7 +310,13 @@ class TaskNode(Node):
         with self._lock:
             return self._plan_locked()
 
+    def _fail(self, reason: str) -> bool:
+        self.last_failure = reason
+        self.error(reason)
+        return False
+
     def _plan_locked(self) -> bool:
+        self.last_failure = ""
         try:
             task = self.build_task()
             task.setSceneProvider(self.fetch_scene)
@@ -315,18 +324,15 @@ class TaskNode(Node):
             if timeout > 0:
                 task.setTimeout(timeout)
         except (TaskError, PlanningError, ValueError) as exc:
-            self.error(f"building the task failed: {exc}")
-            return False
+            return self._fail(f"building the task failed: {exc}")
         self.task = task
         self.info(f"Starting task planning: '{task.name}'")
         try:
             code = task.plan(int(self.params.get("max_solutions")))
         except InitStageException as exc:
-            self.error(f"InitStageException caught during task planning: {exc}")
-            return False
+            return self._fail(f"InitStageException caught during task planning: {exc}")
         except (TaskError, PlanningError, ValueError) as exc:
-            self.error(f"task planning failed: {type(exc).__name__}: {exc}")
-            return False
+            return self._fail(f"task planning failed: {exc}")
         solved = bool(task.solutions)
         if solved:
             self.info("Task planning completed successfully" + ("" if code else f" ({code.name}: {code.message})"))
@@ -336,7 +342,12 @@ class TaskNode(Node):
         else:
             self.error(f"Task planning failed with error code: {code.val} ({code.name}): {code.message}")
             self.error("Task state:\n" + task.printState(stream=None).rstrip("\n"))
-            self.error("Failure explanation:\n" + task.explainFailure(stream=None))
+            explanation = task.explainFailure(stream=None)
+            self.error("Failure explanation:\n" + explanation)
+            stages = [line.strip() for line in explanation.splitlines()[1:] if line.strip()]
+            self.last_failure = f"{code.name}: {code.message}" if code.message else code.name
+            if stages:
+                self.last_failure += "; failing stage(s): " + " | ".join(stages[:3])
         self.info("Stage summary:\n" + "\n".join(stage_summary_lines(task)))
         self._publish(task)
         return solved
@@ -443,7 +454,7 @@ class TaskNode(Node):
             response.message = (f"{task.numSolutions()} solutions, best cost {task.solutions[0].cost:.4f}, "
                                 f"planning time {task.planning_time:.3f} s")
         else:
-            response.message = "planning failed" + (f": {task.explainFailure(stream=None).strip()}" if task else "")
+            response.message = f"planning failed: {self.last_failure or 'no solution'}"
         return response
 
     def _srv_execute(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
