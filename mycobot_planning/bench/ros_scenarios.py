@@ -55,10 +55,19 @@ class RobotProcesses:
 
     READY = {"mock_controllers": "controller_manager ready", "planning_server": "planning_server ready"}
 
-    def __init__(self, domain: int, server_args: list[str] | None = None, timeout: float = 60.0) -> None:
+    def __init__(self, domain: int, server_args: list[str] | None = None, timeout: float = 60.0,
+                 extra_nodes: dict[str, tuple[list[str], str]] | None = None) -> None:
+        """``extra_nodes``: more nodes of the package, name -> (arguments, the log line that says
+        it is ready), started after the two."""
         self.domain = domain
         self.server_args = server_args or []
         self.timeout = timeout
+        self.ready = dict(self.READY)
+        self.args: dict[str, list[str]] = {"mock_controllers": [],
+                                           "planning_server": ["--ros-args", *self.server_args] if self.server_args else []}
+        for name, (args, text) in (extra_nodes or {}).items():
+            self.ready[name] = text
+            self.args[name] = list(args)
         self.log_dir = Path(tempfile.mkdtemp(prefix="mycobot_bench_"))
         self.procs: dict[str, subprocess.Popen] = {}
 
@@ -76,15 +85,14 @@ class RobotProcesses:
         # this process's own clients join the same domain
         os.environ.update({k: v for k, v in self.env().items() if k.startswith("ROS_")})
         try:
-            for name in ("mock_controllers", "planning_server"):
-                args = ["--ros-args", *self.server_args] if name == "planning_server" and self.server_args else []
+            for name, args in self.args.items():
                 log = open(self.log_dir / f"{name}.log", "w")
                 self.procs[name] = subprocess.Popen(
                     [sys.executable, "-m", f"mycobot_planning.nodes.{name}", *args], env=self.env(),
                     stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, start_new_session=True)
                 log.close()
             deadline = time.monotonic() + self.timeout
-            for name, text in self.READY.items():
+            for name, text in self.ready.items():
                 while text not in self.log(name):
                     if self.procs[name].poll() is not None or time.monotonic() > deadline:
                         raise RuntimeError(f"{name} did not start; its log ({self.log_dir / (name + '.log')}):\n"

@@ -1,0 +1,56 @@
+"""Every interface of our nodes under hundreds of bad inputs (issue 13): mock_controllers,
+planning_server and mtc_node in real processes, the cases of mycobot_planning.bench.robustness
+(the same ones the `robustness` bench runs). Each must be refused with a reason, leave the scene
+and the robot unchanged, and leave every node alive and answering."""
+from __future__ import annotations
+
+from collections import Counter
+
+import pytest
+
+from mycobot_planning.bench.robustness import RobustnessSystem, all_cases
+from ros_testing import session_domain_id
+
+CASES = all_cases()
+
+
+@pytest.fixture(scope="module")
+def system():
+    with RobustnessSystem(session_domain_id()) as system:
+        yield system
+
+
+def test_there_are_hundreds_of_systematic_cases_over_every_interface():
+    kinds = Counter(case.interface for case in CASES)
+    assert len(CASES) >= 300, kinds
+    assert set(kinds) == {"rpc", "rpc_raw", "topic", "controller", "param"}
+    names = {case.name for case in CASES}
+    for required in ("objects: 11 MB batch with one bad box", "nested 5000 deep", "execute whip 1.5 rad in 1 ms",
+                     "mtc_node arm_group_name='legs'", "planning_server planner_id='Magic'",
+                     "/collision_object surrogate id", "plan.allowed_planning_time[1]=1000000000.0"):
+        assert required in names, required
+
+
+def test_every_bad_input_is_refused_and_nothing_changes(system):
+    report = system.runner().run(CASES)
+    summary = report.summary()
+    assert summary["inputs"] == len(CASES)
+    failing = "\n".join(f"{o.verdict}: {o.case.interface} {o.case.name}: {o.detail[:300]}" for o in report.failures())
+    assert summary["accepted_bad"] == 0 and summary["crashes"] == 0 and summary["hangs"] == 0, failing
+    # the nodes still do their job afterwards: a good plan succeeds
+    answer = system.prober.call("plan", {"group": "arm", "goal": {"named": "ready"}, "display": False}, 30.0)
+    assert answer["ok"] and answer["result"]["error_code"]["val"] == 1, answer
+
+
+@pytest.mark.parametrize("answer, verdict", [
+    ({"ok": True, "result": {"error_code": {"val": 1, "message": ""}}}, "accepted_bad"),  # a success
+    ({"ok": True, "result": {"applied": 1}}, "accepted_bad"),
+    ({"ok": False, "error": {"code": -1003, "message": "IndexError: index 4000 is out of bounds"}}, "accepted_bad"),
+    ({"ok": False, "error": {"code": -1001, "message": ""}}, "accepted_bad"),  # no reason given
+    ({"ok": True, "result": {"error_code": {"val": -16, "message": "goal tolerance must not be negative"}}}, "refused"),
+    ({"ok": False, "error": {"code": -1001, "message": "malformed JSON"}}, "refused"),
+])
+def test_the_judge_tells_a_refusal_from_an_acceptance_or_a_leak(answer, verdict):
+    from mycobot_planning.bench.robustness import Runner
+
+    assert Runner._judge_rpc(answer)[0] == verdict
