@@ -16,10 +16,6 @@ from mycobot_planning.task.demos import build_modular_task
 NODE_NAME = "modular_demo"
 
 
-def _group_check(value: str) -> str | None:
-    return None if value.strip() else "group must name a planning group"
-
-
 class ModularDemo(TaskNode):
     def __init__(self) -> None:
         super().__init__(NODE_NAME, title="modular demo", parameters=[
