@@ -64,3 +64,23 @@ def test_a_raising_callback_is_logged_and_the_node_goes_on():
         node.destroy_node()
         rclpy.shutdown(context=context)
         log.close()
+
+
+def test_sigterm_ends_a_node_that_has_nothing_to_wake_its_executor():
+    """mtc_node without a planning_server has no timer: before, SIGTERM's Python handler never
+    ran while spin() waited in C, and the node lived on (issue 14, item 8). rclpy's own handler
+    wakes the executor; the node exits cleanly with code 0."""
+    import os
+    import signal
+
+    from ros_testing import NodeProcess
+
+    node = NodeProcess("mycobot_planning.nodes.mtc_node", ["--ros-args", "-p", "server_timeout:=1.0"])
+    try:
+        assert node.wait_for_output("MTC pick and place completed", 60), node.output()
+        os.killpg(node.proc.pid, signal.SIGTERM)
+        assert wait_until(lambda: node.proc.poll() is not None, 10.0), "still alive 10 s after SIGTERM"
+        assert node.proc.returncode == 0, node.output()[-2000:]
+        assert "Traceback" not in node.output()
+    finally:
+        node.stop()

@@ -151,7 +151,8 @@ def run_node(factory: Callable[[], Node], args: list[str] | None = None, threads
     a node down)."""
     use_fast_discovery()
     rclpy.init(args=args if args is not None else sys.argv)
-    signal.signal(signal.SIGTERM, lambda *_: rclpy.try_shutdown())
+    # rclpy.init installs SIGINT and SIGTERM handlers at C level (SignalHandlerOptions.ALL): they wake
+    # the executor, which a Python-level handler cannot do while spin() waits in C.
     node = None
     code = 0
     try:
