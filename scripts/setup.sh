@@ -22,6 +22,8 @@ fi
 
 want="$(cat "$ROOT/scripts/requirements.txt" "$ROOT/scripts/constraints.txt" "$ROOT/setup.py" "$ROOT/setup.cfg" "$ROOT/package.xml" | sha256sum | cut -d' ' -f1)"
 if [[ -x "$VENV/bin/python" && -f "$STAMP" && "$(cat "$STAMP")" == "$want" ]]; then
+  # MoveIt's, ros2_control's and MTC's interface packages (a no-op when its own stamp is current).
+  "$ROOT/scripts/build_interfaces.sh" "$VENV"
   exit 0
 fi
 
@@ -38,7 +40,9 @@ if ! "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check --no-
   cat "$VENV/editable-install.log" >&2
   exit 1
 fi
+# MoveIt's, ros2_control's and MTC's interface packages, built from interfaces_py/ros_packages.
+"$ROOT/scripts/build_interfaces.sh" "$VENV"
 # Prove the stack loads together before declaring success.
-"$VENV/bin/python" -c "import rclpy, pinocchio, coal, ompl, ruckig, numpy, scipy, yaml, viser, matplotlib, mycobot_planning, interfaces_py"
+"$VENV/bin/python" -c "import rclpy, pinocchio, coal, ompl, ruckig, numpy, scipy, yaml, viser, matplotlib, mycobot_planning, interfaces_py, moveit_msgs.action, control_msgs.action, pymoveit2"
 echo "$want" > "$STAMP"
 echo "[setup] done: activate with 'source .venv/bin/activate'"
