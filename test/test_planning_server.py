@@ -71,10 +71,10 @@ class Probe:
         self.display: list[JointTrajectoryMsg] = []
         self.markers: list[tuple[float, MarkerArray]] = []
         self.node.create_subscription(JointState, "/joint_states", self._on_js, 10)
-        self.node.create_subscription(JointTrajectoryMsg, "/display_planned_path", self._on_display, LATCHED)
+        self.node.create_subscription(JointTrajectoryMsg, "/planned_path", self._on_display, LATCHED)
         self.node.create_subscription(MarkerArray, "/planning_scene_markers", self._on_markers, LATCHED)
         self.pubs = {topic: self.node.create_publisher(String, topic, 100)
-                     for topic in ("/collision_object", "/planning_scene", "/attached_collision_object",
+                     for topic in ("/planning_server/collision_object", "/planning_server/planning_scene", "/planning_server/attached_collision_object",
                                    "/planning_server/requests")}
         self.thread = threading.Thread(target=self.executor.spin, daemon=True)
         self.thread.start()
@@ -125,7 +125,7 @@ class Probe:
         # Kept, not destroyed: destroying an entity while the executor thread waits on it can
         # kill that thread (rclpy raises "cannot use Destroyable" there).
         self.late_joiners.append(self.node.create_subscription(
-            String, "/monitored_planning_scene", lambda m: received.append(m.data), LATCHED))
+            String, "/planning_server/monitored_planning_scene", lambda m: received.append(m.data), LATCHED))
 
         def match() -> PlanningSceneMsg | None:
             for data in list(received):
@@ -372,7 +372,7 @@ def test_cartesian_path_and_gripper_motion_through_the_client(system, model):
 def test_scene_updates_from_topic_and_client_with_errors_leaving_it_unchanged(system):
     scene, probe = system["scene"], system["probe"]
     box = CollisionObject.box("topic_box", [0.05, 0.05, 0.05], make_pose([0.25, -0.15, 0.05]))
-    probe.pubs["/collision_object"].publish(String(data=box.to_json()))
+    probe.pubs["/planning_server/collision_object"].publish(String(data=box.to_json()))
     assert wait_until(lambda: "topic_box" in scene.get_objects(), 10.0)
     scene.add_cylinder("client_cylinder", 0.2, 0.02, [0.25, 0.15, 0.1, 0, 0, 0, 1])
     objects = scene.get_objects()
@@ -531,17 +531,17 @@ def test_bad_input_battery_is_answered_and_the_node_survives(system):
     arm, scene, probe = system["arm"], system["scene"], system["probe"]
     server = system["server"]
     # malformed messages on the scene topics: logged, nothing applied
-    probe.pubs["/collision_object"].publish(String(data="{not json"))
-    probe.pubs["/collision_object"].publish(String(data=json.dumps({"id": "neg", "primitives": [
+    probe.pubs["/planning_server/collision_object"].publish(String(data="{not json"))
+    probe.pubs["/planning_server/collision_object"].publish(String(data=json.dumps({"id": "neg", "primitives": [
         {"type": 1, "dimensions": [0.1, -0.1, 0.1]}], "primitive_poses": [{}]})))
-    probe.pubs["/planning_scene"].publish(String(data="[1, 2]"))
-    probe.pubs["/attached_collision_object"].publish(String(data=json.dumps({"link_name": "nolink", "object": {
+    probe.pubs["/planning_server/planning_scene"].publish(String(data="[1, 2]"))
+    probe.pubs["/planning_server/attached_collision_object"].publish(String(data=json.dumps({"link_name": "nolink", "object": {
         "id": "x", "primitives": [{"type": 2, "dimensions": [0.1]}], "primitive_poses": [{}]}})))
     probe.pubs["/planning_server/requests"].publish(String(data="{garbage"))
-    assert server.wait_for_output("refused update on /collision_object: malformed JSON", 10.0)
+    assert server.wait_for_output("refused update on /planning_server/collision_object: malformed JSON", 10.0)
     assert server.wait_for_output("BOX y must be > 0", 10.0)
-    assert server.wait_for_output("refused update on /planning_scene", 10.0)
-    assert server.wait_for_output("refused update on /attached_collision_object", 10.0)
+    assert server.wait_for_output("refused update on /planning_server/planning_scene", 10.0)
+    assert server.wait_for_output("refused update on /planning_server/attached_collision_object", 10.0)
     assert server.wait_for_output("rejected a request: malformed JSON", 10.0)
     assert scene.get_objects() == {} and scene.get_attached_objects() == {}
 

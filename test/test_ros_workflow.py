@@ -72,7 +72,7 @@ def test_plan_from_parameters_and_echo_the_planned_path(robot):
     assert "Set parameter successful" in result.stdout, result.stdout + result.stderr
     # Subscribe first, then plan: the echo must print the JointTrajectory of that plan.
     echo = subprocess.Popen(
-        [*ROS2, "topic", "echo", "/display_planned_path", "trajectory_msgs/msg/JointTrajectory", "--once"],
+        [*ROS2, "topic", "echo", "/planned_path", "trajectory_msgs/msg/JointTrajectory", "--once"],
         cwd=REPO, env=ros_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )
     try:

@@ -152,8 +152,8 @@ class Probe:
         self.display: list[JointTrajectoryMsg] = []
         self.scenes: list[str] = []
         self.node.create_subscription(JointState, "/joint_states", self._on_js, 10)
-        self.node.create_subscription(JointTrajectoryMsg, "/display_planned_path", self._on_display, LATCHED)
-        self.node.create_subscription(String, "/monitored_planning_scene", self._on_scene, LATCHED)
+        self.node.create_subscription(JointTrajectoryMsg, "/planned_path", self._on_display, LATCHED)
+        self.node.create_subscription(String, "/planning_server/monitored_planning_scene", self._on_scene, LATCHED)
         self.thread = threading.Thread(target=self.executor.spin, daemon=True)
         self.thread.start()
 

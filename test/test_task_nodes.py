@@ -63,7 +63,7 @@ class Probe:
                                (topics.solution, SOLUTION_QOS)):
                 self.received[topic] = []
                 self.node.create_subscription(String, topic, lambda m, t=topic: self._on(t, m.data), qos)
-        self.node.create_subscription(JointTrajectoryMsg, "/display_planned_path", self._on_display, LATCHED)
+        self.node.create_subscription(JointTrajectoryMsg, "/planned_path", self._on_display, LATCHED)
         self.node.create_subscription(JointState, "/joint_states", self._on_js, 10)
         self.clients: dict[str, Any] = {}
         self.executor = SingleThreadedExecutor(context=self.context)

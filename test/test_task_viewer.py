@@ -58,8 +58,8 @@ class TaskNode:
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
         self.introspection = TaskIntrospection(self.node)
-        self.scene_pub = self.node.create_publisher(String, "/monitored_planning_scene", LATCHED)
-        self.path_pub = self.node.create_publisher(JointTrajectoryMsg, "/display_planned_path", LATCHED)
+        self.scene_pub = self.node.create_publisher(String, "/planning_server/monitored_planning_scene", LATCHED)
+        self.path_pub = self.node.create_publisher(JointTrajectoryMsg, "/planned_path", LATCHED)
         self.js_pub = self.node.create_publisher(JointState, "/joint_states", 10)
         self.url: list[str] = []
         self.node.create_subscription(String, "/task_viewer/url", lambda m: self.url.append(m.data), LATCHED)

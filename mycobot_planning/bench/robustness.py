@@ -320,16 +320,16 @@ def topic_cases() -> list[Case]:
              ("negative box", json.dumps(_box(primitives=[{"type": 1, "dimensions": [0.1, -0.1, 0.1]}]))),
              ("unknown field", json.dumps(_box(bogus=1)))]
     for name, text in texts:
-        cases.append(Case("topic", f"/collision_object {name}", text, "/collision_object"))
+        cases.append(Case("topic", f"/planning_server/collision_object {name}", text, "/planning_server/collision_object"))
     for name, text in [("not JSON", "{garbage"), ("array", "[1, 2]"),
                        ("nolink", json.dumps({"link_name": "nolink", "object": _box()})),
                        ("surrogate", json.dumps({"link_name": "link6_flange", "object": _box(id="t\ud800x")}))]:
-        cases.append(Case("topic", f"/attached_collision_object {name}", text, "/attached_collision_object"))
+        cases.append(Case("topic", f"/planning_server/attached_collision_object {name}", text, "/planning_server/attached_collision_object"))
     for name, text in [("not JSON", "{garbage"), ("acm ghost", json.dumps({"is_diff": True, "allowed_collision_matrix": {
             "default_entry_names": ["ghost"], "default_entry_values": [True]}})),
             ("robot_state outside", json.dumps({"is_diff": True, "robot_state": {
                 "joint_names": ["link2_to_link3"], "positions": [9.0], "is_diff": True}}))]:
-        cases.append(Case("topic", f"/planning_scene {name}", text, "/planning_scene"))
+        cases.append(Case("topic", f"/planning_server/planning_scene {name}", text, "/planning_server/planning_scene"))
     return cases
 
 
@@ -401,7 +401,7 @@ class Prober:
         self.node.create_subscription(JointState, "/joint_states", self._on_joints, 10)
         self.topics = {t: self.node.create_publisher(String, t, QoSProfile(
             depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE))
-            for t in ("/collision_object", "/attached_collision_object", "/planning_scene")}
+            for t in ("/planning_server/collision_object", "/planning_server/attached_collision_object", "/planning_server/planning_scene")}
         self.controllers = {c: self.node.create_publisher(JointTrajectory, f"/{c}/joint_trajectory", 10)
                             for c in ("arm_controller", "grip_action_controller")}
         self._param_clients: dict[str, Any] = {}

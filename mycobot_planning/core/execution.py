@@ -81,6 +81,10 @@ TERMINAL_SUCCESS = "succeeded"
 TERMINAL_FAILURE = ("aborted", "failed")
 TERMINAL_INTERRUPTED = ("preempted", "stopped")
 SOURCE = "trajectory_execution"
+#: MoveIt's controller handle types (moveit_controllers.yaml ``type``)
+FOLLOW_JOINT_TRAJECTORY = "FollowJointTrajectory"
+GRIPPER_COMMAND = "GripperCommand"
+ACTION_NAMESPACES = {FOLLOW_JOINT_TRAJECTORY: "follow_joint_trajectory", GRIPPER_COMMAND: "gripper_cmd"}
 
 
 class ExecutionError(PlanningError, ValueError):
@@ -133,10 +137,18 @@ def allowed_duration(duration: float, scaling: float, margin: float) -> float:
 # ---------------------------------------------------------------------------- controllers
 @dataclass(frozen=True)
 class ControllerInfo:
-    """A joint trajectory controller: its name and the joints it drives."""
+    """A controller as MoveIt's simple controller manager knows it: its name, the joints it
+    drives and its action (``FollowJointTrajectory`` on ``/<name>/<action_ns>``, or
+    ``GripperCommand``, which gets the last point of the gripper's trajectory)."""
 
     name: str
     joints: tuple[str, ...]
+    action_type: str = FOLLOW_JOINT_TRAJECTORY
+    action_ns: str = "follow_joint_trajectory"
+
+    @property
+    def action_name(self) -> str:
+        return f"/{self.name}/{self.action_ns}"
 
     @property
     def command_topic(self) -> str:
@@ -163,7 +175,7 @@ def _controller_joints(name: str, entry: Any, where: str) -> tuple[str, ...]:
 
 
 def load_controllers(source: str | Path | Mapping | None) -> list[ControllerInfo]:
-    """Controllers from a controllers file or its parsed content (None: config/controllers.yaml).
+    """Controllers from a controllers file or its parsed content (None: config/moveit_controllers.yaml).
 
     Layouts understood:
 
@@ -178,7 +190,7 @@ def load_controllers(source: str | Path | Mapping | None) -> list[ControllerInfo
     if source is None:
         from ..paths import config_file
 
-        source = config_file("controllers.yaml")
+        source = config_file("moveit_controllers.yaml")
     if isinstance(source, Mapping):
         data = dict(source)
     else:
@@ -202,7 +214,9 @@ def load_controllers(source: str | Path | Mapping | None) -> list[ControllerInfo
             joints_entry = data.get(name)
             if joints_entry is None and "joints" in entry:
                 joints_entry = entry
-            controllers.append(ControllerInfo(name, _controller_joints(name, joints_entry, where)))
+            kind = GRIPPER_COMMAND if "GripperActionController" in ctype else FOLLOW_JOINT_TRAJECTORY
+            controllers.append(ControllerInfo(name, _controller_joints(name, joints_entry, where), kind,
+                                              ACTION_NAMESPACES[kind]))
     elif "moveit_simple_controller_manager" in data:
         manager = data["moveit_simple_controller_manager"]
         if not isinstance(manager, Mapping):
@@ -211,7 +225,16 @@ def load_controllers(source: str | Path | Mapping | None) -> list[ControllerInfo
         if not isinstance(names, list):
             raise ValueError(f"{where}: controller_names must be a list")
         for name in names:
-            controllers.append(ControllerInfo(str(name), _controller_joints(str(name), manager.get(name), where)))
+            entry = manager.get(name)
+            kind = entry.get("type", FOLLOW_JOINT_TRAJECTORY) if isinstance(entry, Mapping) else FOLLOW_JOINT_TRAJECTORY
+            if kind not in ACTION_NAMESPACES:
+                raise ValueError(f"{where}: controller '{name}' has type {kind!r}; supported: "
+                                 f"{', '.join(ACTION_NAMESPACES)}")
+            action_ns = entry.get("action_ns", ACTION_NAMESPACES[kind]) if isinstance(entry, Mapping) else None
+            if not isinstance(action_ns, str) or not action_ns.strip("/"):
+                raise ValueError(f"{where}: controller '{name}' needs an action_ns string")
+            controllers.append(ControllerInfo(str(name), _controller_joints(str(name), entry, where), kind,
+                                              action_ns.strip("/")))
     elif "controllers" in data:
         entries = data["controllers"]
         if not isinstance(entries, Mapping):

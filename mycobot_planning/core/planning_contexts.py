@@ -91,11 +91,19 @@ class PlanningContextPool:
         with self._cond:
             self._building -= 1
             if context is not None:
+                primary = self._contexts[0].pipeline
+                if hasattr(primary, "ompl") and hasattr(context.pipeline, "ompl"):
+                    context.pipeline.ompl.config = primary.ompl.config  # planner parameters set since start-up
                 self._contexts.append(context)
                 self._free.append(context)
             else:
                 self._max = len(self._contexts)  # the factory fails: stop trying
             self._cond.notify_all()
+
+    def pipelines(self) -> list[Any]:
+        """Every context's pipeline (to change a setting in all of them)."""
+        with self._cond:
+            return [c.pipeline for c in self._contexts]
 
     @contextmanager
     def acquire(self) -> Iterator[PlanningContext]:

@@ -24,10 +24,12 @@ import math
 import threading
 import time
 import traceback
+import dataclasses
 from dataclasses import dataclass
 from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
+import yaml
 
 from interfaces_py.msgs import (
     AttachedCollisionObject,
@@ -56,9 +58,11 @@ from .execution import (
     timed_to_joint_trajectory,
 )
 from .planning_contexts import ContextFactory, PlanningContextPool
+from .pilz import KNOWN_PLANNER_IDS as PILZ_PLANNER_IDS
 from .planning_interface import JointGoal, MotionPlanRequest, NamedGoal, PoseGoal
 from .planning_scene import PlanningScene
 from .robot_model import RobotModel
+from .state_queries import DEFAULT_IK_TIMEOUT, MAX_IK_TIMEOUT, StateQueries, state_to_json
 from .transforms import check_pose, make_pose
 
 __all__ = ["PlanningDefaults", "PlanningServerCore", "RequestError", "goal_from_parameters", "pose_from_json"]
@@ -84,7 +88,7 @@ _PLAN_KEYS = {
     "circ_center", "circ_interim", "num_ik_goals",
 }
 _GOAL_KEYS = {"named", "joints", "pose", "link", "ik_frame_offset", "tolerance", "position_tolerance",
-              "orientation_tolerance"}
+              "orientation_tolerance", "frame"}
 _CARTESIAN_KEYS = {
     "group", "waypoints", "link", "ik_frame_offset", "eef_step", "jump_threshold", "avoid_collisions",
     "max_velocity_scaling_factor", "max_acceleration_scaling_factor", "start_state", "frame", "display",
@@ -222,6 +226,7 @@ class PlanningServerCore:
         self.executor = TrajectoryExecutionManager(
             model, controllers, bus, self.joint_positions, settings or ExecutionSettings(), clock=clock, log=self._log
         )
+        self.queries = StateQueries(model)
 
     # ------------------------------------------------------------------ settings
     @property
@@ -623,6 +628,11 @@ class PlanningServerCore:
                 raise RequestError(bad, f"num_ik_goals must be an integer >= 1, got {n!r}")
             extra["num_ik_goals"] = n
         scene = self._start_scene(params.get("start_state"), self.model.group(group).joint_names)
+        frame = params["goal"].get("frame", "world")
+        if not isinstance(frame, str) or not frame:
+            raise RequestError(MoveItErrorCode.INVALID_GOAL_CONSTRAINTS, "goal 'frame' must be a frame name")
+        if isinstance(goal, PoseGoal):
+            goal.pose = self._in_world([goal.pose], frame, scene)[0]
         request = MotionPlanRequest(
             group=group, goal=goal, start_state=scene.current_state.copy(), seed=seed,
             num_planning_attempts=attempts, **strings, **numbers, **extra,
@@ -772,6 +782,148 @@ class PlanningServerCore:
                                f"'{self.model.root_link}' or a link of robot '{self.model.name}'")
         base = scene.current_state.frame_pose(frame)
         return [base @ pose for pose in poses]
+
+    # ------------------------------------------------------------------ state queries
+    def compute_ik(self, params: Mapping[str, Any]) -> dict[str, Any]:
+        """MoveIt's compute_ik: {"group", "pose", "frame", "link", "robot_state" (seed),
+        "avoid_collisions", "timeout"} -> {"error_code", "solution" (JSON RobotState or None)}."""
+        try:
+            if not isinstance(params, Mapping):
+                raise RequestError(BAD_REQUEST, "an IK request must be a JSON object")
+            group = params.get("group", "arm")
+            if not isinstance(group, str) or not self.model.has_group(group):
+                raise RequestError(MoveItErrorCode.INVALID_GROUP_NAME,
+                                   f"unknown planning group {group!r}; known: {', '.join(self.model.group_names)}")
+            link = params.get("link") or ""
+            if not isinstance(link, str) or (link and not self.model.has_link(link)):
+                raise RequestError(MoveItErrorCode.INVALID_LINK_NAME,
+                                   f"unknown link {link!r} of robot '{self.model.name}'")
+            timeout = params.get("timeout") or DEFAULT_IK_TIMEOUT
+            timeout = self._number(timeout, "timeout", BAD_REQUEST)
+            if not 0 < timeout <= MAX_IK_TIMEOUT:
+                raise RequestError(BAD_REQUEST, f"timeout must be in (0, {MAX_IK_TIMEOUT:g}] s, got {timeout:g}")
+            avoid = params.get("avoid_collisions", False)
+            if not isinstance(avoid, bool):
+                raise RequestError(BAD_REQUEST, "avoid_collisions must be true or false")
+            frame = params.get("frame") or "world"
+            if not isinstance(frame, str):
+                raise RequestError(MoveItErrorCode.FRAME_TRANSFORM_FAILURE, "frame must be a frame name")
+            seed = params.get("robot_state")
+            scene = self._start_scene(seed if isinstance(seed, Mapping) and seed.get("joint_names") else None,
+                                      self.model.group(group).joint_names)
+            target = self._in_world([pose_from_json(params.get("pose"), "IK pose")], frame, scene)[0]
+        except RequestError as exc:
+            return {"error_code": _code(exc.code, exc.message, "compute_ik"), "solution": None}
+        answer = self.queries.compute_ik(scene, group, target, link, avoid, timeout)
+        if answer.state is None:
+            return {"error_code": _code(getattr(MoveItErrorCode, answer.error), answer.message, "compute_ik"),
+                    "solution": None}
+        return {"error_code": _code(MoveItErrorCode.SUCCESS, "", "compute_ik"),
+                "solution": state_to_json(answer.state, self.model)}
+
+    def compute_fk(self, params: Mapping[str, Any]) -> dict[str, Any]:
+        """MoveIt's compute_fk: {"links", "frame", "robot_state"} -> {"error_code", "poses"
+        ({link: Pose dict} in ``frame``)}."""
+        try:
+            if not isinstance(params, Mapping):
+                raise RequestError(BAD_REQUEST, "an FK request must be a JSON object")
+            links = params.get("links")
+            if not isinstance(links, (list, tuple)) or not links or not all(isinstance(x, str) for x in links):
+                raise RequestError(MoveItErrorCode.INVALID_LINK_NAME, "links must be a non-empty list of link names")
+            unknown = [x for x in links if not self.model.has_link(x)]
+            if unknown:
+                raise RequestError(MoveItErrorCode.INVALID_LINK_NAME,
+                                   f"unknown links {unknown} of robot '{self.model.name}'")
+            frame = params.get("frame") or "world"
+            if not isinstance(frame, str):
+                raise RequestError(MoveItErrorCode.FRAME_TRANSFORM_FAILURE, "frame must be a frame name")
+            state = params.get("robot_state")
+            scene = self._start_scene(state if isinstance(state, Mapping) and state.get("joint_names") else None,
+                                      self.model.variable_names)
+            if frame not in ("world", "/world") and not self.model.has_link(frame) and not scene.has_object(frame):
+                raise RequestError(MoveItErrorCode.FRAME_TRANSFORM_FAILURE,
+                                   f"unknown frame {frame!r}: not 'world', a link of robot '{self.model.name}' or "
+                                   "an object of the scene")
+            poses = self.queries.compute_fk(scene, list(links), frame)
+        except RequestError as exc:
+            return {"error_code": _code(exc.code, exc.message, "compute_fk"), "poses": {}}
+        return {"error_code": _code(MoveItErrorCode.SUCCESS, "", "compute_fk"),
+                "poses": {k: Pose.from_matrix(v).to_dict() for k, v in poses.items()}, "frame": frame}
+
+    def check_state_validity(self, params: Mapping[str, Any]) -> dict[str, Any]:
+        """MoveIt's check_state_validity: {"robot_state", "group"} -> {"valid", "contacts",
+        "out_of_bounds", "error_code"}."""
+        try:
+            if not isinstance(params, Mapping):
+                raise RequestError(BAD_REQUEST, "a validity request must be a JSON object")
+            group = params.get("group") or None
+            if group is not None and (not isinstance(group, str) or not self.model.has_group(group)):
+                raise RequestError(MoveItErrorCode.INVALID_GROUP_NAME,
+                                   f"unknown planning group {group!r}; known: {', '.join(self.model.group_names)}")
+            state = params.get("robot_state")
+            given = state if isinstance(state, Mapping) and (state.get("joint_names")
+                                                            or state.get("attached_collision_objects")) else None
+            if given is not None and given.get("joint_names"):
+                outside = self._limit_problems(dict(zip(given["joint_names"], given.get("positions", []))))
+                if outside:
+                    return {"valid": False, "contacts": [], "out_of_bounds": outside,
+                            "error_code": _code(MoveItErrorCode.SUCCESS, "", "check_state_validity")}
+            scene = self._start_scene(given, self.model.variable_names if given is None else [])
+        except RequestError as exc:
+            return {"valid": False, "contacts": [], "out_of_bounds": [],
+                    "error_code": _code(exc.code, exc.message, "check_state_validity")}
+        answer = self.queries.check_validity(scene, group)
+        return {"valid": answer.valid, "out_of_bounds": answer.bounds,
+                "contacts": [{"body_a": a, "body_b": b, "depth": d} for a, b, d in answer.contacts],
+                "error_code": _code(MoveItErrorCode.SUCCESS, "", "check_state_validity")}
+
+    # ------------------------------------------------------------------ planner interfaces
+    def planner_interfaces(self) -> list[dict[str, Any]]:
+        """move_group's query_planner_interface: each pipeline with its planner ids."""
+        ompl = self.pipeline.ompl.config
+        out = [{"name": "OMPL", "pipeline_id": "ompl", "planner_ids": sorted(ompl.planner_configs)}]
+        out.append({"name": "Pilz Industrial Motion Planner", "pipeline_id": "pilz_industrial_motion_planner",
+                    "planner_ids": list(PILZ_PLANNER_IDS)})
+        out.append({"name": "Joint interpolation (MTC's JointInterpolationPlanner)",
+                    "pipeline_id": "joint_interpolation", "planner_ids": ["joint_interpolation"]})
+        return out
+
+    def get_planner_params(self, pipeline_id: str, planner_config: str, group: str = "") -> dict[str, Any]:
+        """The parameters of one OMPL planner configuration ({} when unknown), as strings."""
+        if pipeline_id not in ("", "ompl"):
+            return {}
+        config = self.pipeline.ompl.config.planner_configs.get(planner_config)
+        if config is None:
+            return {}
+        params = {k: str(v) for k, v in config.params.items()}
+        params["type"] = config.type
+        return params
+
+    def set_planner_params(self, pipeline_id: str, planner_config: str, params: Mapping[str, str],
+                           replace: bool = False) -> str | None:
+        """Change an OMPL planner configuration's parameters in every planning context; None when
+        applied, else why not (nothing changed)."""
+        if pipeline_id not in ("", "ompl"):
+            return f"pipeline {pipeline_id!r} has no settable planner parameters (only 'ompl')"
+        current = self.pipeline.ompl.config
+        config = current.planner_configs.get(planner_config)
+        if config is None:
+            return (f"unknown planner configuration {planner_config!r}; known: "
+                    f"{', '.join(sorted(current.planner_configs))}")
+        values: dict[str, Any] = {} if replace else dict(config.params)
+        for key, text in params.items():
+            if key == "type":
+                continue
+            try:
+                values[key] = yaml.safe_load(text) if isinstance(text, str) else text
+            except yaml.YAMLError:
+                values[key] = text
+        updated = dataclasses.replace(current, planner_configs={
+            **current.planner_configs, planner_config: dataclasses.replace(config, params=values)})
+        for pipeline in self.contexts.pipelines():
+            pipeline.ompl.config = updated
+        self._log("info", f"planner configuration {planner_config}: parameters now {values}")
+        return None
 
     # ------------------------------------------------------------------ execution
     def _execution_reply(self, result: Any) -> dict[str, Any]:

@@ -58,9 +58,11 @@ from mycobot_planning.core.trajectory_following import (
     ControllerStatus,
     FollowerState,
     JointTrajectoryFollower,
+    SubmitResult,
     TrajectoryCommand,
     load_controllers_config,
 )
+from mycobot_planning.nodes.controller_actions import ControllerActions
 from mycobot_planning.nodes.node_runtime import Parameters, ParameterSpec, run_node
 from mycobot_planning.paths import config_file
 
@@ -101,6 +103,7 @@ class _Controller:
         self.state_pub = None
         self.subscription = None
         self.service = None
+        self.actions = None  # ControllerActions: the control_msgs action servers
         self.divisor = 1  # updated every divisor-th loop of the controller manager
 
 
@@ -205,6 +208,7 @@ class MockControllerManager(Node):
             Trigger, f"/{name}/stop", lambda req, resp, c=c: self._on_stop(c, resp),
             callback_group=self._control_group)
         c.divisor = max(1, round(self.config.update_rate / c.config.update_rate))
+        c.actions = ControllerActions(self, c)
         return c
 
     def _setup_broadcaster(self) -> None:
@@ -302,10 +306,12 @@ class MockControllerManager(Node):
                 reports.append((c, changed, c.follower.state()))
         if self._js_in_loop:
             self._publish_joint_states()
+        stamp = self.get_clock().now().to_msg()
         for c, changed, state in reports:
             if changed is not None:
                 self._log_change(c, changed)
             c.state_pub.publish(String(data=json.dumps(state.to_dict())))
+            c.actions.publish_state(state, stamp)
 
     def _copy_out(self, c: _Controller) -> None:
         self._positions[c.indices] = c.follower.positions
@@ -332,6 +338,11 @@ class MockControllerManager(Node):
             start_time=start,
             goal_id=msg.header.frame_id,
         )
+        self.submit(c, command)
+
+    def submit(self, c: _Controller, command: TrajectoryCommand) -> SubmitResult:
+        """Hand a command (from the topic or an action goal) to the controller's follower; logs and
+        publishes what happened."""
         with self._lock:
             result = c.follower.submit(command, self._now())
             self._copy_out(c)
@@ -343,16 +354,27 @@ class MockControllerManager(Node):
             if event.status != ControllerStatus.ABORTED:  # the rejection was logged above
                 log.info(f"{name}: {event.message}")
             c.state_pub.publish(String(data=json.dumps(event.to_dict())))
+        return result
 
-    def _on_stop(self, c: _Controller, response: Trigger.Response) -> Trigger.Response:
+    def follower_state(self, c: _Controller) -> FollowerState:
         with self._lock:
-            events = c.follower.stop(self._now(), "stop service called")
+            return c.follower.state()
+
+    def stop(self, c: _Controller, reason: str) -> list[FollowerState]:
+        """Stop the controller's goal (if any) and hold; logs and publishes the event."""
+        with self._lock:
+            events = c.follower.stop(self._now(), reason)
             self._copy_out(c)
-        name = c.config.name
         if events:
-            self.get_logger().info(f"{name}: {events[0].message}")
+            self.get_logger().info(f"{c.config.name}: {events[0].message}")
             for event in events:
                 c.state_pub.publish(String(data=json.dumps(event.to_dict())))
+        return events
+
+    def _on_stop(self, c: _Controller, response: Trigger.Response) -> Trigger.Response:
+        events = self.stop(c, "stop service called")
+        name = c.config.name
+        if events:
             response.message = f"{name} stopped goal {events[0].goal_id} and holds its position"
         else:
             response.message = f"{name} was not executing a goal; it keeps holding its position"
@@ -371,7 +393,8 @@ class MockControllerManager(Node):
 
 
 def main(args: list[str] | None = None) -> None:
-    sys.exit(run_node(MockControllerManager, args))
+    # Each running action goal holds an executor thread while it follows its trajectory.
+    sys.exit(run_node(MockControllerManager, args, threads=6))
 
 
 if __name__ == "__main__":

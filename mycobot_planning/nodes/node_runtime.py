@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import math
 import os
-import signal
 import sys
 import traceback
 from dataclasses import dataclass
@@ -163,6 +162,8 @@ def run_node(factory: Callable[[], Node], args: list[str] | None = None, threads
             return 1
         executor = MultiThreadedExecutor(num_threads=threads)
         executor.add_node(node)
+        for extra in getattr(node, "extra_nodes", ()):  # more nodes of the same process (planning_server: move_group)
+            executor.add_node(extra)
         _spin_guarded(node, executor)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass

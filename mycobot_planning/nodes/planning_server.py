@@ -25,14 +25,12 @@ executor, so joint states, scene updates and ``stop`` keep being served while th
 """
 from __future__ import annotations
 
-import json
 import math
 import os
 import sys
 import threading
 import time
 import traceback
-from collections import OrderedDict
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
@@ -52,7 +50,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 from interfaces_py.json_rpc import BAD_REQUEST, JsonRpcServer, RpcError, decode_request, log_safe
 from interfaces_py.msgs import CollisionObject, JointTrajectory, MoveItErrorCode
 from interfaces_py.ros_conversions import collision_object_to_markers, joint_trajectory_to_msg
-from mycobot_planning.core.execution import ControllerInfo, ControllerState, ExecutionSettings, load_controllers
+from mycobot_planning.core.execution import ExecutionSettings, load_controllers
 from mycobot_planning.core.ompl_interface import OmplConfigError, resolve_planner_id
 from mycobot_planning.core.pilz import KNOWN_PLANNER_IDS
 from mycobot_planning.core.trajectory_limits import DEFAULT_LIMIT_TOLERANCE
@@ -64,6 +62,8 @@ from mycobot_planning.core.planning_server_core import (
     goal_from_parameters,
 )
 from mycobot_planning.core.robot_model import RobotModel
+from mycobot_planning.nodes.controller_bus import ActionControllerBus
+from mycobot_planning.nodes.move_group import MoveGroupFace
 from mycobot_planning.nodes.node_runtime import Parameters, ParameterSpec, run_node
 from mycobot_planning.paths import config_file
 
@@ -125,78 +125,6 @@ def _declare(node: Node, specs: list[ParameterSpec]) -> Parameters:
 
 
 # ---------------------------------------------------------------------------- controllers in ROS
-class RosControllerBus:
-    """ControllerBus over the controllers' topics and stop services.
-
-    Commands are published from ``node``; the controllers' state streams (100 Hz each) and the
-    stop clients live on ``monitor`` (see PlanningServer: a node on its own single-threaded
-    executor).
-    """
-
-    MAX_GOALS = 32  # goal states remembered per controller
-
-    def __init__(self, node: Node, monitor: Node, controllers: list[ControllerInfo],
-                 on_feedback: Callable[[], None]) -> None:
-        self._node = node
-        self._on_feedback = on_feedback
-        self._lock = threading.Lock()
-        self._publishers = {}
-        self._stop_clients = {}
-        self._latest: dict[str, ControllerState] = {}
-        self._by_goal: dict[str, OrderedDict[str, ControllerState]] = {}
-        self._warned: set[str] = set()
-        for c in controllers:
-            self._publishers[c.name] = node.create_publisher(JointTrajectoryMsg, c.command_topic, COMMAND_QOS)
-            self._stop_clients[c.name] = monitor.create_client(Trigger, c.stop_service)
-            self._by_goal[c.name] = OrderedDict()
-            monitor.create_subscription(String, c.state_topic, lambda msg, name=c.name: self._on_state(name, msg),
-                                        STATE_QOS)
-
-    def _on_state(self, name: str, msg: String) -> None:
-        try:
-            state = ControllerState.from_dict(json.loads(msg.data), time.monotonic())
-        except ValueError as exc:  # JSONDecodeError is a ValueError
-            if name not in self._warned:
-                self._warned.add(name)
-                self._node.get_logger().warning(f"ignoring malformed state from controller '{name}': {exc}")
-            return
-        with self._lock:
-            self._latest[name] = state
-            goals = self._by_goal[name]
-            goals[state.goal_id] = state
-            goals.move_to_end(state.goal_id)
-            while len(goals) > self.MAX_GOALS:
-                goals.popitem(last=False)
-        self._on_feedback()
-
-    def is_available(self, controller: str) -> bool:
-        return self._publishers[controller].get_subscription_count() > 0
-
-    def send(self, controller: str, trajectory: JointTrajectory) -> None:
-        self._publishers[controller].publish(joint_trajectory_to_msg(trajectory))
-
-    def stop(self, controller: str) -> None:
-        client = self._stop_clients[controller]
-        if client.service_is_ready():
-            client.call_async(Trigger.Request())
-        else:  # ros2_control convention: an empty trajectory stops the controller
-            self._publishers[controller].publish(JointTrajectoryMsg())
-
-    def controller_state(self, controller: str, goal_id: str | None = None) -> ControllerState | None:
-        with self._lock:
-            if goal_id is None:
-                return self._latest.get(controller)
-            return self._by_goal.get(controller, {}).get(goal_id)
-
-    def summary(self) -> dict[str, Any]:
-        now = time.monotonic()
-        with self._lock:
-            return {
-                name: {"status": s.status, "goal_id": s.goal_id, "message": s.message, "age": now - s.received}
-                for name, s in self._latest.items()
-            }
-
-
 # ---------------------------------------------------------------------------- the node
 class PlanningServer(Node):
     """See the module docstring."""
@@ -233,7 +161,7 @@ class PlanningServer(Node):
         self._monitor = Node(f"{NODE_NAME}_state_monitor", context=self.context)
         self._monitor_executor = SingleThreadedExecutor(context=self.context)
         self._monitor_executor.add_node(self._monitor)
-        self._bus = RosControllerBus(self, self._monitor, controllers, self._on_feedback)
+        self._bus = ActionControllerBus(self, self._monitor, controllers, self._on_feedback)
         self.core = PlanningServerCore(model, pipeline, controllers, self._bus, self._execution_settings(),
                                        self._planning_defaults(), log=self._log,
                                        context_factory=self._planning_context)
@@ -244,9 +172,9 @@ class PlanningServer(Node):
         self._params.on_change(self._on_params)
 
         self._publish_lock = threading.Lock()
-        self._scene_pub = self.create_publisher(String, "/monitored_planning_scene", LATCHED_QOS)
+        self._scene_pub = self.create_publisher(String, "/planning_server/monitored_planning_scene", LATCHED_QOS)
         self._marker_pub = self.create_publisher(MarkerArray, "/planning_scene_markers", LATCHED_QOS)
-        self._display_pub = self.create_publisher(JointTrajectoryMsg, "/display_planned_path", LATCHED_QOS)
+        self._display_pub = self.create_publisher(JointTrajectoryMsg, "/planned_path", LATCHED_QOS)
         self._marker_positions: np.ndarray | None = None
         self._marker_time = 0.0
         self._world_markers: list[Marker] = []
@@ -259,11 +187,11 @@ class PlanningServer(Node):
         self._service_group = ReentrantCallbackGroup()
         self._js_problem_logged = 0.0
         self._monitor.create_subscription(JointState, "/joint_states", self._on_joint_state, JOINT_STATES_QOS)
-        self.create_subscription(String, "/planning_scene", self._on_planning_scene, INPUT_QOS,
+        self.create_subscription(String, "/planning_server/planning_scene", self._on_planning_scene, INPUT_QOS,
                                  callback_group=self._input_group)
-        self.create_subscription(String, "/collision_object", self._on_collision_object, INPUT_QOS,
+        self.create_subscription(String, "/planning_server/collision_object", self._on_collision_object, INPUT_QOS,
                                  callback_group=self._input_group)
-        self.create_subscription(String, "/attached_collision_object", self._on_attached_object, INPUT_QOS,
+        self.create_subscription(String, "/planning_server/attached_collision_object", self._on_attached_object, INPUT_QOS,
                                  callback_group=self._input_group)
 
         for name, handler in (("plan", self._srv_plan), ("execute", self._srv_execute),
@@ -294,6 +222,12 @@ class PlanningServer(Node):
         self._change_timer = self.create_timer(PUBLISH_CHECK_PERIOD, self._publish_changes,
                                                callback_group=self._timer_group)
         self._publish_scene()
+        urdf = self._config.get("robot_description") or config_file("mycobot_280.urdf").read_text()
+        srdf = self._config.get("robot_description_semantic") or (
+            config_file("mycobot_280.srdf").read_text() if not self._config.get("robot_description") else "")
+        self.move_group = MoveGroupFace(self.core, urdf, srdf, self.context, self._log)
+        self.extra_nodes = [self.move_group]
+        self.move_group.publish_scene()
         self._monitor_thread = threading.Thread(target=self._spin_monitor, name="state monitor", daemon=True)
         self._monitor_thread.start()
         log.info(
@@ -491,6 +425,8 @@ class PlanningServer(Node):
                 time.sleep(0.01)
         self._monitor_executor.shutdown(timeout_sec=1.0)
         self._monitor.destroy_node()
+        self.move_group.close()
+        self.move_group.destroy_node()
 
     # ------------------------------------------------------------------ publishing
     def _publish_scene(self) -> None:
@@ -500,6 +436,8 @@ class PlanningServer(Node):
             msg, attached = self.core.scene_snapshot()
             self._scene_pub.publish(String(data=msg.to_json()))
             self._publish_markers_locked(msg.world.collision_objects, attached, msg.robot_state.positions)
+        if getattr(self, "move_group", None) is not None:
+            self.move_group.publish_scene()
 
     def _publish_markers_locked(self, world: list[CollisionObject] | None, attached: list[CollisionObject],
                                 positions: list[float]) -> None:
@@ -534,6 +472,8 @@ class PlanningServer(Node):
 
     def _publish_display(self, trajectory: JointTrajectory) -> None:
         self._display_pub.publish(joint_trajectory_to_msg(trajectory, self.get_clock().now().to_msg()))
+        if getattr(self, "move_group", None) is not None:
+            self.move_group.publish_display(trajectory)
 
     # ------------------------------------------------------------------ topic inputs
     def _on_joint_state(self, msg: JointState) -> None:
@@ -555,13 +495,13 @@ class PlanningServer(Node):
             self._log("error", f"update on {topic} failed: {type(exc).__name__}: {exc}\n{traceback.format_exc()}")
 
     def _on_planning_scene(self, msg: String) -> None:
-        self._topic_update("/planning_scene", msg, self.core.apply_planning_scene)
+        self._topic_update("/planning_server/planning_scene", msg, self.core.apply_planning_scene)
 
     def _on_collision_object(self, msg: String) -> None:
-        self._topic_update("/collision_object", msg, lambda data: self.core.apply_collision_objects([data]))
+        self._topic_update("/planning_server/collision_object", msg, lambda data: self.core.apply_collision_objects([data]))
 
     def _on_attached_object(self, msg: String) -> None:
-        self._topic_update("/attached_collision_object", msg, self.core.apply_attached_collision_object)
+        self._topic_update("/planning_server/attached_collision_object", msg, self.core.apply_attached_collision_object)
 
     # ------------------------------------------------------------------ Trigger services
     @staticmethod

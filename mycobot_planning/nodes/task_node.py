@@ -234,7 +234,7 @@ class TaskNode(Node):
         self._move_groups: dict[str, MoveGroupClient] = {}
         self.move_group("arm")  # the execution client, created before the executor spins
         self.introspection = TaskIntrospection(self)
-        self._display_pub = self.create_publisher(JointTrajectoryMsg, "/display_planned_path", DISPLAY_QOS)
+        self._display_pub = self.create_publisher(JointTrajectoryMsg, "/planned_path", DISPLAY_QOS)
         self.create_service(Trigger, "~/plan", self._srv_plan, callback_group=self._group)
         self.create_service(Trigger, "~/execute", self._srv_execute, callback_group=self._group)
         self.params.on_change(self._on_params)

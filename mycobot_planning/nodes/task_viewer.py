@@ -111,9 +111,9 @@ class TaskViewerNode(Node):
         self._monitor_thread = threading.Thread(target=self._spin_monitor, name="joint states", daemon=True)
 
         inputs = MutuallyExclusiveCallbackGroup()
-        self.create_subscription(String, "/monitored_planning_scene", self._on_scene, LATCHED_QOS,
+        self.create_subscription(String, "/planning_server/monitored_planning_scene", self._on_scene, LATCHED_QOS,
                                  callback_group=inputs)
-        self.create_subscription(JointTrajectoryMsg, "/display_planned_path", self._on_planned_path, LATCHED_QOS,
+        self.create_subscription(JointTrajectoryMsg, "/planned_path", self._on_planned_path, LATCHED_QOS,
                                  callback_group=inputs)
         self._task_subscriptions: dict[str, Any] = {}
         self._task_group = MutuallyExclusiveCallbackGroup()

@@ -1,0 +1,492 @@
+"""move_group on the wire: MoveIt's services, actions and topics, with moveit_msgs types, on
+move_group's default names, answered by the planning_server's core.
+
+The planning_server process hosts this node beside its own (``planning_server``, the JSON and
+std_srvs face). It is named ``move_group`` and carries ``robot_description`` and
+``robot_description_semantic``, because MoveIt's clients (pymoveit2, MoveGroupInterface, RViz)
+read the robot from the node of that name. Every request is translated by
+interfaces_py.moveit_conversions into the core's request form and answered by the same
+PlanningServerCore calls as the JSON face, so nothing is interpreted twice.
+
+* actions: ``/move_action`` (MoveGroup: plan only, or plan and execute; feedback PLANNING,
+  MONITOR, IDLE), ``/execute_trajectory`` (ExecuteTrajectory); both cancelable (PREEMPTED).
+* services: ``/plan_kinematic_path``, ``/compute_cartesian_path``, ``/compute_ik``,
+  ``/compute_fk``, ``/get_planning_scene``, ``/apply_planning_scene``, ``/check_state_validity``,
+  ``/query_planner_interface``, ``/get_planner_params``, ``/set_planner_params``.
+* topics in: ``/collision_object``, ``/attached_collision_object``, ``/planning_scene``
+  (diffs), ``/trajectory_execution_event`` ("stop"); out: ``/monitored_planning_scene``
+  (PlanningScene, on every change), ``/display_planned_path`` (DisplayTrajectory of every plan).
+"""
+from __future__ import annotations
+
+import threading
+import time
+import traceback
+from typing import Any, Callable
+
+from geometry_msgs.msg import PoseStamped
+from moveit_msgs.action import ExecuteTrajectory, MoveGroup
+from moveit_msgs.msg import (
+    AttachedCollisionObject,
+    CollisionObject,
+    ContactInformation,
+    DisplayTrajectory,
+    MoveItErrorCodes,
+    PlannerInterfaceDescription,
+    PlannerParams,
+    PlanningScene,
+)
+from moveit_msgs.srv import (
+    ApplyPlanningScene,
+    GetCartesianPath,
+    GetMotionPlan,
+    GetPlannerParams,
+    GetPlanningScene,
+    GetPositionFK,
+    GetPositionIK,
+    GetStateValidity,
+    QueryPlannerInterfaces,
+    SetPlannerParams,
+)
+from rclpy.action import ActionServer, CancelResponse, GoalResponse
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from std_msgs.msg import String
+
+from interfaces_py import names
+from interfaces_py.moveit_conversions import (
+    ConversionError,
+    attached_object_from_msg,
+    collision_object_from_msg,
+    error_code_to_msg,
+    plan_params_from_request,
+    planning_scene_from_msg,
+    planning_scene_to_msg,
+    pose_from_msg,
+    pose_to_msg,
+    robot_state_from_msg,
+    robot_state_to_msg,
+    robot_trajectory_from_msg,
+    robot_trajectory_to_msg,
+)
+from interfaces_py.msgs import JointTrajectory
+from mycobot_planning.core.planning_server_core import PlanningServerCore, RequestError
+
+LATCHED_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+INPUT_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+#: s between two checks for a cancel request while a move_action / execute_trajectory goal runs
+CANCEL_POLL = 0.02
+#: Our own codes for a malformed request (JSON face) are not MoveIt's; MoveIt clients get FAILURE.
+_MOVEIT_CODES = {v for k, v in vars(MoveItErrorCodes).items() if k.isupper() and isinstance(v, int)}
+
+
+def _code(code: dict[str, Any] | None) -> MoveItErrorCodes:
+    msg = error_code_to_msg(code)
+    if msg.val not in _MOVEIT_CODES:
+        msg.val = MoveItErrorCodes.FAILURE
+    return msg
+
+
+def _failure(val: int, message: str, source: str = "move_group") -> MoveItErrorCodes:
+    return MoveItErrorCodes(val=val if val in _MOVEIT_CODES else MoveItErrorCodes.FAILURE, message=message,
+                            source=source)
+
+
+class MoveGroupFace(Node):
+    """The ``move_group`` node of the planning_server process (see module docstring)."""
+
+    def __init__(self, core: PlanningServerCore, urdf: str, srdf: str, context: Any,
+                 log: Callable[[str, str], None]) -> None:
+        super().__init__(names.MOVE_GROUP_NODE, context=context)
+        self.core = core
+        self._log = log
+        self.declare_parameter("robot_description", urdf)
+        self.declare_parameter("robot_description_semantic", srdf)
+        self._request_group = ReentrantCallbackGroup()
+        self._inputs = MutuallyExclusiveCallbackGroup()
+        self._scene_lock = threading.Lock()
+        self._scene_pub = self.create_publisher(PlanningScene, names.MONITORED_PLANNING_SCENE, LATCHED_QOS)
+        self._display_pub = self.create_publisher(DisplayTrajectory, names.DISPLAY_PLANNED_PATH, LATCHED_QOS)
+
+        for cls, topic, handler in (
+            (CollisionObject, names.COLLISION_OBJECT, self._on_collision_object),
+            (AttachedCollisionObject, names.ATTACHED_COLLISION_OBJECT, self._on_attached_object),
+            (PlanningScene, names.PLANNING_SCENE, self._on_planning_scene),
+            (String, names.TRAJECTORY_EXECUTION_EVENT, self._on_execution_event),
+        ):
+            self.create_subscription(cls, topic, handler, INPUT_QOS, callback_group=self._inputs)
+        for srv, name, handler in (
+            (GetMotionPlan, names.PLAN_SERVICE, self._srv_plan),
+            (GetCartesianPath, names.CARTESIAN_PATH_SERVICE, self._srv_cartesian),
+            (GetPositionIK, names.IK_SERVICE, self._srv_ik),
+            (GetPositionFK, names.FK_SERVICE, self._srv_fk),
+            (GetPlanningScene, names.GET_PLANNING_SCENE_SERVICE, self._srv_get_scene),
+            (ApplyPlanningScene, names.APPLY_PLANNING_SCENE_SERVICE, self._srv_apply_scene),
+            (GetStateValidity, names.STATE_VALIDITY_SERVICE, self._srv_validity),
+            (QueryPlannerInterfaces, names.QUERY_PLANNERS_SERVICE, self._srv_query_planners),
+            (GetPlannerParams, names.GET_PLANNER_PARAMS_SERVICE, self._srv_get_planner_params),
+            (SetPlannerParams, names.SET_PLANNER_PARAMS_SERVICE, self._srv_set_planner_params),
+        ):
+            self.create_service(srv, name, self._guarded(name, handler), callback_group=self._request_group)
+        self._move_action = ActionServer(self, MoveGroup, names.MOVE_ACTION, self._execute_move_group,
+                                         goal_callback=lambda goal: GoalResponse.ACCEPT,
+                                         cancel_callback=lambda handle: CancelResponse.ACCEPT,
+                                         callback_group=self._request_group)
+        self._execute_action = ActionServer(self, ExecuteTrajectory, names.EXECUTE_TRAJECTORY_ACTION,
+                                            self._execute_trajectory,
+                                            goal_callback=lambda goal: GoalResponse.ACCEPT,
+                                            cancel_callback=lambda handle: CancelResponse.ACCEPT,
+                                            callback_group=self._request_group)
+
+    def close(self) -> None:
+        self._move_action.destroy()
+        self._execute_action.destroy()
+
+    # ------------------------------------------------------------------ plumbing
+    def _guarded(self, name: str, handler: Callable[[Any, Any], Any]) -> Callable[[Any, Any], Any]:
+        """A service handler that answers even when the handler fails: the response carries
+        FAILURE and the log has the traceback (a client must never wait for nothing)."""
+        def serve(request: Any, response: Any) -> Any:
+            try:
+                return handler(request, response)
+            except (ConversionError, RequestError) as exc:
+                self._log("warning", f"{name}: refused: {exc.message}")
+                if hasattr(response, "error_code"):
+                    response.error_code = _failure(exc.code, exc.message, name.strip("/"))
+                return response
+            except Exception as exc:
+                self._log("error", f"{name} failed: {type(exc).__name__}: {exc}\n{traceback.format_exc()}")
+                if hasattr(response, "error_code"):
+                    response.error_code = _failure(MoveItErrorCodes.FAILURE,
+                                                   f"internal error ({type(exc).__name__}); the log has the details")
+                return response
+        return serve
+
+    def publish_scene(self) -> None:
+        """/monitored_planning_scene: the full scene (called on every change)."""
+        with self._scene_lock:
+            msg, _ = self.core.scene_snapshot()
+            self._scene_pub.publish(planning_scene_to_msg(msg.to_dict(), stamp=self.get_clock().now().to_msg()))
+
+    def publish_display(self, trajectory: JointTrajectory, group: str = "") -> None:
+        """/display_planned_path: what RViz's MotionPlanning display animates."""
+        msg = DisplayTrajectory()
+        msg.model_id = self.core.model.name
+        start = dict(zip(trajectory.joint_names, trajectory.points[0].positions)) if trajectory.points else {}
+        current, _ = self.core.joint_positions()
+        state = dict(current or {})
+        state.update(start)
+        msg.trajectory_start = robot_state_to_msg({"joint_names": list(state), "positions": list(state.values())})
+        msg.trajectory = [robot_trajectory_to_msg({"joint_trajectory": trajectory.to_dict()},
+                                                  self.core.model.root_link)]
+        self._display_pub.publish(msg)
+
+    def _start_state_msg(self, trajectory: dict[str, Any] | None, given: dict[str, Any] | None) -> Any:
+        """The state a plan starts from: the current state, the request's start state on top,
+        the trajectory's first point on top of that."""
+        current, _ = self.core.joint_positions()
+        state = dict(current or {})
+        if given:
+            state.update(zip(given.get("joint_names", []), given.get("positions", [])))
+        if trajectory:
+            jt = trajectory["joint_trajectory"]
+            if jt["points"]:
+                state.update(zip(jt["joint_names"], jt["points"][0]["positions"]))
+        return robot_state_to_msg({"joint_names": list(state), "positions": list(state.values())},
+                                  self.get_clock().now().to_msg())
+
+    # ------------------------------------------------------------------ planning
+    def _plan(self, request: Any) -> tuple[dict[str, Any], dict[str, Any], float]:
+        """Plan a MotionPlanRequest: each goal_constraints entry in turn until one succeeds
+        (MoveIt: "any of them"). Returns (core result, params, planning time)."""
+        started = time.perf_counter()
+        params, goals = plan_params_from_request(request)
+        result: dict[str, Any] = {}
+        for goal in goals:
+            result = self.core.plan({**params, "goal": goal})
+            if result.get("error_code", {}).get("val") == MoveItErrorCodes.SUCCESS:
+                break
+        return result, params, time.perf_counter() - started
+
+    def _srv_plan(self, request: GetMotionPlan.Request, response: GetMotionPlan.Response) -> GetMotionPlan.Response:
+        try:
+            result, params, elapsed = self._plan(request.motion_plan_request)
+        except ConversionError as exc:
+            response.motion_plan_response.error_code = _failure(exc.code, exc.message, "plan_kinematic_path")
+            response.motion_plan_response.group_name = request.motion_plan_request.group_name
+            self._log("warning", f"plan_kinematic_path: refused: {exc.message}")
+            return response
+        out = response.motion_plan_response
+        out.group_name = result.get("group") or request.motion_plan_request.group_name
+        out.error_code = _code(result.get("error_code"))
+        out.planning_time = float(result.get("planning_time", elapsed))
+        if result.get("trajectory"):
+            out.trajectory = robot_trajectory_to_msg(result["trajectory"], self.core.model.root_link)
+            out.trajectory_start = self._start_state_msg(result["trajectory"], params.get("start_state"))
+        return response
+
+    def _srv_cartesian(self, request: GetCartesianPath.Request,
+                       response: GetCartesianPath.Response) -> GetCartesianPath.Response:
+        path = request.path_constraints
+        if len(path.joint_constraints) or len(path.position_constraints) or len(path.orientation_constraints):
+            raise ConversionError(MoveItErrorCodes.INVALID_MOTION_PLAN,
+                                  "path constraints on Cartesian paths are not supported yet by this planning_server")
+        params: dict[str, Any] = {
+            "group": request.group_name,
+            "waypoints": [pose_from_msg(p) for p in request.waypoints],
+            "link": request.link_name or None,
+            "frame": request.header.frame_id or "world",
+            "eef_step": float(request.max_step) if request.max_step > 0 else 0.01,
+            "jump_threshold": float(request.jump_threshold),
+            "revolute_jump_threshold": float(request.revolute_jump_threshold),
+            "prismatic_jump_threshold": float(request.prismatic_jump_threshold),
+            "avoid_collisions": bool(request.avoid_collisions),
+            "max_velocity_scaling_factor": float(request.max_velocity_scaling_factor),
+            "max_acceleration_scaling_factor": float(request.max_acceleration_scaling_factor),
+        }
+        start = robot_state_from_msg(request.start_state)
+        if start is not None:
+            params["start_state"] = start
+        result = self.core.compute_cartesian_path(params)
+        response.error_code = _code(result.get("error_code"))
+        response.fraction = float(result.get("fraction", 0.0))
+        if result.get("trajectory"):
+            response.solution = robot_trajectory_to_msg(result["trajectory"], self.core.model.root_link)
+            response.start_state = self._start_state_msg(result["trajectory"], start)
+        return response
+
+    # ------------------------------------------------------------------ kinematics and validity
+    def _srv_ik(self, request: GetPositionIK.Request, response: GetPositionIK.Response) -> GetPositionIK.Response:
+        ik = request.ik_request
+        if len(ik.pose_stamped_vector):
+            raise ConversionError(MoveItErrorCodes.FAILURE,
+                                  "pose_stamped_vector (several IK links at once) is not supported; use pose_stamped")
+        timeout = ik.timeout.sec + ik.timeout.nanosec * 1e-9
+        params: dict[str, Any] = {
+            "group": ik.group_name, "pose": pose_from_msg(ik.pose_stamped.pose),
+            "frame": ik.pose_stamped.header.frame_id or "world", "link": ik.ik_link_name or None,
+            "avoid_collisions": bool(ik.avoid_collisions), "timeout": timeout if timeout > 0 else None,
+        }
+        seed = robot_state_from_msg(ik.robot_state)
+        if seed is not None:
+            params["robot_state"] = seed
+        result = self.core.compute_ik(params)
+        response.error_code = _code(result.get("error_code"))
+        if result.get("solution"):
+            response.solution = robot_state_to_msg(result["solution"], self.get_clock().now().to_msg())
+        return response
+
+    def _srv_fk(self, request: GetPositionFK.Request, response: GetPositionFK.Response) -> GetPositionFK.Response:
+        params: dict[str, Any] = {"links": list(request.fk_link_names), "frame": request.header.frame_id or "world"}
+        state = robot_state_from_msg(request.robot_state)
+        if state is not None:
+            params["robot_state"] = state
+        result = self.core.compute_fk(params)
+        response.error_code = _code(result.get("error_code"))
+        stamp = self.get_clock().now().to_msg()
+        for link, pose in result.get("poses", {}).items():
+            stamped = PoseStamped()
+            stamped.header.frame_id = result.get("frame", "world")
+            stamped.header.stamp = stamp
+            stamped.pose = pose_to_msg(pose)
+            response.pose_stamped.append(stamped)
+            response.fk_link_names.append(link)
+        return response
+
+    def _srv_validity(self, request: GetStateValidity.Request,
+                      response: GetStateValidity.Response) -> GetStateValidity.Response:
+        params: dict[str, Any] = {"group": request.group_name or None}
+        state = robot_state_from_msg(request.robot_state)
+        if state is not None:
+            params["robot_state"] = state
+        result = self.core.check_state_validity(params)
+        if result["error_code"]["val"] != MoveItErrorCodes.SUCCESS:
+            raise ConversionError(result["error_code"]["val"], result["error_code"]["message"])
+        response.valid = bool(result["valid"])
+        for contact in result["contacts"]:
+            info = ContactInformation()
+            info.header.frame_id = "world"
+            info.contact_body_1, info.contact_body_2 = contact["body_a"], contact["body_b"]
+            info.depth = float(contact["depth"])
+            response.contacts.append(info)
+        return response
+
+    # ------------------------------------------------------------------ scene
+    def _srv_get_scene(self, request: GetPlanningScene.Request,
+                       response: GetPlanningScene.Response) -> GetPlanningScene.Response:
+        msg, _ = self.core.scene_snapshot()
+        response.scene = planning_scene_to_msg(msg.to_dict(), int(request.components.components),
+                                               self.get_clock().now().to_msg())
+        return response
+
+    def _srv_apply_scene(self, request: ApplyPlanningScene.Request,
+                         response: ApplyPlanningScene.Response) -> ApplyPlanningScene.Response:
+        try:
+            self.core.apply_planning_scene(planning_scene_from_msg(request.scene))
+        except (ConversionError, RequestError) as exc:
+            self._log("warning", f"apply_planning_scene: refused: {exc.message}")
+            response.success = False
+            return response
+        response.success = True
+        return response
+
+    def _topic(self, topic: str, apply: Callable[[], dict[str, Any] | Any]) -> None:
+        try:
+            apply()
+        except (ConversionError, RequestError) as exc:
+            self._log("warning", f"refused update on {topic}: {exc.message}")
+        except Exception as exc:  # one bad message never takes the node down
+            self._log("error", f"update on {topic} failed: {type(exc).__name__}: {exc}\n{traceback.format_exc()}")
+
+    def _on_collision_object(self, msg: CollisionObject) -> None:
+        self._topic(names.COLLISION_OBJECT,
+                    lambda: self.core.apply_collision_objects([collision_object_from_msg(msg)]))
+
+    def _on_attached_object(self, msg: AttachedCollisionObject) -> None:
+        """MoveIt's conventions beyond a plain message: ADD without shapes attaches the world
+        object of that id; REMOVE detaches by id from whatever link holds it (every attached
+        object when the id is empty) and puts it back into the world."""
+        obj = msg.object
+        operation = obj.operation[0] if isinstance(obj.operation, (bytes, bytearray)) else int(obj.operation)
+
+        def apply() -> Any:
+            if operation == 1:  # REMOVE
+                ids = [obj.id] if obj.id else self.core.get_objects()["attached_objects"].keys()
+                return [self.core.detach_object(i) for i in list(ids)]
+            if operation == 0 and not len(obj.primitives) and not len(obj.meshes):
+                return self.core.attach_object(obj.id, msg.link_name or None, list(msg.touch_links) or None)
+            return self.core.apply_attached_collision_object(attached_object_from_msg(msg))
+
+        self._topic(names.ATTACHED_COLLISION_OBJECT, apply)
+
+    def _on_planning_scene(self, msg: PlanningScene) -> None:
+        self._topic(names.PLANNING_SCENE, lambda: self.core.apply_planning_scene(planning_scene_from_msg(msg)))
+
+    def _on_execution_event(self, msg: String) -> None:
+        if msg.data == "stop":
+            self._log("info", f"{names.TRAJECTORY_EXECUTION_EVENT}: stop")
+            self.core.stop()
+        else:
+            self._log("warning", f"{names.TRAJECTORY_EXECUTION_EVENT}: unknown event {msg.data!r} (known: 'stop')")
+
+    # ------------------------------------------------------------------ planner interfaces
+    def _srv_query_planners(self, request: QueryPlannerInterfaces.Request,
+                            response: QueryPlannerInterfaces.Response) -> QueryPlannerInterfaces.Response:
+        for entry in self.core.planner_interfaces():
+            response.planner_interfaces.append(PlannerInterfaceDescription(
+                name=entry["name"], pipeline_id=entry["pipeline_id"], planner_ids=entry["planner_ids"]))
+        return response
+
+    def _srv_get_planner_params(self, request: GetPlannerParams.Request,
+                                response: GetPlannerParams.Response) -> GetPlannerParams.Response:
+        params = self.core.get_planner_params(request.pipeline_id, request.planner_config, request.group)
+        response.params = PlannerParams(keys=list(params), values=list(params.values()),
+                                        descriptions=[""] * len(params))
+        return response
+
+    def _srv_set_planner_params(self, request: SetPlannerParams.Request,
+                                response: SetPlannerParams.Response) -> SetPlannerParams.Response:
+        p = request.params
+        problem = self.core.set_planner_params(request.pipeline_id, request.planner_config,
+                                               dict(zip(p.keys, p.values)), bool(request.replace))
+        if problem:
+            self._log("warning", f"set_planner_params: refused: {problem}")
+        return response
+
+    # ------------------------------------------------------------------ actions
+    def _execute_with_cancel(self, goal_handle: Any, run: Callable[[], dict[str, Any]]) -> dict[str, Any]:
+        """Run an execution, stopping it when the goal's client cancels."""
+        done = threading.Event()
+
+        def watch() -> None:
+            while not done.wait(CANCEL_POLL):
+                if goal_handle.is_cancel_requested:
+                    self.core.stop()
+                    return
+
+        watcher = threading.Thread(target=watch, name="cancel watcher", daemon=True)
+        watcher.start()
+        try:
+            return run()
+        finally:
+            done.set()
+
+    def _finish(self, goal_handle: Any, code: MoveItErrorCodes) -> None:
+        if code.val == MoveItErrorCodes.SUCCESS:
+            goal_handle.succeed()
+        elif goal_handle.is_cancel_requested:
+            code.val = MoveItErrorCodes.PREEMPTED
+            goal_handle.canceled()
+        else:
+            goal_handle.abort()
+
+    def _execute_move_group(self, goal_handle: Any) -> MoveGroup.Result:
+        goal = goal_handle.request
+        result = MoveGroup.Result()
+        feedback = MoveGroup.Feedback()
+        options = goal.planning_options
+        try:
+            diff = options.planning_scene_diff
+            if (len(diff.world.collision_objects) or len(diff.robot_state.joint_state.name)
+                    or len(diff.robot_state.attached_collision_objects)):
+                try:
+                    self.core.apply_planning_scene(planning_scene_from_msg(diff))
+                except RequestError as exc:
+                    raise ConversionError(MoveItErrorCodes.FAILURE,
+                                          f"planning_scene_diff refused: {exc.message}") from None
+            feedback.state = "PLANNING"
+            goal_handle.publish_feedback(feedback)
+            planned, params, elapsed = self._plan(goal.request)
+        except ConversionError as exc:
+            self._log("warning", f"move_action: refused: {exc.message}")
+            result.error_code = _failure(exc.code, exc.message, "move_action")
+            goal_handle.abort()
+            return result
+        result.planning_time = float(planned.get("planning_time", elapsed))
+        code = _code(planned.get("error_code"))
+        if code.val != MoveItErrorCodes.SUCCESS or not planned.get("trajectory"):
+            result.error_code = code
+            self._finish(goal_handle, code)
+            return result
+        result.planned_trajectory = robot_trajectory_to_msg(planned["trajectory"], self.core.model.root_link)
+        result.trajectory_start = self._start_state_msg(planned["trajectory"], params.get("start_state"))
+        if goal_handle.is_cancel_requested:
+            result.error_code = _failure(MoveItErrorCodes.PREEMPTED, "canceled after planning")
+            goal_handle.canceled()
+            return result
+        if options.plan_only:
+            result.error_code = code
+            goal_handle.succeed()
+            return result
+        feedback.state = "MONITOR"
+        goal_handle.publish_feedback(feedback)
+        executed = self._execute_with_cancel(goal_handle, lambda: self.core.execute(
+            {"trajectory": planned["trajectory"]}))
+        result.error_code = _code(executed.get("error_code"))
+        if result.error_code.val == MoveItErrorCodes.SUCCESS:
+            result.executed_trajectory = result.planned_trajectory
+        feedback.state = "IDLE"
+        goal_handle.publish_feedback(feedback)
+        self._finish(goal_handle, result.error_code)
+        return result
+
+    def _execute_trajectory(self, goal_handle: Any) -> ExecuteTrajectory.Result:
+        goal = goal_handle.request
+        result = ExecuteTrajectory.Result()
+        try:
+            trajectory = robot_trajectory_from_msg(goal.trajectory)
+        except ConversionError as exc:
+            self._log("warning", f"execute_trajectory: refused: {exc.message}")
+            result.error_code = _failure(exc.code, exc.message, "execute_trajectory")
+            goal_handle.abort()
+            return result
+        params: dict[str, Any] = {"trajectory": trajectory}
+        if len(goal.controller_names):
+            params["controllers"] = list(goal.controller_names)
+        feedback = ExecuteTrajectory.Feedback(state="MONITOR")
+        goal_handle.publish_feedback(feedback)
+        executed = self._execute_with_cancel(goal_handle, lambda: self.core.execute(params))
+        result.error_code = _code(executed.get("error_code"))
+        self._finish(goal_handle, result.error_code)
+        return result
