@@ -27,7 +27,7 @@ def test_there_are_hundreds_of_systematic_cases_over_every_interface():
     names = {case.name for case in CASES}
     for required in ("objects: 11 MB batch with one bad box", "nested 5000 deep", "execute whip 1.5 rad in 1 ms",
                      "mtc_node arm_group_name='legs'", "planning_server planner_id='Magic'",
-                     "/collision_object surrogate id", "plan.allowed_planning_time[1]=1000000000.0"):
+                     "/planning_server/collision_object surrogate id", "plan.allowed_planning_time[1]=1000000000.0"):
         assert required in names, required
 
 

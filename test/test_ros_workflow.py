@@ -91,3 +91,54 @@ def test_refused_parameter_keeps_the_server_alive(robot):
     result = ros2("param", "set", "/planning_server", "goal.group", "legs")
     assert "Setting parameter failed" in result.stdout + result.stderr
     assert node_listed("/planning_server")
+
+
+# ------------------------------------------------------------------ the MoveIt face with our `ros2`
+def test_interface_show_a_moveit_action():
+    out = ros2("interface", "show", "moveit_msgs/action/MoveGroup").stdout
+    assert out.startswith("MotionPlanRequest request\n")
+    assert "\tWorkspaceParameters workspace_parameters" in out
+    assert "\nMoveItErrorCodes error_code\n" in out and "\nstring state" in out
+    assert out.count("\n---\n") == 2
+
+
+def test_action_list_info_type_and_send_goal(robot):
+    listed = ""
+    for _ in range(5):
+        listed = ros2("action", "list", "-t").stdout
+        if "/move_action" in listed and "/grip_action_controller/gripper_cmd" in listed:
+            break
+    assert "/move_action [moveit_msgs/action/MoveGroup]" in listed
+    assert "/execute_trajectory [moveit_msgs/action/ExecuteTrajectory]" in listed
+    assert "/arm_controller/follow_joint_trajectory [control_msgs/action/FollowJointTrajectory]" in listed
+    info = ros2("action", "info", "/move_action").stdout
+    assert "Action servers: 1\n    /move_group" in info
+    assert ros2("action", "type", "/execute_trajectory").stdout.strip() == "moveit_msgs/action/ExecuteTrajectory"
+    sent = ros2("action", "send_goal", "/grip_action_controller/gripper_cmd", "control_msgs/action/GripperCommand",
+                "{command: {position: -0.3, max_effort: 5.0}}")
+    assert "Goal accepted with ID:" in sent.stdout, sent.stdout + sent.stderr
+    assert "reached_goal: true" in sent.stdout and "Goal finished with status: SUCCEEDED" in sent.stdout
+
+
+def test_service_call_compute_fk(robot):
+    call = ros2("service", "call", "/compute_fk", "moveit_msgs/srv/GetPositionFK",
+                "{fk_link_names: [link6_flange], robot_state: {joint_state: {name: [link1_to_link2], position: [0.5]}}}")
+    assert "fk_link_names=['link6_flange']" in call.stdout, call.stdout + call.stderr
+    assert "MoveItErrorCodes(val=1" in call.stdout
+
+
+def test_echo_display_planned_path_as_moveit_displays_it(robot):
+    echo = subprocess.Popen([*ROS2, "topic", "echo", "/display_planned_path", "--once"], cwd=REPO, env=ros_env(),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        time.sleep(3.0)
+        call = ros2("service", "call", "/plan_kinematic_path", "moveit_msgs/srv/GetMotionPlan",
+                    "{motion_plan_request: {group_name: arm, goal_constraints: [{joint_constraints: "
+                    "[{joint_name: link1_to_link2, position: 0.4, tolerance_above: 0.001, tolerance_below: 0.001}]}]}}")
+        assert "MoveItErrorCodes(val=1" in call.stdout, call.stdout + call.stderr
+        out, err = echo.communicate(timeout=60)
+    finally:
+        if echo.poll() is None:
+            echo.kill()
+    assert out.startswith("model_id: mycobot_280\n"), out + err
+    assert "trajectory:\n- joint_trajectory:" in out and "- link1_to_link2" in out

@@ -105,8 +105,13 @@ class ControllerActions:
     def _log(self) -> Any:
         return self._manager.get_logger()
 
-    @staticmethod
-    def _cancel(goal_handle: Any) -> CancelResponse:
+    def _cancel(self, goal_handle: Any) -> CancelResponse:
+        """Stop at once (hold position), so that when the client hears "cancel accepted" the
+        joints no longer move, as JTC holds position on cancel."""
+        with self._manager._lock:
+            running = self._c.follower.goal_id
+        if running and running.endswith(str(uuid.UUID(bytes=bytes(goal_handle.goal_id.uuid)))):
+            self._manager.stop(self._c, f"goal {running} canceled by its client")
         return CancelResponse.ACCEPT
 
     def _follow(self, goal_handle: Any, command: TrajectoryCommand, feedback: Any | None,

@@ -31,6 +31,8 @@ from mycobot_planning.core.execution import GRIPPER_COMMAND, ControllerInfo, Con
 #: N: GripperCommand max_effort when the trajectory gives none (the mock has no dynamics; a real
 #: gripper controller clamps it to its own limit)
 DEFAULT_MAX_EFFORT = 10.0
+#: s to wait for a controller to confirm a cancel
+CANCEL_CONFIRM_TIMEOUT = 1.0
 FJT_ERRORS = {
     FollowJointTrajectory.Result.INVALID_GOAL: "INVALID_GOAL",
     FollowJointTrajectory.Result.INVALID_JOINTS: "INVALID_JOINTS",
@@ -90,10 +92,17 @@ class ActionControllerBus:
         future.add_done_callback(lambda f, c=controller, g=goal_id: self._on_goal_response(c, g, f))
 
     def stop(self, controller: str) -> None:
+        """Cancel the controller's goal and wait (briefly) for the controller to confirm, so the
+        joints are at rest when the execution reports PREEMPTED."""
         with self._lock:
             handle = self._handles.get(controller)
-        if handle is not None:
-            handle.cancel_goal_async()
+        if handle is None:
+            return
+        done = threading.Event()
+        handle.cancel_goal_async().add_done_callback(lambda _: done.set())
+        if not done.wait(CANCEL_CONFIRM_TIMEOUT):
+            self._node.get_logger().warning(f"controller '{controller}' did not confirm the cancel within "
+                                            f"{CANCEL_CONFIRM_TIMEOUT:g} s")
 
     def controller_state(self, controller: str, goal_id: str | None = None) -> ControllerState | None:
         with self._lock:

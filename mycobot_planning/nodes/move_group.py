@@ -202,12 +202,29 @@ class MoveGroupFace(Node):
         (MoveIt: "any of them"). Returns (core result, params, planning time)."""
         started = time.perf_counter()
         params, goals = plan_params_from_request(request)
+        self._complete_joint_goals(params, goals)
         result: dict[str, Any] = {}
         for goal in goals:
             result = self.core.plan({**params, "goal": goal})
             if result.get("error_code", {}).get("val") == MoveItErrorCodes.SUCCESS:
                 break
         return result, params, time.perf_counter() - started
+
+    def _complete_joint_goals(self, params: dict[str, Any], goals: list[dict[str, Any]]) -> None:
+        """Joints of the group that a goal's joint constraints leave out keep their start-state
+        values (MoveIt would sample them anywhere in their bounds)."""
+        group = params.get("group") or ""
+        if not self.core.model.has_group(group):
+            return  # the core answers INVALID_GROUP_NAME
+        start = dict(self.core.joint_positions()[0] or {})
+        given = params.get("start_state") or {}
+        start.update(zip(given.get("joint_names", []), given.get("positions", [])))
+        for goal in goals:
+            joints = goal.get("joints")
+            if isinstance(joints, dict):
+                for name in self.core.model.group(group).joint_names:
+                    if name not in joints and name in start:
+                        joints[name] = float(start[name])
 
     def _srv_plan(self, request: GetMotionPlan.Request, response: GetMotionPlan.Response) -> GetMotionPlan.Response:
         try:

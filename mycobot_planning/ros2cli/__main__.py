@@ -11,10 +11,10 @@ import signal
 import sys
 from typing import Sequence
 
-from . import interface, node, param, pkg, run, service, topic
+from . import action, interface, node, param, pkg, run, service, topic
 from ._common import CliError
 
-COMMANDS = (interface, node, param, pkg, run, service, topic)
+COMMANDS = (action, interface, node, param, pkg, run, service, topic)
 
 
 def build_parser() -> argparse.ArgumentParser:

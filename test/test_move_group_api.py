@@ -1,0 +1,458 @@
+"""move_group's interface with raw rclpy and real moveit_msgs requests, as MoveGroupInterface or a
+hand-written client sends them: every service and action on its default name, and the error
+codes a MoveIt user relies on. planning_server + mock_controllers run in real processes."""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+import rclpy
+from action_msgs.msg import GoalStatus
+from geometry_msgs.msg import Pose
+from moveit_msgs.action import ExecuteTrajectory, MoveGroup
+from moveit_msgs.msg import (
+    CollisionObject,
+    Constraints,
+    JointConstraint,
+    MoveItErrorCodes,
+    OrientationConstraint,
+    PlanningSceneComponents,
+    PositionConstraint,
+)
+from moveit_msgs.srv import (
+    ApplyPlanningScene,
+    GetCartesianPath,
+    GetMotionPlan,
+    GetPlannerParams,
+    GetPlanningScene,
+    GetPositionFK,
+    GetPositionIK,
+    GetStateValidity,
+    QueryPlannerInterfaces,
+    SetPlannerParams,
+)
+from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+from rcl_interfaces.srv import SetParameters
+from rclpy.action import ActionClient
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from shape_msgs.msg import SolidPrimitive
+from std_msgs.msg import String
+
+from mycobot_planning.core.robot_model import RobotModel
+from mycobot_planning.core.robot_state import RobotState
+from ros_testing import NodeProcess, use_session_domain, wait_until
+
+ARM = ["link1_to_link2", "link2_to_link3", "link3_to_link4", "link4_to_link5", "link5_to_link6",
+       "link6_to_link6_flange"]
+TIP = "link6_flange"
+READY = [0.0, -0.3, 0.6, 0.2, 0.0, 0.0]
+FAR = [1.0, -1.0, -0.8, 0.3, 0.5, 0.8]
+C = MoveItErrorCodes
+
+
+class Client:
+    """A plain rclpy node with one client per service and action of move_group."""
+
+    def __init__(self) -> None:
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context)
+        self.node = Node("move_group_api_test", context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self.joint_state: JointState | None = None
+        self.node.create_subscription(JointState, "/joint_states", self._on_js, 10)
+        self.move = ActionClient(self.node, MoveGroup, "/move_action")
+        self.execute = ActionClient(self.node, ExecuteTrajectory, "/execute_trajectory")
+        self.stop_pub = self.node.create_publisher(String, "/trajectory_execution_event", 10)
+        self.object_pub = self.node.create_publisher(CollisionObject, "/collision_object", 10)
+
+    def _on_js(self, msg: JointState) -> None:
+        self.joint_state = msg
+
+    def spin_until(self, future, timeout: float = 30.0):
+        self.executor.spin_until_future_complete(future, timeout_sec=timeout)
+        assert future.done(), "no answer in time"
+        return future.result()
+
+    def call(self, srv_type, name: str, request, timeout: float = 30.0):
+        client = self.node.create_client(srv_type, name)
+        try:
+            assert client.wait_for_service(10.0), f"{name} is not offered"
+            return self.spin_until(client.call_async(request), timeout)
+        finally:
+            self.node.destroy_client(client)
+
+    def arm(self) -> np.ndarray:
+        self.joint_state = None
+        deadline = time.monotonic() + 5
+        while self.joint_state is None and time.monotonic() < deadline:
+            self.executor.spin_once(timeout_sec=0.1)
+        index = {n: i for i, n in enumerate(self.joint_state.name)}
+        return np.array([self.joint_state.position[index[j]] for j in ARM])
+
+    def send(self, action: ActionClient, goal, feedback=None):
+        assert action.wait_for_server(10.0)
+        handle = self.spin_until(action.send_goal_async(goal, feedback_callback=feedback))
+        assert handle.accepted
+        return handle
+
+    def set_mock_param(self, name: str, value: float) -> None:
+        request = SetParameters.Request(parameters=[Parameter(name=name, value=ParameterValue(
+            type=ParameterType.PARAMETER_DOUBLE, double_value=float(value)))])
+        result = self.call(SetParameters, "/controller_manager/set_parameters", request)
+        assert result.results[0].successful, result.results[0].reason
+
+    def close(self) -> None:
+        self.executor.shutdown()
+        self.node.destroy_node()
+        rclpy.try_shutdown(context=self.context)
+
+
+@pytest.fixture(scope="module")
+def client():
+    use_session_domain()
+    mock = NodeProcess("mycobot_planning.nodes.mock_controllers")
+    server = NodeProcess("mycobot_planning.nodes.planning_server")
+    user = None
+    try:
+        assert mock.wait_for_output("controller_manager ready", 30), mock.output()
+        assert server.wait_for_output("planning_server ready", 60), server.output()
+        user = Client()
+        user.server = server
+        yield user
+    finally:
+        if user is not None:
+            user.close()
+        server.stop()
+        mock.stop()
+
+
+@pytest.fixture(scope="module")
+def model() -> RobotModel:
+    return RobotModel.mycobot()
+
+
+def tip_pose(model: RobotModel, arm) -> np.ndarray:
+    state = RobotState(model)
+    state.set_joint_positions(dict(zip(ARM, arm)))
+    return state.frame_pose(TIP)
+
+
+def joint_goal(values, group: str = "arm") -> GetMotionPlan.Request:
+    request = GetMotionPlan.Request()
+    r = request.motion_plan_request
+    r.group_name = group
+    r.allowed_planning_time = 5.0
+    r.num_planning_attempts = 1
+    r.goal_constraints = [Constraints(joint_constraints=[
+        JointConstraint(joint_name=j, position=float(v), tolerance_above=1e-3, tolerance_below=1e-3, weight=1.0)
+        for j, v in zip(ARM, values)])]
+    return request
+
+
+def joint_state(values) -> JointState:
+    return JointState(name=list(ARM), position=[float(v) for v in values])
+
+
+def box(object_id: str, position, size=(0.06, 0.06, 0.06), operation=CollisionObject.ADD) -> CollisionObject:
+    obj = CollisionObject(id=object_id, operation=operation)
+    obj.header.frame_id = "world"
+    obj.pose.position.x, obj.pose.position.y, obj.pose.position.z = (float(v) for v in position)
+    obj.pose.orientation.w = 1.0
+    obj.primitives = [SolidPrimitive(type=SolidPrimitive.BOX, dimensions=list(size))]
+    obj.primitive_poses = [Pose()]
+    obj.primitive_poses[0].orientation.w = 1.0
+    return obj
+
+
+def apply(client: Client, *objects: CollisionObject) -> bool:
+    request = ApplyPlanningScene.Request()
+    request.scene.is_diff = True
+    request.scene.robot_state.is_diff = True
+    request.scene.world.collision_objects = list(objects)
+    return client.call(ApplyPlanningScene, "/apply_planning_scene", request).success
+
+
+def world_ids(client: Client, components: int = PlanningSceneComponents.WORLD_OBJECT_NAMES) -> list[str]:
+    request = GetPlanningScene.Request()
+    request.components.components = components
+    return [o.id for o in client.call(GetPlanningScene, "/get_planning_scene", request).scene.world.collision_objects]
+
+
+def move(client: Client, values) -> None:
+    """Plan and execute through move_action; asserts success."""
+    goal = MoveGroup.Goal()
+    goal.request = joint_goal(values).motion_plan_request
+    handle = client.send(client.move, goal)
+    result = client.spin_until(handle.get_result_async()).result
+    assert result.error_code.val == C.SUCCESS, result.error_code.message
+
+
+# ------------------------------------------------------------------------------- planning
+def test_plan_kinematic_path_plans_a_joint_goal_from_the_current_state(client: Client) -> None:
+    move(client, READY)
+    response = client.call(GetMotionPlan, "/plan_kinematic_path", joint_goal(FAR)).motion_plan_response
+    assert response.error_code.val == C.SUCCESS and response.error_code.source
+    assert response.group_name == "arm"
+    jt = response.trajectory.joint_trajectory
+    assert list(jt.joint_names) == ARM
+    assert np.allclose(jt.points[0].positions, READY, atol=1e-3)
+    assert np.allclose(jt.points[-1].positions, FAR, atol=1e-3)
+    start = dict(zip(response.trajectory_start.joint_state.name, response.trajectory_start.joint_state.position))
+    assert np.allclose([start[j] for j in ARM], READY, atol=1e-3)
+    assert response.planning_time > 0
+    assert np.allclose(client.arm(), READY, atol=0.01)  # planning alone moves nothing
+
+
+def test_unknown_group_is_invalid_group_name(client: Client) -> None:
+    response = client.call(GetMotionPlan, "/plan_kinematic_path", joint_goal(FAR, group="legs"))
+    code = response.motion_plan_response.error_code
+    assert code.val == C.INVALID_GROUP_NAME
+    assert "arm" in code.message and code.source
+
+
+def test_pose_goal_with_position_and_orientation_constraints(client: Client, model: RobotModel) -> None:
+    goal = tip_pose(model, FAR)
+    request = GetMotionPlan.Request()
+    r = request.motion_plan_request
+    r.group_name, r.allowed_planning_time = "arm", 5.0
+    position = PositionConstraint(link_name=TIP)
+    position.header.frame_id = "world"
+    region_pose = Pose()
+    region_pose.position.x, region_pose.position.y, region_pose.position.z = goal[:3, 3]
+    position.constraint_region.primitives = [SolidPrimitive(type=SolidPrimitive.SPHERE, dimensions=[0.001])]
+    position.constraint_region.primitive_poses = [region_pose]
+    from scipy.spatial.transform import Rotation
+
+    q = Rotation.from_matrix(goal[:3, :3]).as_quat()
+    orientation = OrientationConstraint(link_name=TIP, absolute_x_axis_tolerance=0.01,
+                                        absolute_y_axis_tolerance=0.01, absolute_z_axis_tolerance=0.01, weight=1.0)
+    orientation.header.frame_id = "world"
+    orientation.orientation.x, orientation.orientation.y, orientation.orientation.z, orientation.orientation.w = q
+    r.goal_constraints = [Constraints(position_constraints=[position], orientation_constraints=[orientation])]
+    response = client.call(GetMotionPlan, "/plan_kinematic_path", request).motion_plan_response
+    assert response.error_code.val == C.SUCCESS, response.error_code.message
+    end = tip_pose(model, response.trajectory.joint_trajectory.points[-1].positions)
+    assert np.linalg.norm(end[:3, 3] - goal[:3, 3]) < 1e-3
+    assert Rotation.from_matrix(end[:3, :3].T @ goal[:3, :3]).magnitude() < 0.01
+
+
+def test_goal_and_start_in_collision(client: Client, model: RobotModel) -> None:
+    obstacle = tip_pose(model, FAR)[:3, 3]
+    assert apply(client, box("blocker", obstacle))
+    try:
+        response = client.call(GetMotionPlan, "/plan_kinematic_path", joint_goal(FAR)).motion_plan_response
+        assert response.error_code.val == C.GOAL_IN_COLLISION, response.error_code.message
+        request = joint_goal(READY)
+        request.motion_plan_request.start_state.joint_state = joint_state(FAR)
+        response = client.call(GetMotionPlan, "/plan_kinematic_path", request).motion_plan_response
+        assert response.error_code.val == C.START_STATE_IN_COLLISION, response.error_code.message
+        validity = client.call(GetStateValidity, "/check_state_validity", GetStateValidity.Request(
+            group_name="arm", robot_state=__import__("moveit_msgs.msg", fromlist=["RobotState"]).RobotState(
+                joint_state=joint_state(FAR))))
+        assert not validity.valid
+        assert any("blocker" in (c.contact_body_1, c.contact_body_2) for c in validity.contacts)
+        free = client.call(GetStateValidity, "/check_state_validity", GetStateValidity.Request(group_name="arm"))
+        assert free.valid and not free.contacts
+    finally:
+        assert apply(client, box("blocker", obstacle, operation=CollisionObject.REMOVE))
+    assert "blocker" not in world_ids(client)
+
+
+# ------------------------------------------------------------------------------- kinematics
+def test_compute_fk_in_a_link_frame_and_unknown_links(client: Client, model: RobotModel) -> None:
+    from moveit_msgs.msg import RobotState as RobotStateMsg
+
+    request = GetPositionFK.Request(fk_link_names=[TIP, "link3"],
+                                    robot_state=RobotStateMsg(joint_state=joint_state(FAR)))
+    request.header.frame_id = "link2"
+    response = client.call(GetPositionFK, "/compute_fk", request)
+    assert response.error_code.val == C.SUCCESS
+    assert list(response.fk_link_names) == [TIP, "link3"]
+    state = RobotState(model)
+    state.set_joint_positions(dict(zip(ARM, FAR)))
+    expected = np.linalg.inv(state.frame_pose("link2")) @ state.frame_pose(TIP)
+    p = response.pose_stamped[0].pose.position
+    assert response.pose_stamped[0].header.frame_id == "link2"
+    assert np.allclose([p.x, p.y, p.z], expected[:3, 3], atol=1e-9)
+    bad = client.call(GetPositionFK, "/compute_fk", GetPositionFK.Request(fk_link_names=["no_such_link"]))
+    assert bad.error_code.val == C.INVALID_LINK_NAME and "no_such_link" in bad.error_code.message
+
+
+def test_compute_ik_solves_and_reports_no_ik_solution(client: Client, model: RobotModel) -> None:
+    goal = tip_pose(model, FAR)
+    from scipy.spatial.transform import Rotation
+
+    request = GetPositionIK.Request()
+    request.ik_request.group_name = "arm"
+    request.ik_request.pose_stamped.header.frame_id = "world"
+    pose = request.ik_request.pose_stamped.pose
+    pose.position.x, pose.position.y, pose.position.z = goal[:3, 3]
+    pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w = \
+        Rotation.from_matrix(goal[:3, :3]).as_quat()
+    response = client.call(GetPositionIK, "/compute_ik", request)
+    assert response.error_code.val == C.SUCCESS
+    values = dict(zip(response.solution.joint_state.name, response.solution.joint_state.position))
+    assert np.linalg.norm(tip_pose(model, [values[j] for j in ARM])[:3, 3] - goal[:3, 3]) < 1e-4
+    pose.position.x = 3.0  # far out of reach
+    response = client.call(GetPositionIK, "/compute_ik", request)
+    assert response.error_code.val == C.NO_IK_SOLUTION and response.error_code.message
+
+
+def test_compute_cartesian_path_straight_down(client: Client, model: RobotModel) -> None:
+    move(client, READY)
+    start = tip_pose(model, READY)
+    from scipy.spatial.transform import Rotation
+
+    request = GetCartesianPath.Request(group_name="arm", link_name=TIP, max_step=0.005, avoid_collisions=True)
+    request.header.frame_id = "world"
+    waypoint = Pose()
+    waypoint.position.x, waypoint.position.y, waypoint.position.z = start[:3, 3] - [0, 0, 0.03]
+    waypoint.orientation.x, waypoint.orientation.y, waypoint.orientation.z, waypoint.orientation.w = \
+        Rotation.from_matrix(start[:3, :3]).as_quat()
+    request.waypoints = [waypoint]
+    response = client.call(GetCartesianPath, "/compute_cartesian_path", request)
+    assert response.error_code.val == C.SUCCESS and response.fraction == pytest.approx(1.0)
+    points = response.solution.joint_trajectory.points
+    heights = [tip_pose(model, p.positions)[2, 3] for p in points]
+    assert heights[-1] == pytest.approx(start[2, 3] - 0.03, abs=1e-4)
+    xy = [tip_pose(model, p.positions)[:2, 3] for p in points]
+    assert max(np.linalg.norm(v - start[:2, 3]) for v in xy) < 1e-3  # straight
+
+
+# ------------------------------------------------------------------------------- scene
+def test_planning_scene_components_and_apply(client: Client) -> None:
+    assert apply(client, box("crate", (0.25, 0.2, 0.03)))
+    request = GetPlanningScene.Request()
+    request.components.components = PlanningSceneComponents.WORLD_OBJECT_NAMES
+    scene = client.call(GetPlanningScene, "/get_planning_scene", request).scene
+    crate = next(o for o in scene.world.collision_objects if o.id == "crate")
+    assert not len(crate.primitives)  # names only
+    assert not len(scene.robot_state.joint_state.name)
+    request.components.components = PlanningSceneComponents.WORLD_OBJECT_GEOMETRY
+    crate = next(o for o in client.call(GetPlanningScene, "/get_planning_scene", request).scene.world.collision_objects
+                 if o.id == "crate")
+    assert list(crate.primitives[0].dimensions) == pytest.approx([0.06, 0.06, 0.06])
+    request.components.components = PlanningSceneComponents.ROBOT_STATE
+    scene = client.call(GetPlanningScene, "/get_planning_scene", request).scene
+    assert set(ARM) <= set(scene.robot_state.joint_state.name) and not len(scene.world.collision_objects)
+    # a bad object is refused and changes nothing
+    assert not apply(client, box("bad", (0.1, 0.1, 0.1), size=(0.1, -0.1, 0.1)))
+    assert "bad" not in world_ids(client)
+    # the /collision_object topic, as MoveGroupInterface's PlanningSceneInterface uses it
+    client.object_pub.publish(box("crate", (0, 0, 0), operation=CollisionObject.REMOVE))
+    assert wait_until(lambda: "crate" not in world_ids(client), 5.0)
+
+
+def test_planner_interfaces_and_params(client: Client) -> None:
+    interfaces = client.call(QueryPlannerInterfaces, "/query_planner_interface",
+                             QueryPlannerInterfaces.Request()).planner_interfaces
+    by_pipeline = {i.pipeline_id: list(i.planner_ids) for i in interfaces}
+    assert "RRTConnectkConfigDefault" in by_pipeline["ompl"]
+    assert {"PTP", "LIN", "CIRC"} <= set(by_pipeline["pilz_industrial_motion_planner"])
+    get = GetPlannerParams.Request(pipeline_id="ompl", planner_config="RRTConnectkConfigDefault", group="arm")
+    params = client.call(GetPlannerParams, "/get_planner_params", get).params
+    assert "type" in params.keys
+    request = SetPlannerParams.Request(pipeline_id="ompl", planner_config="RRTConnectkConfigDefault", group="arm")
+    request.params.keys, request.params.values = ["range"], ["0.25"]
+    client.call(SetPlannerParams, "/set_planner_params", request)
+    params = client.call(GetPlannerParams, "/get_planner_params", get).params
+    assert dict(zip(params.keys, params.values))["range"] == "0.25"
+    # still plans with the changed configuration
+    response = client.call(GetMotionPlan, "/plan_kinematic_path", joint_goal(FAR)).motion_plan_response
+    assert response.error_code.val == C.SUCCESS
+
+
+# ------------------------------------------------------------------------------- actions
+def test_move_action_plan_only_moves_nothing(client: Client) -> None:
+    move(client, READY)
+    goal = MoveGroup.Goal()
+    goal.request = joint_goal(FAR).motion_plan_request
+    goal.planning_options.plan_only = True
+    states = []
+    handle = client.send(client.move, goal, feedback=lambda m: states.append(m.feedback.state))
+    result = client.spin_until(handle.get_result_async()).result
+    assert result.error_code.val == C.SUCCESS
+    assert np.allclose(result.planned_trajectory.joint_trajectory.points[-1].positions, FAR, atol=1e-3)
+    assert not len(result.executed_trajectory.joint_trajectory.points)
+    assert "PLANNING" in states
+    assert np.allclose(client.arm(), READY, atol=0.01)
+
+
+def test_move_action_cancel_is_preempted(client: Client) -> None:
+    move(client, READY)
+    goal = MoveGroup.Goal()
+    goal.request = joint_goal(FAR).motion_plan_request
+    goal.request.max_velocity_scaling_factor = 0.2  # a slow motion, to cancel in the middle
+    states = []
+    handle = client.send(client.move, goal, feedback=lambda m: states.append(m.feedback.state))
+    assert wait_until(lambda: (client.executor.spin_once(timeout_sec=0.05), "MONITOR" in states)[1], 20.0)
+    time.sleep(0.3)
+    client.spin_until(handle.cancel_goal_async())
+    response = client.spin_until(handle.get_result_async())
+    assert response.status == GoalStatus.STATUS_CANCELED
+    assert response.result.error_code.val == C.PREEMPTED
+    arm = client.arm()
+    assert not np.allclose(arm, FAR, atol=0.01) and not np.allclose(arm, READY, atol=0.01)
+
+
+def _plan(client: Client, values) -> object:
+    response = client.call(GetMotionPlan, "/plan_kinematic_path", joint_goal(values)).motion_plan_response
+    assert response.error_code.val == C.SUCCESS
+    return response.trajectory
+
+
+def test_execute_trajectory_and_the_stop_event(client: Client) -> None:
+    move(client, READY)
+    handle = client.send(client.execute, ExecuteTrajectory.Goal(trajectory=_plan(client, FAR)))
+    result = client.spin_until(handle.get_result_async()).result
+    assert result.error_code.val == C.SUCCESS
+    assert np.allclose(client.arm(), FAR, atol=0.01)
+    handle = client.send(client.execute, ExecuteTrajectory.Goal(trajectory=_plan(client, READY)))
+    time.sleep(0.3)
+    client.stop_pub.publish(String(data="stop"))
+    response = client.spin_until(handle.get_result_async())
+    assert response.result.error_code.val == C.PREEMPTED
+    assert not np.allclose(client.arm(), READY, atol=0.01)
+
+
+def test_controller_abort_is_control_failed(client: Client) -> None:
+    move(client, READY)
+    client.set_mock_param("arm_controller.fail_after", 0.2)
+    try:
+        handle = client.send(client.execute, ExecuteTrajectory.Goal(trajectory=_plan(client, FAR)))
+        result = client.spin_until(handle.get_result_async()).result
+        assert result.error_code.val == C.CONTROL_FAILED
+        assert "arm_controller" in result.error_code.message
+    finally:
+        client.set_mock_param("arm_controller.fail_after", -1.0)
+
+
+def test_stalled_controller_is_timed_out(client: Client) -> None:
+    move(client, READY)
+    client.set_mock_param("arm_controller.stall_after", 0.2)
+    try:
+        handle = client.send(client.execute, ExecuteTrajectory.Goal(trajectory=_plan(client, FAR)))
+        result = client.spin_until(handle.get_result_async()).result
+        assert result.error_code.val == C.TIMED_OUT, result.error_code.message
+    finally:
+        client.set_mock_param("arm_controller.stall_after", -1.0)
+    move(client, READY)  # the controller follows again
+
+
+def test_bad_requests_get_error_codes_and_the_node_survives(client: Client) -> None:
+    empty = GetMotionPlan.Request()
+    empty.motion_plan_request.group_name = "arm"
+    code = client.call(GetMotionPlan, "/plan_kinematic_path", empty).motion_plan_response.error_code
+    assert code.val == C.INVALID_GOAL_CONSTRAINTS and code.message
+    handle = client.send(client.execute, ExecuteTrajectory.Goal())
+    result = client.spin_until(handle.get_result_async()).result
+    assert result.error_code.val == C.INVALID_MOTION_PLAN and "no points" in result.error_code.message
+    nan = joint_goal([float("nan")] * 6)
+    code = client.call(GetMotionPlan, "/plan_kinematic_path", nan).motion_plan_response.error_code
+    assert code.val != C.SUCCESS and code.message
+    assert "Traceback" not in client.server.output()
+    move(client, READY)
