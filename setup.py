@@ -26,6 +26,7 @@ setup(
             f"ik_over_table = {PACKAGE}.demos.ik_over_table:main",
             f"mock_controllers = {PACKAGE}.nodes.mock_controllers:main",
             f"planning_server = {PACKAGE}.nodes.planning_server:main",
+            f"robot_state_publisher = {PACKAGE}.nodes.robot_state_publisher:main",
             f"modular = {PACKAGE}.nodes.modular:main",
             f"fallbacks_move_to = {PACKAGE}.nodes.fallbacks_move_to:main",
             f"ik_clearance_cost = {PACKAGE}.nodes.ik_clearance_cost:main",

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Launch-free bring-up of the robot: the mock ros2_control controllers (node controller_manager)
-# and the planning_server (the move_group stand-in), in the background, like the seeds' robot.sh
+# Launch-free bring-up of the robot: the mock ros2_control controllers (node controller_manager),
+# the robot_state_publisher (/robot_description, /tf, /tf_static for RViz) and the planning_server
+# (the move_group stand-in, with its node move_group), in the background, like the seeds' robot.sh
 # but without a launch system. See usage() below.
 set -euo pipefail
 
@@ -9,24 +10,26 @@ PY="$ROOT/.venv/bin/python"
 LOG_DIR="${MYCOBOT_LOG_DIR:-/tmp/mycobot_planning/logs}"
 RUN_DIR="${MYCOBOT_RUN_DIR:-/tmp/mycobot_planning/run}"
 TIMEOUT="${MYCOBOT_START_TIMEOUT:-60}"
-NODES=(mock_controllers planning_server)          # start order; stop runs in reverse
-declare -A READY_TEXT=([mock_controllers]="controller_manager ready" [planning_server]="planning_server ready")
+NODES=(mock_controllers robot_state_publisher planning_server)   # start order; stop runs in reverse
+declare -A READY_TEXT=([mock_controllers]="controller_manager ready"
+                       [robot_state_publisher]="robot_state_publisher ready"
+                       [planning_server]="planning_server ready")
 
 usage() {
   cat <<EOF
 Usage: scripts/robot.sh start|stop|restart|status [--log-dir DIR] [--run-dir DIR] [--timeout S]
                         [-- PLANNING_SERVER_ROS_ARGS...]
 
-  start    start mock_controllers and planning_server in the background (each in a process group
-           of its own), then wait until both are up: their logs say "ready" and the planning_server
+  start    start mock_controllers, robot_state_publisher and planning_server in the background (each
+           in a process group of its own), then wait until all are up: their logs say "ready" and the planning_server
            answers get_state with joint states received. Prints the PIDs and the log folder. A node
            that is already running is not started again (start is idempotent). If a node dies or
            the wait times out, whatever this start launched is stopped again and the exit code is 1.
-  stop     stop both: SIGINT to each tracked process group, SIGTERM after 10 s, SIGKILL after 3 s
+  stop     stop them all: SIGINT to each tracked process group, SIGTERM after 10 s, SIGKILL after 3 s
            more. Only the PIDs recorded by start are signalled, never processes found by name.
   restart  stop, then start.
-  status   what runs: PID, alive or dead, log file of each node. Exit code 0 when both run,
-           3 when none runs, 1 otherwise (one of them only, or a node that died).
+  status   what runs: PID, alive or dead, log file of each node. Exit code 0 when all run,
+           3 when none runs, 1 otherwise (some of them only, or a node that died).
 
 Options:
   --log-dir DIR  log folder (default \$MYCOBOT_LOG_DIR or /tmp/mycobot_planning/logs); one file
@@ -93,6 +96,12 @@ alive() {
   state="$(awk '{print $3}' "/proc/$pid/stat" 2>/dev/null || true)"
   [[ -n "$state" && "$state" != Z && "$state" != X ]] || return 1
   tr '\0' ' ' < "/proc/$pid/cmdline" | grep -q -- "mycobot_planning.nodes.$name"
+}
+
+any_alive() {
+  local name
+  for name in "${NODES[@]}"; do alive "$name" && return 0; done
+  return 1
 }
 
 # True while the recorded PID runs (not a zombie). Used right after start: until setsid has
@@ -247,7 +256,7 @@ do_start() {
     "$ROOT/scripts/setup.sh"
   fi
   local domain="${ROS_DOMAIN_ID:-0}" started=() name
-  if [[ -f "$RUN_DIR/ros_domain_id" ]] && { alive mock_controllers || alive planning_server; }; then
+  if [[ -f "$RUN_DIR/ros_domain_id" ]] && any_alive; then
     local running_domain; running_domain="$(cat "$RUN_DIR/ros_domain_id")"
     if [[ "$running_domain" != "$domain" ]]; then
       die "the robot of $RUN_DIR already runs on ROS_DOMAIN_ID=$running_domain, not $domain: stop it first or use another --run-dir"
@@ -298,7 +307,7 @@ do_start() {
     echo "robot.sh: see the logs in $LOG_DIR" >&2
     abort_start "${started[@]}"
   fi
-  echo "robot up: mock_controllers (pid $(recorded_pid mock_controllers)), planning_server (pid $(recorded_pid planning_server)); logs in $LOG_DIR"
+  echo "robot up: mock_controllers (pid $(recorded_pid mock_controllers)), robot_state_publisher (pid $(recorded_pid robot_state_publisher)), planning_server (pid $(recorded_pid planning_server)); logs in $LOG_DIR"
 }
 
 # Undo a failed start: stop what this start launched (never what was already running).
@@ -308,7 +317,7 @@ abort_start() {
     name="${!i}"
     stop_node "$name" >&2 || true
   done
-  alive mock_controllers || alive planning_server || rm -f "$RUN_DIR/ros_domain_id"
+  any_alive || rm -f "$RUN_DIR/ros_domain_id"
   exit 1
 }
 

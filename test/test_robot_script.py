@@ -18,7 +18,7 @@ import pytest
 from ros_testing import PYTHON, REPO, ros_env
 
 SCRIPT = REPO / "scripts" / "robot.sh"
-NODES = ("mock_controllers", "planning_server")
+NODES = ("mock_controllers", "robot_state_publisher", "planning_server")
 
 
 class Robot:

@@ -322,3 +322,150 @@ def bench_scene_update(repeat: int, seed: int) -> None:
 
 
 ROS_SCENARIOS = {"exec_latency": bench_exec_latency, "scene_update": bench_scene_update}
+
+
+# ----------------------------------------------------------------------------- moveit_api
+MOVEIT_API_CALLS = 20  # per repeat, for each of plan and IK
+_ARM = ["link1_to_link2", "link2_to_link3", "link3_to_link4", "link4_to_link5", "link5_to_link6",
+        "link6_to_link6_flange"]
+_GOALS = ([0.0, -0.3, 0.6, 0.2, 0.0, 0.0], [1.0, -1.0, -0.8, 0.3, 0.5, 0.8])
+
+
+class _NoControllers:
+    """The in-process reference plans and solves IK only; nothing is ever sent to a controller."""
+
+    def is_available(self, controller: str) -> bool:
+        return False
+
+    def send(self, controller: str, trajectory: Any) -> None:
+        raise RuntimeError("the in-process reference executes nothing")
+
+    def stop(self, controller: str) -> None:
+        pass
+
+    def controller_state(self, controller: str, goal_id: str | None = None) -> None:
+        return None
+
+
+def bench_moveit_api(repeat: int, seed: int) -> None:
+    """move_group's services end to end (GetMotionPlan with a joint goal and GetPositionIK, myCobot,
+    empty scene) from a client process, against the same PlanningServerCore calls in-process: the
+    difference is what the moveit_msgs face and ROS transport cost."""
+    import rclpy
+    from moveit_msgs.msg import Constraints, JointConstraint
+    from moveit_msgs.srv import GetMotionPlan, GetPositionIK
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.node import Node
+
+    from mycobot_planning.core.execution import load_controllers
+    from mycobot_planning.core.planning_pipeline import PlanningPipeline
+    from mycobot_planning.core.planning_server_core import PlanningServerCore
+    from mycobot_planning.core.robot_model import RobotModel
+    from mycobot_planning.core.robot_state import RobotState
+
+    model = RobotModel.mycobot()
+    local = PlanningServerCore(model, PlanningPipeline(), load_controllers(None), _NoControllers())
+    poses = []
+    for goal in _GOALS:
+        state = RobotState(model)
+        state.set_joint_positions(dict(zip(_ARM, goal)))
+        poses.append(Pose.from_matrix(state.frame_pose("link6_flange")))
+
+    def plan_request(goal: list[float]) -> Any:
+        request = GetMotionPlan.Request()
+        r = request.motion_plan_request
+        r.group_name, r.allowed_planning_time, r.num_planning_attempts = "arm", 5.0, 1
+        r.goal_constraints = [Constraints(joint_constraints=[JointConstraint(
+            joint_name=j, position=v, tolerance_above=1e-3, tolerance_below=1e-3, weight=1.0)
+            for j, v in zip(_ARM, goal)])]
+        return request
+
+    def ik_request(pose: Pose) -> Any:
+        request = GetPositionIK.Request()
+        request.ik_request.group_name = "arm"
+        request.ik_request.pose_stamped.header.frame_id = "world"
+        p = request.ik_request.pose_stamped.pose
+        p.position.x, p.position.y, p.position.z = pose.position
+        p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w = pose.orientation
+        return request
+
+    start = {"joint_names": list(_ARM), "positions": [0.0] * 6}
+    with RobotProcesses(bench_domain_id()):
+        context = rclpy.Context()
+        rclpy.init(context=context)
+        node = Node("bench_moveit_api", context=context)
+        executor = SingleThreadedExecutor(context=context)
+        executor.add_node(node)
+        plan_client = node.create_client(GetMotionPlan, "/plan_kinematic_path")
+        ik_client = node.create_client(GetPositionIK, "/compute_ik")
+        try:
+            for client in (plan_client, ik_client):
+                if not client.wait_for_service(timeout_sec=30.0):
+                    raise RuntimeError(f"{client.srv_name} is not offered")
+
+            def call(client: Any, request: Any) -> Any:
+                future = client.call_async(request)
+                executor.spin_until_future_complete(future, timeout_sec=30.0)
+                if not future.done():
+                    raise RuntimeError(f"{client.srv_name} did not answer")
+                return future.result()
+
+            def ok_plan(response: Any) -> None:
+                if response.motion_plan_response.error_code.val != 1:
+                    raise RuntimeError(f"plan failed: {response.motion_plan_response.error_code.message}")
+
+            def ok_ik(response: Any) -> None:
+                if response.error_code.val != 1:
+                    raise RuntimeError(f"IK failed: {response.error_code.message}")
+
+            for i in range(3):  # warm-up: discovery, caches, IK seed tables (untimed)
+                ok_plan(call(plan_client, plan_request(_GOALS[i % 2])))
+                ok_ik(call(ik_client, ik_request(poses[i % 2])))
+                local.plan({"group": "arm", "goal": {"joints": _GOALS[i % 2]}, "start_state": start, "display": False})
+                local.compute_ik({"group": "arm", "pose": poses[i % 2].to_dict(), "robot_state": start})
+            samples: dict[str, list[float]] = {"plan": [], "plan_local": [], "ik": [], "ik_local": []}
+            medians: list[float] = []
+            for index in range(repeat):
+                run: dict[str, list[float]] = {k: [] for k in samples}
+                for k in range(MOVEIT_API_CALLS):
+                    goal, pose = _GOALS[k % 2], poses[k % 2]
+                    t0 = time.perf_counter()
+                    ok_plan(call(plan_client, plan_request(goal)))
+                    t1 = time.perf_counter()
+                    result = local.plan({"group": "arm", "goal": {"joints": goal}, "start_state": start,
+                                         "display": False})
+                    t2 = time.perf_counter()
+                    if result["error_code"]["val"] != 1:
+                        raise RuntimeError(f"in-process plan failed: {result['error_code']['message']}")
+                    ok_ik(call(ik_client, ik_request(pose)))
+                    t3 = time.perf_counter()
+                    answer = local.compute_ik({"group": "arm", "pose": pose.to_dict(), "robot_state": start})
+                    t4 = time.perf_counter()
+                    if answer["error_code"]["val"] != 1:
+                        raise RuntimeError(f"in-process IK failed: {answer['error_code']['message']}")
+                    for key, value in (("plan", t1 - t0), ("plan_local", t2 - t1), ("ik", t3 - t2),
+                                       ("ik_local", t4 - t3)):
+                        run[key].append(value)
+                record = {"scenario": "moveit_api", "repeat": index, "calls": MOVEIT_API_CALLS}
+                for key, values in run.items():
+                    record[f"{key}_median_ms"] = round(float(np.median(values)) * 1e3, 3)
+                    samples[key] += values
+                medians.append(record["plan_median_ms"])
+                emit(record)
+        finally:
+            executor.shutdown()
+            node.destroy_node()
+            rclpy.try_shutdown(context=context)
+    med = {key: float(np.median(values)) * 1e3 for key, values in samples.items()}
+    summary = {
+        "scenario": "moveit_api", "summary": True, "calls": len(samples["plan"]),
+        "plan_median_ms": round(med["plan"], 3), "plan_in_process_median_ms": round(med["plan_local"], 3),
+        "ik_median_ms": round(med["ik"], 3), "ik_in_process_median_ms": round(med["ik_local"], 3),
+        "plan_overhead_ms": round(med["plan"] - med["plan_local"], 3),
+        "ik_overhead_ms": round(med["ik"] - med["ik_local"], 3),
+    }
+    summary["overhead_ms"] = max(summary["plan_overhead_ms"], summary["ik_overhead_ms"])
+    emit({**summary, **spread(medians), **machine()})
+
+
+ROS_SCENARIOS["moveit_api"] = bench_moveit_api
