@@ -218,9 +218,11 @@ def planning_scene_from_msg(msg: PlanningScene) -> dict[str, Any]:
     return data
 
 
-def planning_scene_to_msg(data: Mapping[str, Any], components: int | None = None, stamp: Any = None) -> PlanningScene:
-    """Our full scene as moveit_msgs/PlanningScene; ``components`` is the PlanningSceneComponents
-    bitmask of a GetPlanningScene request (None: everything)."""
+def planning_scene_to_msg(data: Mapping[str, Any], components: int | None = None, stamp: Any = None,
+                          diff: bool = False) -> PlanningScene:
+    """Our scene as moveit_msgs/PlanningScene; ``components`` is the PlanningSceneComponents
+    bitmask of a GetPlanningScene request (None: everything); ``diff``: a scene diff (objects keep
+    their operations, the robot state is a diff)."""
     from moveit_msgs.msg import PlanningSceneComponents as C
 
     every = components is None or components == 0
@@ -228,7 +230,7 @@ def planning_scene_to_msg(data: Mapping[str, Any], components: int | None = None
     msg = PlanningScene()
     msg.name = str(data.get("name", ""))
     msg.robot_model_name = str(data.get("robot_model_name", ""))
-    msg.is_diff = False
+    msg.is_diff = bool(diff)
     state = data.get("robot_state") or {}
     if want(C.ROBOT_STATE) or want(C.ROBOT_STATE_ATTACHED_OBJECTS):
         full = robot_state_to_msg(state, stamp)
@@ -236,6 +238,7 @@ def planning_scene_to_msg(data: Mapping[str, Any], components: int | None = None
             full.joint_state.name, full.joint_state.position, full.joint_state.velocity = [], [], []
         if not want(C.ROBOT_STATE_ATTACHED_OBJECTS):
             full.attached_collision_objects = []
+        full.is_diff = bool(diff) or full.is_diff
         msg.robot_state = full
     world = (data.get("world") or {}).get("collision_objects", [])
     if want(C.WORLD_OBJECT_GEOMETRY) or want(C.WORLD_OBJECT_NAMES):

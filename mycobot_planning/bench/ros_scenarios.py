@@ -389,7 +389,8 @@ def bench_moveit_api(repeat: int, seed: int) -> None:
         p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w = pose.orientation
         return request
 
-    start = {"joint_names": list(_ARM), "positions": [0.0] * 6}
+    # the in-process calls start where the mock robot stands (every joint at 0), stated in full
+    start = {"joint_names": list(model.variable_names), "positions": [0.0] * len(model.variable_names)}
     with RobotProcesses(bench_domain_id()):
         context = rclpy.Context()
         rclpy.init(context=context)

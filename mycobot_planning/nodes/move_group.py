@@ -9,7 +9,8 @@ interfaces_py.moveit_conversions into the core's request form and answered by th
 PlanningServerCore calls as the JSON face, so nothing is interpreted twice.
 
 * actions: ``/move_action`` (MoveGroup: plan only, or plan and execute; feedback PLANNING,
-  MONITOR, IDLE), ``/execute_trajectory`` (ExecuteTrajectory); both cancelable (PREEMPTED).
+  MONITOR, IDLE), ``/execute_trajectory`` (ExecuteTrajectory), ``/execute_task_solution``
+  (moveit_task_constructor_msgs ExecuteTaskSolution, MTC's capability); all cancelable (PREEMPTED).
 * services: ``/plan_kinematic_path``, ``/compute_cartesian_path``, ``/compute_ik``,
   ``/compute_fk``, ``/get_planning_scene``, ``/apply_planning_scene``, ``/check_state_validity``,
   ``/query_planner_interface``, ``/get_planner_params``, ``/set_planner_params``.
@@ -26,6 +27,7 @@ from typing import Any, Callable
 
 from geometry_msgs.msg import PoseStamped
 from moveit_msgs.action import ExecuteTrajectory, MoveGroup
+from moveit_task_constructor_msgs.action import ExecuteTaskSolution
 from moveit_msgs.msg import (
     AttachedCollisionObject,
     CollisionObject,
@@ -71,6 +73,7 @@ from interfaces_py.moveit_conversions import (
     robot_trajectory_to_msg,
 )
 from interfaces_py.msgs import JointTrajectory
+from interfaces_py.mtc_conversions import task_solution_from_msg
 from mycobot_planning.core.planning_server_core import PlanningServerCore, RequestError
 
 LATCHED_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -139,9 +142,17 @@ class MoveGroupFace(Node):
                                             cancel_callback=lambda handle: CancelResponse.ACCEPT,
                                             callback_group=self._request_group)
 
+        # MTC's move_group capability (ExecuteTaskSolutionCapability)
+        self._task_action = ActionServer(self, ExecuteTaskSolution, names.EXECUTE_TASK_SOLUTION_ACTION,
+                                         self._execute_task_solution,
+                                         goal_callback=lambda goal: GoalResponse.ACCEPT,
+                                         cancel_callback=lambda handle: CancelResponse.ACCEPT,
+                                         callback_group=self._request_group)
+
     def close(self) -> None:
         self._move_action.destroy()
         self._execute_action.destroy()
+        self._task_action.destroy()
 
     # ------------------------------------------------------------------ plumbing
     def _guarded(self, name: str, handler: Callable[[Any, Any], Any]) -> Callable[[Any, Any], Any]:
@@ -485,6 +496,23 @@ class MoveGroupFace(Node):
             result.executed_trajectory = result.planned_trajectory
         feedback.state = "IDLE"
         goal_handle.publish_feedback(feedback)
+        self._finish(goal_handle, result.error_code)
+        return result
+
+    def _execute_task_solution(self, goal_handle: Any) -> ExecuteTaskSolution.Result:
+        """Execute an MTC solution step by step (trajectories, then each step's scene diff), as
+        MTC's execute_task_solution capability does; cancel stops it (PREEMPTED)."""
+        result = ExecuteTaskSolution.Result()
+        try:
+            solution = task_solution_from_msg(goal_handle.request.solution)
+        except ConversionError as exc:
+            self._log("warning", f"execute_task_solution: refused: {exc.message}")
+            result.error_code = _failure(exc.code, exc.message, "execute_task_solution")
+            goal_handle.abort()
+            return result
+        executed = self._execute_with_cancel(goal_handle,
+                                             lambda: self.core.execute_task_solution({"solution": solution}))
+        result.error_code = _code(executed.get("error_code"))
         self._finish(goal_handle, result.error_code)
         return result
 

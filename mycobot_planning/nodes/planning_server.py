@@ -76,7 +76,8 @@ JOINT_STATES_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE, 
 # s: scene changes are published at most this often (a burst of updates is one publication, so an
 # update is answered without waiting for a full-scene serialisation)
 PUBLISH_CHECK_PERIOD = 0.1
-MARKER_FOLLOW_PERIOD = 0.1  # s: how often attached-object markers follow the moving robot
+MARKER_FOLLOW_PERIOD = 0.1
+DISPLAY_DELAY = 0.02  # s from a plan to its /display_planned_path and /planned_path messages  # s: how often attached-object markers follow the moving robot
 WORLD_COLOR = (0.5, 0.7, 1.0, 1.0)
 ATTACHED_COLOR = (0.6, 0.3, 0.8, 1.0)
 GOAL_TARGETS = ("goal.named_target", "goal.joint_values", "goal.pose")
@@ -180,7 +181,14 @@ class PlanningServer(Node):
         self._world_markers: list[Marker] = []
         self._scene_dirty = threading.Event()
         self.core.scene_listeners.append(self._scene_dirty.set)
-        self.core.trajectory_listeners.append(self._publish_display)
+        # Planned paths are published by a thread of their own, DISPLAY_DELAY after the plan: the
+        # planning client's answer goes out first (the two display messages would otherwise
+        # compete with it for the interpreter); the newest plan wins if several queue up.
+        self._display_next: JointTrajectory | None = None
+        self._display_wake = threading.Condition()
+        self._display_thread = threading.Thread(target=self._display_loop, name="display publisher", daemon=True)
+        self._display_thread.start()
+        self.core.trajectory_listeners.append(self._queue_display)
 
         self._input_group = MutuallyExclusiveCallbackGroup()
         self._timer_group = MutuallyExclusiveCallbackGroup()
@@ -469,6 +477,28 @@ class PlanningServer(Node):
             last = self._marker_positions
             if last is None or last.shape != (len(positions),) or not np.allclose(last, positions, atol=1e-6, rtol=0):
                 self._publish_markers_locked(None, attached, positions)  # world markers unchanged
+
+    def _queue_display(self, trajectory: JointTrajectory) -> None:
+        with self._display_wake:
+            self._display_next = trajectory
+            self._display_wake.notify()
+
+    def _display_loop(self) -> None:
+        while True:
+            with self._display_wake:
+                while self._display_next is None:
+                    self._display_wake.wait()
+            time.sleep(DISPLAY_DELAY)
+            with self._display_wake:
+                trajectory, self._display_next = self._display_next, None
+            if trajectory is None:
+                continue
+            try:
+                self._publish_display(trajectory)
+            except Exception as exc:  # a context shut down under us, or a conversion bug: say so, go on
+                if not self.context.ok():
+                    return
+                self.get_logger().error(f"publishing the planned path failed: {type(exc).__name__}: {exc}")
 
     def _publish_display(self, trajectory: JointTrajectory) -> None:
         self._display_pub.publish(joint_trajectory_to_msg(trajectory, self.get_clock().now().to_msg()))

@@ -44,7 +44,7 @@ What the base provides (names relative to the node, e.g. ``/modular_demo``):
   ``/display_planned_path`` (trajectory_msgs/JointTrajectory of the whole best solution:
   positions and velocities, no accelerations, as execution.timed_to_joint_trajectory sends
   planned trajectories; a solution without motion, e.g. an IK pose, is shown as one point).
-* Execution: the best TaskSolution goes to the planning_server's ``execute_task_solution``
+* Execution: the best TaskSolution goes to move_group's ``/execute_task_solution`` action (MTC's capability; moveit_task_constructor_msgs)
   (it runs the sub-trajectories on their controllers and applies the scene diffs between them).
 * std_srvs/Trigger services ``~/plan`` (re-plan, rebuilding the task so changed parameters
   apply; does not execute) and ``~/execute`` (execute the current best solution).
@@ -232,7 +232,13 @@ class TaskNode(Node):
         self.scene_interface = PlanningSceneInterface(node=self, server=server,
                                                       timeout=float(self.params.get("server_timeout")))
         self._move_groups: dict[str, MoveGroupClient] = {}
-        self.move_group("arm")  # the execution client, created before the executor spins
+        self.move_group("arm")  # the planning client, created before the executor spins
+        from moveit_task_constructor_msgs.action import ExecuteTaskSolution
+        from rclpy.action import ActionClient
+
+        #: execution goes through MTC's execute_task_solution action, as MTC's Task::execute does
+        self._task_action = ActionClient(self, ExecuteTaskSolution, "/execute_task_solution",
+                                         callback_group=self._group)
         self.introspection = TaskIntrospection(self)
         self._display_pub = self.create_publisher(JointTrajectoryMsg, "/planned_path", DISPLAY_QOS)
         self.create_service(Trigger, "~/plan", self._srv_plan, callback_group=self._group)
@@ -357,10 +363,10 @@ class TaskNode(Node):
             self.introspection.publish_description(task.description())
             self.introspection.publish_statistics(task.statistics())
             if task.solutions:
-                self.introspection.publish_solution(task.to_msg())
+                self.introspection.publish_solution(task.to_msg(), task.solutions[0].id)
                 trajectory = display_trajectory(task)
                 self._display_pub.publish(joint_trajectory_to_msg(trajectory, self.get_clock().now().to_msg()))
-                self.info(f"Published solution ({len(trajectory.points)} trajectory points on /display_planned_path)")
+                self.info(f"Published solution ({len(trajectory.points)} trajectory points on /planned_path)")
         except (TaskError, MessageError, ValueError) as exc:
             self.error(f"publishing the task failed: {exc}")
 
@@ -391,14 +397,36 @@ class TaskNode(Node):
         duration = _duration(msg)
         self.info(f"Executing the best solution of '{task.name}' ({len(msg.sub_trajectory)} steps, "
                   f"{duration:.2f} s of motion) through {self.params.get('planning_server')}")
-        client = self.move_group("arm")
-        code = client.execute_task_solution({"solution": msg.to_dict()},
-                                            timeout=duration * 2.0 + 30.0 + self.server_timeout)
+        code = self._execute_through_action(msg, duration * 2.0 + 30.0 + self.server_timeout)
         if code:
             self.info(f"Execution succeeded: {code.message or code.name}")
         else:
             self.error(f"Execution failed: {code.name}: {code.message}")
         return code
+
+    def _execute_through_action(self, msg: Any, timeout: float) -> MoveItErrorCode:
+        """MTC's way: the solution goes to move_group's execute_task_solution action."""
+        from interfaces_py.mtc_conversions import task_solution_to_msg
+        from moveit_task_constructor_msgs.action import ExecuteTaskSolution
+
+        if not self._task_action.wait_for_server(timeout_sec=self.server_timeout):
+            return MoveItErrorCode(MoveItErrorCode.COMMUNICATION_FAILURE,
+                                   f"no execute_task_solution action server answers within {self.server_timeout:g} s "
+                                   "(is the planning_server running?)")
+        done = threading.Event()
+        goal_future = self._task_action.send_goal_async(ExecuteTaskSolution.Goal(solution=task_solution_to_msg(msg)))
+        goal_future.add_done_callback(lambda _: done.set())
+        if not done.wait(self.server_timeout) or goal_future.result() is None or not goal_future.result().accepted:
+            return MoveItErrorCode(MoveItErrorCode.COMMUNICATION_FAILURE, "the execute_task_solution goal was not accepted")
+        handle = goal_future.result()
+        finished = threading.Event()
+        result_future = handle.get_result_async()
+        result_future.add_done_callback(lambda _: finished.set())
+        if not finished.wait(timeout):
+            handle.cancel_goal_async()
+            return MoveItErrorCode(MoveItErrorCode.TIMED_OUT, f"execute_task_solution gave no result within {timeout:.0f} s")
+        code = result_future.result().result.error_code
+        return MoveItErrorCode(code.val, code.message, code.source)
 
     # ------------------------------------------------------------------ start-up run
     def _start(self) -> None:

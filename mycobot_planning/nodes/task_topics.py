@@ -37,7 +37,7 @@ The publishing helper lives here (rclpy); the messages are built by the ROS-free
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Iterable
+from typing import TYPE_CHECKING, Any, Iterable
 
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -60,9 +60,19 @@ __all__ = [
 ]
 
 MAX_LATCHED_SOLUTIONS = 16
+#: MTC's introspection names (Task with the default, empty namespace) and QoS
+MTC_DESCRIPTION_TOPIC = "/description"
+MTC_STATISTICS_TOPIC = "/statistics"
+MTC_SOLUTION_TOPIC = "/solution"
+MTC_GET_SOLUTION_SERVICE = "/get_solution"
+MAX_KEPT_SOLUTIONS = 64  # solutions get_solution can still answer
 DESCRIPTION_QOS = QoSProfile(depth=1, history=HistoryPolicy.KEEP_LAST, reliability=ReliabilityPolicy.RELIABLE,
                              durability=DurabilityPolicy.TRANSIENT_LOCAL)
 STATISTICS_QOS = DESCRIPTION_QOS
+MTC_DESCRIPTION_QOS = QoSProfile(depth=2, history=HistoryPolicy.KEEP_LAST, reliability=ReliabilityPolicy.RELIABLE,
+                                 durability=DurabilityPolicy.TRANSIENT_LOCAL)
+MTC_LATCHED_QOS = QoSProfile(depth=1, history=HistoryPolicy.KEEP_LAST, reliability=ReliabilityPolicy.RELIABLE,
+                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
 SOLUTION_QOS = QoSProfile(depth=MAX_LATCHED_SOLUTIONS, history=HistoryPolicy.KEEP_LAST,
                           reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 #: topic suffix -> (kind, message class)
@@ -97,23 +107,60 @@ def parse_task_topic(topic: str) -> tuple[str, str] | None:
 
 
 class TaskIntrospection:
-    """Publishes a node's tasks on the three task topics (see the module docstring)."""
+    """Publishes a node's tasks on the three task topics (see the module docstring), and on MTC's
+    own introspection interface (moveit_task_constructor_msgs on ``/description``,
+    ``/statistics``, ``/solution``, and the ``/get_solution`` service), as an MTC task with the
+    default namespace does, so RViz's Motion Planning Tasks panel shows our tasks."""
 
     def __init__(self, node: Node, name: str | None = None) -> None:
         """``name``: the topic prefix (default: the node's fully qualified name)."""
+        from moveit_task_constructor_msgs.msg import Solution, TaskDescription as MtcDescription
+        from moveit_task_constructor_msgs.msg import TaskStatistics as MtcStatistics
+        from moveit_task_constructor_msgs.srv import GetSolution
+
         self.topics = task_topics(name or node.get_fully_qualified_name())
+        self._node = node
         self._description = node.create_publisher(String, self.topics.description, DESCRIPTION_QOS)
         self._statistics = node.create_publisher(String, self.topics.statistics, STATISTICS_QOS)
         self._solution = node.create_publisher(String, self.topics.solution, SOLUTION_QOS)
+        self._mtc_description = node.create_publisher(MtcDescription, MTC_DESCRIPTION_TOPIC, MTC_DESCRIPTION_QOS)
+        self._mtc_statistics = node.create_publisher(MtcStatistics, MTC_STATISTICS_TOPIC, MTC_LATCHED_QOS)
+        self._mtc_solution = node.create_publisher(Solution, MTC_SOLUTION_TOPIC, MTC_LATCHED_QOS)
+        self._solutions: dict[int, Any] = {}  # solution id -> moveit_task_constructor_msgs/Solution
+        self._get_solution = node.create_service(GetSolution, MTC_GET_SOLUTION_SERVICE, self._on_get_solution)
+
+    def _on_get_solution(self, request: Any, response: Any) -> Any:
+        """MTC's get_solution: a solution published before, by id (an unknown id gets an empty
+        solution and a warning, as MTC answers)."""
+        solution = self._solutions.get(int(request.solution_id))
+        if solution is None:
+            self._node.get_logger().warning(f"get_solution: no published solution has id {request.solution_id}; "
+                                            f"known: {sorted(self._solutions)}")
+        else:
+            response.solution = solution
+        return response
 
     def publish_description(self, msg: TaskDescription) -> None:
+        from interfaces_py.mtc_conversions import task_description_to_msg
+
         self._description.publish(String(data=msg.to_json()))
+        self._mtc_description.publish(task_description_to_msg(msg))
 
     def publish_statistics(self, msg: TaskStatistics) -> None:
-        self._statistics.publish(String(data=msg.to_json()))
+        from interfaces_py.mtc_conversions import task_statistics_to_msg
 
-    def publish_solution(self, msg: TaskSolution) -> None:
+        self._statistics.publish(String(data=msg.to_json()))
+        self._mtc_statistics.publish(task_statistics_to_msg(msg))
+
+    def publish_solution(self, msg: TaskSolution, solution_id: int = 0) -> None:
+        from interfaces_py.mtc_conversions import task_solution_to_msg
+
         self._solution.publish(String(data=msg.to_json()))
+        mtc = task_solution_to_msg(msg, solution_id)
+        self._solutions[int(solution_id)] = mtc
+        while len(self._solutions) > MAX_KEPT_SOLUTIONS:
+            self._solutions.pop(next(iter(self._solutions)))
+        self._mtc_solution.publish(mtc)
 
     def publish(self, task: "Task", solutions: int | Iterable = 1) -> int:
         """Description and statistics of ``task``, and its ``solutions`` cheapest complete
@@ -123,5 +170,5 @@ class TaskIntrospection:
         self.publish_statistics(task.statistics())
         chosen = task.solutions[: max(0, solutions)] if isinstance(solutions, int) else list(solutions)
         for solution in chosen:
-            self.publish_solution(task.to_msg(solution))
+            self.publish_solution(task.to_msg(solution), getattr(solution, "id", 0))
         return len(chosen)
