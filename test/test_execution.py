@@ -1,5 +1,5 @@
 """Execution planning and monitoring (core/execution.py) and the planning server's ROS-free logic
-(core/planning_server_core.py), on simulated controllers and a simulated clock: no ROS, no sleeps.
+(capabilities/move_group_capabilities.py), on simulated controllers and a simulated clock: no ROS, no sleeps.
 
 The simulated controllers follow the mock controllers' contract (goal id = the command's
 frame_id, statuses executing/succeeded/failed/aborted/stalled/stopped), so what passes here is
@@ -42,8 +42,8 @@ from mycobot_planning.core.execution import (
     timed_to_joint_trajectory,
 )
 from mycobot_planning.core.planning_pipeline import PlanningPipeline
-from mycobot_planning.core.planning_server_core import (
-    PlanningServerCore,
+from mycobot_planning.capabilities.move_group_capabilities import (
+    MoveGroupCapabilities,
     RequestError,
     goal_from_parameters,
     pose_from_json,
@@ -652,7 +652,7 @@ def pipeline():
 @pytest.fixture()
 def server(mycobot, pipeline):
     bus = SimBus(mycobot)
-    core = PlanningServerCore(mycobot, pipeline, CONTROLLERS, bus, ExecutionSettings(), clock=bus.clock)
+    core = MoveGroupCapabilities(mycobot, pipeline, CONTROLLERS, bus, ExecutionSettings(), clock=bus.clock)
     core.bus = bus
 
     def wait(dt: float) -> None:  # the simulated robot moves, /joint_states reports it

@@ -11,7 +11,6 @@ import os
 import sys
 from pathlib import Path
 
-import pytest
 
 
 REFERENCE = json.loads((Path(__file__).parent / "data" / "moveit_type_hashes.json").read_text())

@@ -8,7 +8,6 @@ get_planning_scene.
 from __future__ import annotations
 
 import threading
-import time
 
 import numpy as np
 import pytest
@@ -149,7 +148,7 @@ def test_compute_fk_and_ik_agree_with_our_kinematics(client: Client, model: Robo
 
 
 def _scene(client: Client):
-    assert client.moveit2.update_planning_scene()
+    assert client.moveit2.update_planning_scene(timeout_sec=10.0)
     return client.moveit2.planning_scene
 
 

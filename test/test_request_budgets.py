@@ -1,7 +1,7 @@
 """The planning server's core refuses requests that cannot be right or would never end, lets
 several clients plan at once, and stop() ends running plans (issue 13).
 
-No ROS here: PlanningServerCore with a controller bus that is never used (nothing executes).
+No ROS here: MoveGroupCapabilities with a controller bus that is never used (nothing executes).
 """
 from __future__ import annotations
 
@@ -17,12 +17,12 @@ from interfaces_py.msgs import MoveItErrorCode
 from mycobot_planning.core.execution import ControllerInfo, ExecutionSettings
 from mycobot_planning.core.planning_contexts import PlanningContextPool
 from mycobot_planning.core.planning_pipeline import PlanningPipeline
-from mycobot_planning.core.planning_server_core import (
+from mycobot_planning.capabilities.move_group_capabilities import (
     MAX_PLANNING_ATTEMPTS,
     MAX_PLANNING_TIME,
     MAX_WAYPOINTS,
     WORKSPACE_BOUND,
-    PlanningServerCore,
+    MoveGroupCapabilities,
 )
 from mycobot_planning.core.robot_model import RobotModel
 
@@ -46,8 +46,8 @@ class IdleBus:
         return None
 
 
-def _core(model: RobotModel, pipeline, factory=None) -> PlanningServerCore:
-    core = PlanningServerCore(model, pipeline, [ControllerInfo("arm_controller", tuple(ARM))], IdleBus(),
+def _core(model: RobotModel, pipeline, factory=None) -> MoveGroupCapabilities:
+    core = MoveGroupCapabilities(model, pipeline, [ControllerInfo("arm_controller", tuple(ARM))], IdleBus(),
                               ExecutionSettings(), context_factory=factory)
     names = list(model.variable_names)
     assert core.update_joint_state(names, [0.0] * len(names)) is None
@@ -60,7 +60,7 @@ def pipeline() -> PlanningPipeline:
 
 
 @pytest.fixture()
-def core(mycobot, pipeline) -> PlanningServerCore:
+def core(mycobot, pipeline) -> MoveGroupCapabilities:
     return _core(mycobot, pipeline)
 
 

@@ -1,4 +1,4 @@
-"""Unit tests for core.trajectory_following: the mock controllers' logic, without ROS.
+"""Unit tests for mock_control.joint_trajectory_follower: the mock controllers' logic, without ROS.
 
 Time is passed in explicitly, so every assertion here is exact and instantaneous.
 """
@@ -12,7 +12,7 @@ import pytest
 
 from mycobot_planning.core.errors import StateError
 from mycobot_planning.core.time_parameterization import time_parameterize
-from mycobot_planning.core.trajectory_following import (
+from mycobot_planning.mock_control.joint_trajectory_follower import (
     ControllerConfigError,
     ControllerStatus,
     JointTrajectoryFollower,

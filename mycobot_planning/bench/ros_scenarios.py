@@ -349,7 +349,7 @@ class _NoControllers:
 
 def bench_moveit_api(repeat: int, seed: int) -> None:
     """move_group's services end to end (GetMotionPlan with a joint goal and GetPositionIK, myCobot,
-    empty scene) from a client process, against the same PlanningServerCore calls in-process: the
+    empty scene) from a client process, against the same MoveGroupCapabilities calls in-process: the
     difference is what the moveit_msgs face and ROS transport cost."""
     import rclpy
     from moveit_msgs.msg import Constraints, JointConstraint
@@ -359,12 +359,12 @@ def bench_moveit_api(repeat: int, seed: int) -> None:
 
     from mycobot_planning.core.execution import load_controllers
     from mycobot_planning.core.planning_pipeline import PlanningPipeline
-    from mycobot_planning.core.planning_server_core import PlanningServerCore
+    from mycobot_planning.capabilities.move_group_capabilities import MoveGroupCapabilities
     from mycobot_planning.core.robot_model import RobotModel
     from mycobot_planning.core.robot_state import RobotState
 
     model = RobotModel.mycobot()
-    local = PlanningServerCore(model, PlanningPipeline(), load_controllers(None), _NoControllers())
+    local = MoveGroupCapabilities(model, PlanningPipeline(), load_controllers(None), _NoControllers())
     poses = []
     for goal in _GOALS:
         state = RobotState(model)

@@ -26,7 +26,7 @@ from rclpy.callback_groups import ReentrantCallbackGroup
 from trajectory_msgs.msg import JointTrajectoryPoint
 
 from interfaces_py.ros_conversions import duration_to_seconds, seconds_to_duration
-from mycobot_planning.core.trajectory_following import ControllerStatus, FollowerState, TrajectoryCommand
+from mycobot_planning.mock_control.joint_trajectory_follower import ControllerStatus, FollowerState, TrajectoryCommand
 
 if TYPE_CHECKING:  # pragma: no cover
     from mycobot_planning.nodes.mock_controllers import MockControllerManager, _Controller

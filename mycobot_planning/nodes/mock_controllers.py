@@ -29,7 +29,7 @@ package's myCobot 280), ``controllers_file`` (empty = config/controllers.yaml), 
 (Hz of /joint_states) and ``initial_positions.<joint>`` (rad; setting one while its controller is
 idle moves the joint there at once, like resetting a simulator).
 
-All following logic lives in :mod:`mycobot_planning.core.trajectory_following`.
+All following logic lives in :mod:`mycobot_planning.mock_control.joint_trajectory_follower`.
 """
 from __future__ import annotations
 
@@ -53,7 +53,7 @@ from trajectory_msgs.msg import JointTrajectory
 from interfaces_py.ros_conversions import duration_to_seconds
 from mycobot_planning.core.robot_model import RobotModel
 from mycobot_planning.core.trajectory_limits import DEFAULT_LIMIT_TOLERANCE
-from mycobot_planning.core.trajectory_following import (
+from mycobot_planning.mock_control.joint_trajectory_follower import (
     ControllerConfig,
     ControllerStatus,
     FollowerState,

@@ -6,7 +6,7 @@ std_srvs face). It is named ``move_group`` and carries ``robot_description`` and
 ``robot_description_semantic``, because MoveIt's clients (pymoveit2, MoveGroupInterface, RViz)
 read the robot from the node of that name. Every request is translated by
 interfaces_py.moveit_conversions into the core's request form and answered by the same
-PlanningServerCore calls as the JSON face, so nothing is interpreted twice.
+MoveGroupCapabilities calls as the JSON face, so nothing is interpreted twice.
 
 * actions: ``/move_action`` (MoveGroup: plan only, or plan and execute; feedback PLANNING,
   MONITOR, IDLE), ``/execute_trajectory`` (ExecuteTrajectory), ``/execute_task_solution``
@@ -74,7 +74,7 @@ from interfaces_py.moveit_conversions import (
 )
 from interfaces_py.msgs import JointTrajectory
 from interfaces_py.mtc_conversions import task_solution_from_msg
-from mycobot_planning.core.planning_server_core import PlanningServerCore, RequestError
+from mycobot_planning.capabilities.move_group_capabilities import MoveGroupCapabilities, RequestError
 
 LATCHED_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 INPUT_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
@@ -99,7 +99,7 @@ def _failure(val: int, message: str, source: str = "move_group") -> MoveItErrorC
 class MoveGroupFace(Node):
     """The ``move_group`` node of the planning_server process (see module docstring)."""
 
-    def __init__(self, core: PlanningServerCore, urdf: str, srdf: str, context: Any,
+    def __init__(self, core: MoveGroupCapabilities, urdf: str, srdf: str, context: Any,
                  log: Callable[[str, str], None]) -> None:
         super().__init__(names.MOVE_GROUP_NODE, context=context)
         self.core = core

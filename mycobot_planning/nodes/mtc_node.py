@@ -7,7 +7,7 @@ Declares every parameter of the seed's mtc_node (config/mtc_node_params.yaml; de
 which removes one left by an earlier run) and the cylinder into the planning_server's scene as
 the seed computes them, plans "pick_place_task" for ``max_solutions`` solutions from the
 planning_server's current state, logs printState and the stage summary, publishes the best
-solution (``/mtc_node/task/solution``, ``/display_planned_path``), executes it when ``execute``
+solution (``/mtc_node/task/solution``, ``/planned_path``, MTC's ``/solution``), executes it when ``execute``
 is true, and keeps running. ``ros2 param set /mtc_node execute true`` executes the best solution
 later; the Trigger services ``/mtc_node/plan`` (plan again; a changed table or object
 parameter re-does the scene first) and ``/mtc_node/execute`` do what they say. A bad value is

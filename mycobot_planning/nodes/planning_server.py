@@ -1,15 +1,20 @@
-"""planning_server: the move_group stand-in (thin rclpy shell around PlanningServerCore).
+"""planning_server: the move_group stand-in (thin rclpy shell around MoveGroupCapabilities).
 
 ROS interface (names from the issue-4 contract; MoveIt's where one exists):
 
+This module is the standard-message face; MoveIt's face (moveit_msgs on move_group's names) is the
+node ``move_group`` of the same process (nodes/move_group.py). Both call the same
+MoveGroupCapabilities.
+
 * in: ``/joint_states`` (sensor_msgs/JointState) -> the monitored scene's current state;
-  ``/planning_scene`` (std_msgs/String, JSON PlanningScene diff), ``/collision_object`` (JSON
-  CollisionObject), ``/attached_collision_object`` (JSON AttachedCollisionObject): scene updates,
+  ``/planning_server/planning_scene`` (std_msgs/String, JSON PlanningScene diff),
+  ``/planning_server/collision_object`` (JSON CollisionObject),
+  ``/planning_server/attached_collision_object`` (JSON AttachedCollisionObject): scene updates,
   validated before they are applied (a bad one is logged as a warning and changes nothing).
-* out: ``/monitored_planning_scene`` (String, JSON PlanningScene; on change and at
+* out: ``/planning_server/monitored_planning_scene`` (String, JSON PlanningScene; on change and at
   ``scene_publish_rate``; transient local so late joiners get the latest),
   ``/planning_scene_markers`` (visualization_msgs/MarkerArray: world objects and attached
-  objects, which follow their link as the robot moves), ``/display_planned_path``
+  objects, which follow their link as the robot moves), ``/planned_path``
   (trajectory_msgs/JointTrajectory: every planned trajectory).
 * std_srvs/Trigger services: ``~/plan`` (goal from the goal.* parameters), ``~/execute`` (last
   plan), ``~/plan_and_execute``, ``~/stop``, ``~/get_planning_scene`` (message = JSON scene).
@@ -17,8 +22,9 @@ ROS interface (names from the issue-4 contract; MoveIt's where one exists):
   clients wrap it): get_planning_scene, apply_planning_scene, apply_collision_object,
   attach_object, detach_object, get_objects, plan, execute, plan_and_execute,
   compute_cartesian_path, execute_task_solution, stop, get_state.
-* controllers (from ``controllers_file``): commands on ``/<controller>/joint_trajectory``,
-  feedback from ``/<controller>/state``, stop through ``/<controller>/stop``.
+* controllers (from ``controllers_file``, MoveIt's moveit_controllers.yaml by default): goals on
+  ros2_control's actions, ``/<controller>/follow_joint_trajectory`` (FollowJointTrajectory) or
+  ``/<controller>/gripper_cmd`` (GripperCommand), cancelled on stop (nodes/controller_bus.py).
 
 Long requests (planning, execution) run on reentrant callback groups of a multi-threaded
 executor, so joint states, scene updates and ``stop`` keep being served while they run.
@@ -55,9 +61,9 @@ from mycobot_planning.core.ompl_interface import OmplConfigError, resolve_planne
 from mycobot_planning.core.pilz import KNOWN_PLANNER_IDS
 from mycobot_planning.core.trajectory_limits import DEFAULT_LIMIT_TOLERANCE
 from mycobot_planning.core.planning_pipeline import PlanningPipeline
-from mycobot_planning.core.planning_server_core import (
+from mycobot_planning.capabilities.move_group_capabilities import (
     PlanningDefaults,
-    PlanningServerCore,
+    MoveGroupCapabilities,
     RequestError,
     goal_from_parameters,
 )
@@ -76,8 +82,8 @@ JOINT_STATES_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE, 
 # s: scene changes are published at most this often (a burst of updates is one publication, so an
 # update is answered without waiting for a full-scene serialisation)
 PUBLISH_CHECK_PERIOD = 0.1
-MARKER_FOLLOW_PERIOD = 0.1
-DISPLAY_DELAY = 0.02  # s from a plan to its /display_planned_path and /planned_path messages  # s: how often attached-object markers follow the moving robot
+MARKER_FOLLOW_PERIOD = 0.1  # s: how often attached-object markers follow the moving robot
+DISPLAY_DELAY = 0.02  # s from a plan to its /display_planned_path and /planned_path messages
 WORLD_COLOR = (0.5, 0.7, 1.0, 1.0)
 ATTACHED_COLOR = (0.6, 0.3, 0.8, 1.0)
 GOAL_TARGETS = ("goal.named_target", "goal.joint_values", "goal.pose")
@@ -163,7 +169,7 @@ class PlanningServer(Node):
         self._monitor_executor = SingleThreadedExecutor(context=self.context)
         self._monitor_executor.add_node(self._monitor)
         self._bus = ActionControllerBus(self, self._monitor, controllers, self._on_feedback)
-        self.core = PlanningServerCore(model, pipeline, controllers, self._bus, self._execution_settings(),
+        self.core = MoveGroupCapabilities(model, pipeline, controllers, self._bus, self._execution_settings(),
                                        self._planning_defaults(), log=self._log,
                                        context_factory=self._planning_context)
         # One spare planning context, built in the background: the first plan that arrives while
@@ -322,7 +328,7 @@ class PlanningServer(Node):
             ParameterSpec("joint_state_timeout", 1.0,
                           "seconds after which the last /joint_states message is stale: planning and execution "
                           "refuse a stale current state", range=(0.01, 3600.0)),
-            ParameterSpec("scene_publish_rate", 2.0, "Hz at which /monitored_planning_scene and the scene markers "
+            ParameterSpec("scene_publish_rate", 2.0, "Hz at which the monitored planning scene (both faces) and the scene markers "
                           "are republished (they are also published on every change)", range=(0.1, 100.0)),
             ParameterSpec("trajectory_sample_period", 0.01,
                           "seconds between the points of planned trajectories (0: the planner's breakpoints only)",
@@ -438,7 +444,7 @@ class PlanningServer(Node):
 
     # ------------------------------------------------------------------ publishing
     def _publish_scene(self) -> None:
-        """Publish /monitored_planning_scene and the markers (periodically and after changes)."""
+        """Publish the monitored scene (JSON and moveit_msgs) and the markers (periodically and after changes)."""
         with self._publish_lock:
             self._scene_dirty.clear()
             msg, attached = self.core.scene_snapshot()

@@ -41,7 +41,7 @@ What the base provides (names relative to the node, e.g. ``/modular_demo``):
   per top-level stage (the seeds' output); a failure logs its error code and explainFailure.
   Topics (see nodes/task_topics.py): ``~/task/description``, ``~/task/statistics``,
   ``~/task/solution`` (the best solution as interfaces_py TaskSolution JSON) and
-  ``/display_planned_path`` (trajectory_msgs/JointTrajectory of the whole best solution:
+  ``/planned_path`` (trajectory_msgs/JointTrajectory of the whole best solution:
   positions and velocities, no accelerations, as execution.timed_to_joint_trajectory sends
   planned trajectories; a solution without motion, e.g. an IK pose, is shown as one point).
 * Execution: the best TaskSolution goes to move_group's ``/execute_task_solution`` action (MTC's capability; moveit_task_constructor_msgs)
@@ -99,7 +99,7 @@ __all__ = [
 
 EXIT_PLANNING_FAILED = 2
 EXIT_EXECUTION_FAILED = 3
-#: Same QoS as the planning_server's /display_planned_path publisher (latched).
+#: Same QoS as the planning_server's /planned_path publisher (latched).
 DISPLAY_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 MAX_LOGGED_SOLUTIONS = 10
 _ACK_TIMEOUT = 3.0  # s: at exit, wait this long for subscribers to receive the latched topics
@@ -164,7 +164,7 @@ def solution_lines(task: Task, limit: int = MAX_LOGGED_SOLUTIONS) -> list[str]:
 
 
 def display_trajectory(task: Task, solution=None) -> JointTrajectory:
-    """The solution as one JointTrajectory for /display_planned_path: positions and velocities
+    """The solution as one JointTrajectory for /planned_path: positions and velocities
     (planned trajectories are cubic splines, see execution.timed_to_joint_trajectory), times from
     0. A solution that does not move (e.g. an IK solution) is shown as its end state (one point
     over the active joints)."""

@@ -9,9 +9,9 @@ In (all optional; the page fills in as they arrive):
 
 * ``/joint_states`` (sensor_msgs/JointState): the live robot (blue), at most
   ``max_update_rate`` updates per second, always the newest state (a burst never queues).
-* ``/monitored_planning_scene`` (std_msgs/String, JSON PlanningScene, transient local): the
+* ``/planning_server/monitored_planning_scene`` (std_msgs/String, JSON PlanningScene, transient local): the
   world objects and attached objects.
-* ``/display_planned_path`` (trajectory_msgs/JointTrajectory, transient local): animated from
+* ``/planned_path`` (trajectory_msgs/JointTrajectory, transient local): animated from
   the live state (orange robot) when ``auto_play_planned_path``.
 * task topics of any node, found by polling the graph every ``discovery_period`` s: see
   ``mycobot_planning.nodes.task_topics`` (``/<node>/task/description``, ``.../statistics``,
@@ -81,7 +81,7 @@ class TaskViewerNode(Node):
                 ParameterSpec("playback_speed", 1.0, "speed factor of solution and planned-path animations",
                               range=(0.05, 20.0)),
                 ParameterSpec("loop", True, "replay animations from the start when they end"),
-                ParameterSpec("auto_play_planned_path", True, "animate each new /display_planned_path at once"),
+                ParameterSpec("auto_play_planned_path", True, "animate each new /planned_path at once"),
                 ParameterSpec("discovery_period", 1.0, "seconds between looks for new task topics in the graph",
                               range=(0.05, 60.0)),
             ])
@@ -185,13 +185,13 @@ class TaskViewerNode(Node):
         try:
             self.viewer.on_scene(msg.data)
         except (MessageError, ValueError) as exc:
-            self.get_logger().warning(f"ignored a malformed /monitored_planning_scene: {exc}")
+            self.get_logger().warning(f"ignored a malformed /planning_server/monitored_planning_scene: {exc}")
 
     def _on_planned_path(self, msg: JointTrajectoryMsg) -> None:
         try:
             trajectory = joint_trajectory_from_msg(msg)
         except (MessageError, ValueError) as exc:
-            self.get_logger().warning(f"ignored a malformed /display_planned_path: {exc}")
+            self.get_logger().warning(f"ignored a malformed /planned_path: {exc}")
             return
         if trajectory.points:
             self.viewer.on_planned_path(trajectory)

@@ -4,7 +4,7 @@ What RViz gives MoveIt users, in a browser: the robot (its collision shapes) fol
 joint states among the planning scene objects; the Motion Planning Tasks panel — every task's
 stage tree with ✓/✗, solution and failure counts, time, cost and comment — where selecting a
 stage's solution shows it and animates it (play / pause / scrub); and the planned path
-animation of ``/display_planned_path``.
+animation of ``/planned_path``.
 
 This module is ROS-free: ``mycobot_planning.nodes.task_viewer`` feeds it from topics; tests and
 scripts can feed it directly. Threading: inputs (``on_*`` calls from ROS callbacks) and the
@@ -349,7 +349,7 @@ class TaskViewer:
         self._wake.set()
 
     def on_scene(self, msg: PlanningSceneMsg | str) -> None:
-        """A full planning scene (/monitored_planning_scene)."""
+        """A full planning scene (/planning_server/monitored_planning_scene)."""
         if isinstance(msg, str):
             msg = PlanningSceneMsg.from_json(msg)
         with self._lock:
@@ -375,7 +375,7 @@ class TaskViewer:
         self._wake.set()
 
     def on_planned_path(self, trajectory: JointTrajectory) -> None:
-        """A planned trajectory (/display_planned_path): animated from the live state."""
+        """A planned trajectory (/planned_path): animated from the live state."""
         self._command("planned_path", trajectory)
 
     # ------------------------------------------------------------------ commands (any thread)
@@ -661,7 +661,7 @@ class TaskViewer:
         timeline.start_objects = self._live_scene
         for segment in timeline.segments:
             segment.objects = segment.objects_after = self._live_scene
-        self._start_preview(_Preview("planned_path", timeline, "planned path (/display_planned_path)"))
+        self._start_preview(_Preview("planned_path", timeline, "planned path (/planned_path)"))
 
     # ------------------------------------------------------------------ tasks panel
     def _tree(self) -> TaskTree | None:

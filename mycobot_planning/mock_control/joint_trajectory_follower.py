@@ -57,8 +57,8 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import yaml
 
-from .errors import PlanningError, StateError
-from .trajectory_limits import DEFAULT_LIMIT_TOLERANCE, motion_limit_problem
+from ..core.errors import PlanningError, StateError
+from ..core.trajectory_limits import DEFAULT_LIMIT_TOLERANCE, motion_limit_problem
 
 
 class ControllerStatus:

@@ -1,8 +1,9 @@
 """The planning server's logic without ROS: MoveIt's move_group capabilities on our core.
 
-The planning_server node (mycobot_planning/nodes/planning_server.py) only translates ROS topics,
-services and parameters into calls on :class:`PlanningServerCore`; everything it decides lives
-here so it can be unit-tested without processes:
+The planning_server's two faces (nodes/planning_server.py: JSON and std_srvs; nodes/move_group.py:
+moveit_msgs on move_group's names) only translate ROS topics, services and parameters into calls
+on :class:`MoveGroupCapabilities`; everything they decide lives here, so it is interpreted once
+and can be unit-tested without processes:
 
 * the **monitored planning scene**: world and attached objects, allowed collisions, and the
   robot's current state fed from /joint_states (with its age, so a stale state is refused);
@@ -12,7 +13,9 @@ here so it can be unit-tested without processes:
   state) turned into :class:`~mycobot_planning.core.planning_interface.MotionPlanRequest` and
   answered with a MoveIt error code, the trajectory and the planning time;
 * **execution** of the last plan, a given trajectory or a whole task solution through the
-  :class:`~mycobot_planning.core.execution.TrajectoryExecutionManager`.
+  :class:`~mycobot_planning.core.execution.TrajectoryExecutionManager`;
+* **state queries**: IK, FK and state validity at a request's robot state
+  (:mod:`~mycobot_planning.core.state_queries`), and the planner interfaces and parameters.
 
 Every method takes and returns the JSON forms of interfaces_py.msgs, which are exactly the
 JSON-RPC payloads. Bad requests raise :class:`RequestError` (scene operations) or come back with
@@ -45,9 +48,9 @@ from interfaces_py.msgs import (
     WORKSPACE_BOUND,
 )
 
-from .cartesian_path import compute_cartesian_path
-from .errors import PlanningError, RobotModelError, SceneError, StateError
-from .execution import (
+from ..core.cartesian_path import compute_cartesian_path
+from ..core.errors import PlanningError, RobotModelError, SceneError, StateError
+from ..core.execution import (
     ControllerBus,
     ControllerInfo,
     ExecutionError,
@@ -57,15 +60,15 @@ from .execution import (
     parse_trajectory,
     timed_to_joint_trajectory,
 )
-from .planning_contexts import ContextFactory, PlanningContextPool
-from .pilz import KNOWN_PLANNER_IDS as PILZ_PLANNER_IDS
-from .planning_interface import JointGoal, MotionPlanRequest, NamedGoal, PoseGoal
-from .planning_scene import PlanningScene
-from .robot_model import RobotModel
-from .state_queries import DEFAULT_IK_TIMEOUT, MAX_IK_TIMEOUT, StateQueries, state_to_json
-from .transforms import check_pose, make_pose
+from ..core.planning_contexts import ContextFactory, PlanningContextPool
+from ..core.pilz import KNOWN_PLANNER_IDS as PILZ_PLANNER_IDS
+from ..core.planning_interface import JointGoal, MotionPlanRequest, NamedGoal, PoseGoal
+from ..core.planning_scene import PlanningScene
+from ..core.robot_model import RobotModel
+from ..core.state_queries import DEFAULT_IK_TIMEOUT, MAX_IK_TIMEOUT, StateQueries, state_to_json
+from ..core.transforms import check_pose, make_pose
 
-__all__ = ["PlanningDefaults", "PlanningServerCore", "RequestError", "goal_from_parameters", "pose_from_json"]
+__all__ = ["PlanningDefaults", "MoveGroupCapabilities", "RequestError", "goal_from_parameters", "pose_from_json"]
 
 SOURCE = "planning_server"
 # error codes for scene requests (JSON-RPC answers)
@@ -183,7 +186,7 @@ def goal_from_parameters(values: Mapping[str, Any], last_set: str | None = None)
                        "no goal set: set goal.named_target, goal.joint_values or goal.pose first")
 
 
-class PlanningServerCore:
+class MoveGroupCapabilities:
     """Monitored scene + planning + execution of the planning server (see module docstring).
 
     Thread-safe: ROS callbacks (joint states, scene updates, requests, stop) arrive on several
