@@ -374,16 +374,49 @@ def goal_from_constraints(constraints: Constraints) -> dict[str, Any]:
     return goal
 
 
+_REGION_TYPES = {SolidPrimitive.BOX: "box", SolidPrimitive.SPHERE: "sphere", SolidPrimitive.CYLINDER: "cylinder"}
+
+
+def path_constraints_from_msg(constraints: Constraints) -> dict[str, Any] | None:
+    """moveit_msgs/Constraints as path constraints in the core's JSON form (None when empty)."""
+    if len(constraints.visibility_constraints):
+        raise ConversionError(MoveItErrorCodes.INVALID_MOTION_PLAN, "visibility constraints are not supported")
+    data: dict[str, Any] = {
+        "joints": [{"joint": jc.joint_name, "position": float(jc.position), "above": float(jc.tolerance_above),
+                    "below": float(jc.tolerance_below)} for jc in constraints.joint_constraints],
+        "orientation": [{"link": oc.link_name, "frame": oc.header.frame_id or "world",
+                         "orientation": [oc.orientation.x, oc.orientation.y, oc.orientation.z, oc.orientation.w],
+                         "tolerance": [float(oc.absolute_x_axis_tolerance), float(oc.absolute_y_axis_tolerance),
+                                       float(oc.absolute_z_axis_tolerance)],
+                         "parameterization": int(oc.parameterization)}
+                        for oc in constraints.orientation_constraints],
+        "position": [],
+    }
+    for pc in constraints.position_constraints:
+        region = pc.constraint_region
+        if len(region.meshes):
+            raise ConversionError(MoveItErrorCodes.INVALID_MOTION_PLAN,
+                                  f"position constraint on {pc.link_name}: mesh regions are not supported")
+        regions = []
+        for primitive, pose in zip(region.primitives, region.primitive_poses):
+            kind = _REGION_TYPES.get(int(primitive.type))
+            if kind is None:
+                raise ConversionError(MoveItErrorCodes.INVALID_MOTION_PLAN,
+                                      f"position constraint on {pc.link_name}: region type {primitive.type} is not "
+                                      "supported (box, sphere, cylinder)")
+            regions.append({"type": kind, "dimensions": [float(d) for d in primitive.dimensions],
+                            "pose": pose_from_msg(pose)})
+        offset = pc.target_point_offset
+        data["position"].append({"link": pc.link_name, "frame": pc.header.frame_id or "world",
+                                 "offset": [offset.x, offset.y, offset.z], "regions": regions})
+    return data if any(data.values()) else None
+
+
 def plan_params_from_request(request: Any) -> tuple[dict[str, Any], list[dict[str, Any]]]:
     """(request parameters without the goal, the goals) from a moveit_msgs/MotionPlanRequest."""
     if len(request.goal_constraints) == 0:
         raise ConversionError(MoveItErrorCodes.INVALID_GOAL_CONSTRAINTS, "the request has no goal_constraints")
     goals = [goal_from_constraints(c) for c in request.goal_constraints]
-    path = request.path_constraints
-    if (len(path.joint_constraints) or len(path.position_constraints) or len(path.orientation_constraints)
-            or len(path.visibility_constraints)):
-        raise ConversionError(MoveItErrorCodes.INVALID_MOTION_PLAN,
-                              "path constraints are not supported yet by this planning_server")
     if len(request.trajectory_constraints.constraints):
         raise ConversionError(MoveItErrorCodes.INVALID_MOTION_PLAN, "trajectory constraints are not supported")
     params: dict[str, Any] = {
@@ -395,6 +428,9 @@ def plan_params_from_request(request: Any) -> tuple[dict[str, Any], list[dict[st
         "max_velocity_scaling_factor": float(request.max_velocity_scaling_factor),
         "max_acceleration_scaling_factor": float(request.max_acceleration_scaling_factor),
     }
+    path = path_constraints_from_msg(request.path_constraints)
+    if path is not None:
+        params["path_constraints"] = path
     start = robot_state_from_msg(request.start_state)
     if start is not None:
         params["start_state"] = start

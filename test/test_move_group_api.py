@@ -456,3 +456,67 @@ def test_bad_requests_get_error_codes_and_the_node_survives(client: Client) -> N
     assert code.val != C.SUCCESS and code.message
     assert "Traceback" not in client.server.output()
     move(client, READY)
+
+
+def test_path_constraints_are_honoured(client: Client, model: RobotModel) -> None:
+    """An orientation path constraint (keep the flange pointing down) on GetMotionPlan and
+    GetCartesianPath; every point of the answers is checked here."""
+    from mycobot_planning.core.kinematics import solve_ik
+    from mycobot_planning.core.planning_scene import PlanningScene
+    from mycobot_planning.core.transforms import make_pose
+
+    scene = PlanningScene(model)
+    down = [0.0, 1.0, 0.0, 0.0]
+    start = solve_ik(model, "arm", make_pose([0.15, 0.05, 0.25], quat_xyzw=down), seed=RobotState(model),
+                     scene=scene, timeout=1.0, rng=0)[0]
+    goal = solve_ik(model, "arm", make_pose([0.17, -0.04, 0.2], quat_xyzw=down), seed=start, scene=scene,
+                    timeout=1.0, rng=0)[0]
+    move(client, start.group_positions("arm").tolist())
+    keep_down = Constraints(orientation_constraints=[OrientationConstraint(
+        link_name=TIP, absolute_x_axis_tolerance=0.1, absolute_y_axis_tolerance=0.1,
+        absolute_z_axis_tolerance=3.15, weight=1.0)])
+    keep_down.orientation_constraints[0].header.frame_id = "world"
+    o = keep_down.orientation_constraints[0].orientation
+    o.x, o.y, o.z, o.w = down
+
+    def tilt(positions) -> float:
+        z = tip_pose(model, positions)[:3, 2]
+        return float(np.arccos(np.clip(-z[2], -1.0, 1.0)))
+
+    request = joint_goal(goal.group_positions("arm"))
+    request.motion_plan_request.path_constraints = keep_down
+    response = client.call(GetMotionPlan, "/plan_kinematic_path", request).motion_plan_response
+    assert response.error_code.val == C.SUCCESS, response.error_code.message
+    assert max(tilt(p.positions) for p in response.trajectory.joint_trajectory.points) <= 0.1 * np.sqrt(2) + 1e-6
+
+    # a goal that tilts the flange breaks the constraint: MoveIt's code says so
+    tilted = goal.group_positions("arm").copy()
+    tilted[4] += 0.6
+    request = joint_goal(tilted)
+    request.motion_plan_request.path_constraints = keep_down
+    code = client.call(GetMotionPlan, "/plan_kinematic_path", request).motion_plan_response.error_code
+    assert code.val == C.GOAL_VIOLATES_PATH_CONSTRAINTS, code.message
+
+    # from the goal (clear of the arm itself): a Cartesian path down, then one that would tilt the
+    # flange by 0.4 rad: it stops early
+    move(client, goal.group_positions("arm").tolist())
+    begin = tip_pose(model, goal.group_positions("arm"))
+    from scipy.spatial.transform import Rotation
+
+    def cartesian(rotation) -> GetCartesianPath.Response:
+        request = GetCartesianPath.Request(group_name="arm", link_name=TIP, max_step=0.005, avoid_collisions=True,
+                                           path_constraints=keep_down)
+        request.header.frame_id = "world"
+        waypoint = Pose()
+        waypoint.position.x, waypoint.position.y, waypoint.position.z = begin[:3, 3] - [0, 0, 0.03]
+        (waypoint.orientation.x, waypoint.orientation.y, waypoint.orientation.z,
+         waypoint.orientation.w) = Rotation.from_matrix(begin[:3, :3] @ rotation).as_quat()
+        request.waypoints = [waypoint]
+        return client.call(GetCartesianPath, "/compute_cartesian_path", request)
+
+    straight = cartesian(np.eye(3))
+    assert straight.error_code.val == C.SUCCESS and straight.fraction == pytest.approx(1.0)
+    turning = cartesian(Rotation.from_euler("x", 0.4).as_matrix())
+    assert 0.0 < turning.fraction < 0.6
+    assert max(tilt(p.positions) for p in turning.solution.joint_trajectory.points) <= 0.1 * np.sqrt(2) + 1e-6
+    move(client, READY)

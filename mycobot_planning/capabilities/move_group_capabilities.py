@@ -60,6 +60,7 @@ from ..core.execution import (
     parse_trajectory,
     timed_to_joint_trajectory,
 )
+from ..core.kinematic_constraints import ConstraintError, PathConstraints, path_constraints_from_json
 from ..core.planning_contexts import ContextFactory, PlanningContextPool
 from ..core.pilz import KNOWN_PLANNER_IDS as PILZ_PLANNER_IDS
 from ..core.planning_interface import JointGoal, MotionPlanRequest, NamedGoal, PoseGoal
@@ -88,14 +89,14 @@ START_STATE_LIMIT_TOLERANCE = 1e-4
 _PLAN_KEYS = {
     "group", "goal", "pipeline_id", "planner_id", "allowed_planning_time", "num_planning_attempts",
     "max_velocity_scaling_factor", "max_acceleration_scaling_factor", "start_state", "seed", "display",
-    "circ_center", "circ_interim", "num_ik_goals",
+    "circ_center", "circ_interim", "num_ik_goals", "path_constraints",
 }
 _GOAL_KEYS = {"named", "joints", "pose", "link", "ik_frame_offset", "tolerance", "position_tolerance",
               "orientation_tolerance", "frame"}
 _CARTESIAN_KEYS = {
     "group", "waypoints", "link", "ik_frame_offset", "eef_step", "jump_threshold", "avoid_collisions",
     "max_velocity_scaling_factor", "max_acceleration_scaling_factor", "start_state", "frame", "display",
-    "revolute_jump_threshold", "prismatic_jump_threshold",
+    "revolute_jump_threshold", "prismatic_jump_threshold", "path_constraints",
 }
 
 
@@ -638,9 +639,34 @@ class MoveGroupCapabilities:
             goal.pose = self._in_world([goal.pose], frame, scene)[0]
         request = MotionPlanRequest(
             group=group, goal=goal, start_state=scene.current_state.copy(), seed=seed,
-            num_planning_attempts=attempts, **strings, **numbers, **extra,
+            num_planning_attempts=attempts, path_constraints=self._path_constraints(params, scene),
+            **strings, **numbers, **extra,
         )
         return request, scene
+
+    def _path_constraints(self, params: Mapping[str, Any], scene: PlanningScene) -> PathConstraints | None:
+        """The request's path constraints ({"joints", "orientation", "position"}, see
+        core/kinematic_constraints.py), frames resolved at the start state."""
+        data = params.get("path_constraints")
+        if data is None:
+            return None
+        if not isinstance(data, Mapping) or set(data) - {"joints", "orientation", "position"}:
+            raise RequestError(MoveItErrorCode.INVALID_MOTION_PLAN,
+                               "path_constraints must be an object with 'joints', 'orientation' and 'position' lists")
+
+        def frame_pose(frame: str) -> np.ndarray:
+            try:
+                return scene.frame_pose(frame)
+            except SceneError as exc:
+                raise RequestError(MoveItErrorCode.FRAME_TRANSFORM_FAILURE, f"path constraint frame: {exc}") from None
+
+        try:
+            constraints = path_constraints_from_json(data, scene.current_state, frame_pose)
+        except (ConstraintError, KeyError, TypeError, ValueError) as exc:
+            if isinstance(exc, RequestError):
+                raise
+            raise RequestError(MoveItErrorCode.INVALID_MOTION_PLAN, f"invalid path constraint: {exc}") from None
+        return constraints or None
 
     def plan(self, params: Mapping[str, Any]) -> dict[str, Any]:
         """Plan a request (see module docstring); never raises for bad input.
@@ -750,6 +776,7 @@ class MoveGroupCapabilities:
             ik_offset = pose_from_json(offset, "ik_frame_offset") if offset is not None else None
             scene = self._start_scene(params.get("start_state"), self.model.group(group).joint_names)
             poses = self._in_world(poses, frame, scene)
+            kwargs["path_constraints"] = self._path_constraints(params, scene)
         except RequestError as exc:
             return self._fail(exc.code, exc.message, fraction=0.0, stop_reason="invalid_request")
         with self.contexts.acquire() as context:

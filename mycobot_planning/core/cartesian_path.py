@@ -39,7 +39,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
 import pinocchio as pin
@@ -62,6 +62,7 @@ __all__ = [
     "RelativeMotionResult",
     "RelativeTarget",
     "STOP_COLLISION",
+    "STOP_PATH_CONSTRAINTS",
     "STOP_COMPLETE",
     "STOP_INVALID_REQUEST",
     "STOP_JOINT_JUMP",
@@ -76,6 +77,7 @@ STOP_COMPLETE = "complete"
 STOP_NO_IK = "no_ik_solution"
 STOP_COLLISION = "collision"
 STOP_JOINT_JUMP = "joint_space_jump"
+STOP_PATH_CONSTRAINTS = "path_constraints"
 STOP_INVALID_REQUEST = "invalid_request"
 
 #: MoveIt forces at least this many steps per segment when the relative jump test is on, so the
@@ -455,6 +457,7 @@ def compute_cartesian_path(
     collision_check_resolution: float = DEFAULT_COLLISION_CHECK_RESOLUTION,
     frame: str = "world",
     sample_period: float | None = None,
+    path_constraints: Any = None,
 ) -> CartesianPathResult:
     """MoveIt's computeCartesianPath: move the ik frame through waypoints along straight lines.
 
@@ -496,7 +499,7 @@ def compute_cartesian_path(
         return _compute(
             scene, group, start_state, waypoints, link, ik_frame_offset, eef_step, jump_threshold, avoid_collisions,
             velocity_scaling, acceleration_scaling, revolute_jump_threshold, prismatic_jump_threshold,
-            max_rotation_step, collision_check_resolution, frame, sample_period, started,
+            max_rotation_step, collision_check_resolution, frame, sample_period, started, path_constraints,
         )
     except PlanningFailure as exc:
         return _failed(exc.code, exc.message, group, started)
@@ -505,7 +508,7 @@ def compute_cartesian_path(
 def _compute(
     scene, group, start_state, waypoints, link, ik_frame_offset, eef_step, jump_threshold, avoid_collisions,
     velocity_scaling, acceleration_scaling, revolute_jump_threshold, prismatic_jump_threshold, max_rotation_step,
-    collision_check_resolution, frame, sample_period, started,
+    collision_check_resolution, frame, sample_period, started, path_constraints=None,
 ) -> CartesianPathResult:
     if not isinstance(scene, PlanningScene):
         raise failure(MoveItErrorCode.INVALID_MOTION_PLAN, f"scene must be a PlanningScene, got {type(scene).__name__}")
@@ -563,6 +566,11 @@ def _compute(
     check_buffer = full.copy()
     fallback: IKSolver | None = None
 
+    if path_constraints:
+        problem = path_constraints.violation(start)
+        if problem:
+            raise failure(MoveItErrorCode.START_STATE_VIOLATES_PATH_CONSTRAINTS,
+                          f"the start state violates the path constraints: {problem}")
     stop_reason, detail = STOP_COMPLETE, ""
     done = 0  # steps achieved
     for s in range(n_steps):
@@ -621,6 +629,14 @@ def _compute(
                 what = "; ".join(str(c) for c in report.contacts) or "joint limits"
                 where = "state" if j == between else "motion to the state"
                 detail = f"{where} of step {s + 1} invalid: {what}"
+                break
+        if path_constraints:
+            check_buffer[idx] = x
+            problem = path_constraints.violation(RobotState(model, check_buffer.copy()))
+            if problem:
+                solver.update(previous)
+                stop_reason = STOP_PATH_CONSTRAINTS
+                detail = f"step {s + 1} violates the path constraints: {problem}"
                 break
         path[s + 1] = x
         done = s + 1

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 import time
 from pathlib import Path
-from typing import Mapping
+from typing import Any, Mapping
 
 import numpy as np
 
@@ -28,12 +28,15 @@ from .ompl_interface import (
     plan_joint_space,
     resolve_planner_id,
 )
+from .kinematic_constraints import first_violation
+from .robot_state import RobotState
 from .planning_interface import (
     MotionPlanRequest,
     MotionPlanResponse,
     PlanningFailure,
     PoseGoal,
     check_group,
+    check_path_constraints_at_ends,
     check_request_numbers,
     check_scaling,
     failure,
@@ -126,6 +129,7 @@ class OmplPlanner:
         budget = float(request.allowed_planning_time)
         ik_time = budget * IK_TIME_SHARE if isinstance(request.goal, PoseGoal) else 0.0
         goals = goal_states(scene, jmg, start, request.goal, max(1, request.num_ik_goals), max(ik_time, 1e-3), rng)
+        goals = check_path_constraints_at_ends(request, start, goals)
         start_vector = start.group_positions(jmg.name)
         goal_vectors = [g.group_positions(jmg.name) for g in goals]
         lower = model.lower_limits[jmg.variable_indices]
@@ -133,6 +137,9 @@ class OmplPlanner:
         lower = np.where(np.isfinite(lower), lower, -math.pi)
         upper = np.where(np.isfinite(upper), upper, math.pi)
         validity = scene.validity_checker(jmg.name, start, check_bounds=False)  # OMPL stays in bounds
+        constraints = request.path_constraints
+        if constraints:
+            validity = _constrained(validity, constraints, start, jmg)
 
         best = None
         last = None
@@ -169,7 +176,15 @@ class OmplPlanner:
             if result.success:
                 trajectory = time_group_path(model, jmg, result.path, velocity_scaling, acceleration_scaling)
                 report = validate_trajectory(scene, trajectory, jmg.name, start)
-                if not report.valid:
+                broken = _path_violation(constraints, start, jmg, result.path) if constraints and report.valid else None
+                if broken is not None:
+                    if replans < MAX_REPLANS:  # a segment leaves the constraints between checks: finer
+                        replans += 1
+                        fraction /= 4.0
+                        continue
+                    result.success, result.status = False, "INVALID_PATH"
+                    result.message = f"every path found left the path constraints between checks: {broken}"
+                elif not report.valid:
                     if report.contacts and replans < MAX_REPLANS:
                         # An edge passes through an obstacle between OMPL's checks: plan again, finer.
                         replans += 1
@@ -204,6 +219,38 @@ class OmplPlanner:
         )
         response.planner_id = f"{jmg.name}[{resolved.config_name}]"
         return response
+
+
+#: rad: largest joint step between two states checked against path constraints on a planned path
+CONSTRAINT_CHECK_STEP = 0.005
+
+
+def _constrained(validity: Any, constraints: Any, start: RobotState, jmg: Any) -> Any:
+    """The scene's validity check plus the path constraints (MoveIt's OMPL interface rejects
+    states that break them the same way)."""
+    state = start.copy()
+    index = np.asarray(jmg.variable_indices)
+    q = state.positions.copy()
+
+    def check(values: np.ndarray) -> bool:
+        if not validity(values):
+            return False
+        q[index] = values
+        state.set_positions(q)
+        return constraints.satisfied(state)
+
+    return check
+
+
+def _path_violation(constraints: Any, start: RobotState, jmg: Any, path: np.ndarray) -> str | None:
+    """Why the straight segments of ``path`` leave the constraints somewhere (checked every
+    CONSTRAINT_CHECK_STEP), or None."""
+    dense = [path[:1]]
+    for a, b in zip(path[:-1], path[1:]):
+        steps = max(1, int(np.ceil(np.max(np.abs(b - a)) / CONSTRAINT_CHECK_STEP)))
+        dense.append(a + (b - a) * (np.arange(1, steps + 1)[:, None] / steps))
+    found = first_violation(constraints, start, jmg.joint_names, np.vstack(dense))
+    return None if found is None else found[1]
 
 
 def _length(path: np.ndarray) -> float:

@@ -73,6 +73,8 @@ class MotionPlanRequest:
     circ_center: Sequence[float] | None = None
     circ_interim: Sequence[float] | None = None
     num_ik_goals: int = 8  # IK-sampled goal states for pose goals (sampling planners)
+    #: kinematic_constraints.PathConstraints every state of the path must satisfy (None: none)
+    path_constraints: Any = None
     #: Anything with ``is_set()`` (a threading.Event): set from another thread, it ends a running
     #: sampling planner early with PREEMPTED (the planning server's stop / an action's cancel).
     cancel: Any = field(default=None, repr=False, compare=False)
@@ -160,6 +162,25 @@ def check_request_numbers(request: MotionPlanRequest) -> None:
             MoveItErrorCode.INVALID_MOTION_PLAN,
             f"num_planning_attempts must be an integer >= 1, got {request.num_planning_attempts}",
         )
+
+
+def check_path_constraints_at_ends(request: MotionPlanRequest, start: RobotState,
+                                   goals: list[RobotState]) -> list[RobotState]:
+    """MoveIt's checks before planning under path constraints: the start must satisfy them
+    (START_STATE_VIOLATES_PATH_CONSTRAINTS); goals that do not are dropped, and with none left the
+    request fails with GOAL_VIOLATES_PATH_CONSTRAINTS."""
+    constraints = request.path_constraints
+    if not constraints:
+        return goals
+    problem = constraints.violation(start)
+    if problem:
+        raise failure(MoveItErrorCode.START_STATE_VIOLATES_PATH_CONSTRAINTS,
+                      f"the start state violates the path constraints: {problem}")
+    kept = [g for g in goals if constraints.satisfied(g)]
+    if not kept:
+        raise failure(MoveItErrorCode.GOAL_VIOLATES_PATH_CONSTRAINTS,
+                      f"every goal state violates the path constraints, e.g. {constraints.violation(goals[0])}")
+    return kept
 
 
 def start_state_of(scene: PlanningScene, request: MotionPlanRequest) -> RobotState:

@@ -13,6 +13,7 @@ from typing import Mapping
 from interfaces_py.msgs import MoveItErrorCode
 
 from .joint_interpolation import plan_joint_interpolation
+from .kinematic_constraints import first_violation
 from .ompl_planner import OmplPlanner
 from .pilz import PILZ_PIPELINE_ID, IndustrialMotionPlanner
 from .planning_interface import MotionPlanRequest, MotionPlanResponse, failure
@@ -37,15 +38,37 @@ class PlanningPipeline:
     def pipeline_ids(self) -> list[str]:
         return [OMPL_PIPELINE_ID, PILZ_PIPELINE_ID, JOINT_INTERPOLATION_PIPELINE_ID]
 
+    @staticmethod
+    def _within_path_constraints(request: MotionPlanRequest, response: MotionPlanResponse) -> MotionPlanResponse:
+        """Planners that do not search (industrial, joint interpolation) either follow the path
+        constraints or not: their path is checked and refused if it leaves them."""
+        constraints = request.path_constraints
+        if not constraints or not response.success or response.trajectory is None:
+            return response
+        start = response.start_state if response.start_state is not None else request.start_state
+        trajectory = response.trajectory
+        found = first_violation(constraints, start, trajectory.joint_names, trajectory.positions)
+        if found is None:
+            return response
+        index, problem = found
+        if index == 0:
+            code, what = MoveItErrorCode.START_STATE_VIOLATES_PATH_CONSTRAINTS, "the start state"
+        elif index == len(trajectory.positions) - 1:
+            code, what = MoveItErrorCode.GOAL_VIOLATES_PATH_CONSTRAINTS, "the goal state"
+        else:
+            code, what = MoveItErrorCode.PLANNING_FAILED, f"the path at t = {trajectory.times[index]:.3f} s"
+        return failure(code, f"{what} violates the path constraints: {problem}").to_response(
+            time.perf_counter() - response.planning_time, request)
+
     def plan(self, scene: PlanningScene, request: MotionPlanRequest) -> MotionPlanResponse:
         """Plan with the requested pipeline; unknown pipelines get INVALID_MOTION_PLAN."""
         pipeline = request.pipeline_id or OMPL_PIPELINE_ID
         if pipeline == OMPL_PIPELINE_ID:
             return self.ompl.plan(scene, request)
         if pipeline == PILZ_PIPELINE_ID:
-            return self.industrial.plan(scene, request)
+            return self._within_path_constraints(request, self.industrial.plan(scene, request))
         if pipeline == JOINT_INTERPOLATION_PIPELINE_ID:
-            return plan_joint_interpolation(scene, request)
+            return self._within_path_constraints(request, plan_joint_interpolation(scene, request))
         return failure(
             MoveItErrorCode.INVALID_MOTION_PLAN,
             f"unknown planning pipeline '{pipeline}'; known: {', '.join(self.pipeline_ids)}",

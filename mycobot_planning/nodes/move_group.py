@@ -62,6 +62,7 @@ from interfaces_py.moveit_conversions import (
     attached_object_from_msg,
     collision_object_from_msg,
     error_code_to_msg,
+    path_constraints_from_msg,
     plan_params_from_request,
     planning_scene_from_msg,
     planning_scene_to_msg,
@@ -256,10 +257,6 @@ class MoveGroupFace(Node):
 
     def _srv_cartesian(self, request: GetCartesianPath.Request,
                        response: GetCartesianPath.Response) -> GetCartesianPath.Response:
-        path = request.path_constraints
-        if len(path.joint_constraints) or len(path.position_constraints) or len(path.orientation_constraints):
-            raise ConversionError(MoveItErrorCodes.INVALID_MOTION_PLAN,
-                                  "path constraints on Cartesian paths are not supported yet by this planning_server")
         params: dict[str, Any] = {
             "group": request.group_name,
             "waypoints": [pose_from_msg(p) for p in request.waypoints],
@@ -273,6 +270,9 @@ class MoveGroupFace(Node):
             "max_velocity_scaling_factor": float(request.max_velocity_scaling_factor),
             "max_acceleration_scaling_factor": float(request.max_acceleration_scaling_factor),
         }
+        path = path_constraints_from_msg(request.path_constraints)
+        if path is not None:
+            params["path_constraints"] = path
         start = robot_state_from_msg(request.start_state)
         if start is not None:
             params["start_state"] = start
