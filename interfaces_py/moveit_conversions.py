@@ -428,11 +428,34 @@ def plan_params_from_request(request: Any) -> tuple[dict[str, Any], list[dict[st
         "max_velocity_scaling_factor": float(request.max_velocity_scaling_factor),
         "max_acceleration_scaling_factor": float(request.max_acceleration_scaling_factor),
     }
+    return _with_start_and_path(params, request), goals
+
+
+def cartesian_params_from_request(request: Any) -> dict[str, Any]:
+    """A compute_cartesian_path request in the core's form from moveit_msgs/GetCartesianPath."""
+    params: dict[str, Any] = {
+        "group": request.group_name,
+        "waypoints": [pose_from_msg(p) for p in request.waypoints],
+        "link": request.link_name or None,
+        "frame": request.header.frame_id or "world",
+        "eef_step": float(request.max_step) if request.max_step > 0 else 0.01,
+        "jump_threshold": float(request.jump_threshold),
+        "revolute_jump_threshold": float(request.revolute_jump_threshold),
+        "prismatic_jump_threshold": float(request.prismatic_jump_threshold),
+        "avoid_collisions": bool(request.avoid_collisions),
+        "max_velocity_scaling_factor": float(request.max_velocity_scaling_factor),
+        "max_acceleration_scaling_factor": float(request.max_acceleration_scaling_factor),
+    }
+    return _with_start_and_path(params, request)
+
+
+def _with_start_and_path(params: dict[str, Any], request: Any) -> dict[str, Any]:
+    """Add a request's start_state and path_constraints, when it has them."""
     path = path_constraints_from_msg(request.path_constraints)
     if path is not None:
         params["path_constraints"] = path
     start = robot_state_from_msg(request.start_state)
     if start is not None:
         params["start_state"] = start
-    return params, goals
+    return params
 

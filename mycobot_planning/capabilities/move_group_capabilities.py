@@ -574,17 +574,23 @@ class MoveGroupCapabilities:
             raise RequestError(code, f"{what} must be a finite number, got {value!r}")
         return float(value)
 
-    def _request(self, params: Mapping[str, Any]) -> tuple[MotionPlanRequest, PlanningScene]:
-        bad = MoveItErrorCode.INVALID_MOTION_PLAN
+    def _checked_request(self, params: Any, keys: set[str], what: str) -> str:
+        """A request object with known keys only; returns its planning group (default "arm")."""
         if not isinstance(params, Mapping):
-            raise RequestError(bad, "a plan request must be a JSON object")
-        unknown = sorted(set(params) - _PLAN_KEYS)
+            raise RequestError(MoveItErrorCode.INVALID_MOTION_PLAN, f"a {what} must be a JSON object")
+        unknown = sorted(set(params) - keys)
         if unknown:
-            raise RequestError(bad, f"plan request has unknown keys {unknown}; known: {sorted(_PLAN_KEYS)}")
+            raise RequestError(MoveItErrorCode.INVALID_MOTION_PLAN,
+                               f"{what} has unknown keys {unknown}; known: {sorted(keys)}")
         group = params.get("group", "arm")
         if not isinstance(group, str) or not self.model.has_group(group):
             raise RequestError(MoveItErrorCode.INVALID_GROUP_NAME,
                                f"unknown planning group {group!r}; known: {', '.join(self.model.group_names)}")
+        return group
+
+    def _request(self, params: Mapping[str, Any]) -> tuple[MotionPlanRequest, PlanningScene]:
+        bad = MoveItErrorCode.INVALID_MOTION_PLAN
+        group = self._checked_request(params, _PLAN_KEYS, "plan request")
         if "goal" not in params:
             raise RequestError(MoveItErrorCode.INVALID_GOAL_CONSTRAINTS, "plan request needs a 'goal'")
         goal = self._goal(params["goal"])
@@ -736,15 +742,7 @@ class MoveGroupCapabilities:
         """MoveIt's compute_cartesian_path: {"error_code", "trajectory", "fraction", "stop_reason"}."""
         bad = MoveItErrorCode.INVALID_MOTION_PLAN
         try:
-            if not isinstance(params, Mapping):
-                raise RequestError(bad, "a cartesian path request must be a JSON object")
-            unknown = sorted(set(params) - _CARTESIAN_KEYS)
-            if unknown:
-                raise RequestError(bad, f"cartesian path request has unknown keys {unknown}; known: {sorted(_CARTESIAN_KEYS)}")
-            group = params.get("group", "arm")
-            if not isinstance(group, str) or not self.model.has_group(group):
-                raise RequestError(MoveItErrorCode.INVALID_GROUP_NAME,
-                                   f"unknown planning group {group!r}; known: {', '.join(self.model.group_names)}")
+            group = self._checked_request(params, _CARTESIAN_KEYS, "cartesian path request")
             waypoints = params.get("waypoints")
             if not isinstance(waypoints, (list, tuple)) or not waypoints:
                 raise RequestError(bad, "waypoints must be a non-empty list of poses")

@@ -60,9 +60,9 @@ from interfaces_py import names
 from interfaces_py.moveit_conversions import (
     ConversionError,
     attached_object_from_msg,
+    cartesian_params_from_request,
     collision_object_from_msg,
     error_code_to_msg,
-    path_constraints_from_msg,
     plan_params_from_request,
     planning_scene_from_msg,
     planning_scene_to_msg,
@@ -257,31 +257,13 @@ class MoveGroupFace(Node):
 
     def _srv_cartesian(self, request: GetCartesianPath.Request,
                        response: GetCartesianPath.Response) -> GetCartesianPath.Response:
-        params: dict[str, Any] = {
-            "group": request.group_name,
-            "waypoints": [pose_from_msg(p) for p in request.waypoints],
-            "link": request.link_name or None,
-            "frame": request.header.frame_id or "world",
-            "eef_step": float(request.max_step) if request.max_step > 0 else 0.01,
-            "jump_threshold": float(request.jump_threshold),
-            "revolute_jump_threshold": float(request.revolute_jump_threshold),
-            "prismatic_jump_threshold": float(request.prismatic_jump_threshold),
-            "avoid_collisions": bool(request.avoid_collisions),
-            "max_velocity_scaling_factor": float(request.max_velocity_scaling_factor),
-            "max_acceleration_scaling_factor": float(request.max_acceleration_scaling_factor),
-        }
-        path = path_constraints_from_msg(request.path_constraints)
-        if path is not None:
-            params["path_constraints"] = path
-        start = robot_state_from_msg(request.start_state)
-        if start is not None:
-            params["start_state"] = start
+        params = cartesian_params_from_request(request)
         result = self.core.compute_cartesian_path(params)
         response.error_code = _code(result.get("error_code"))
         response.fraction = float(result.get("fraction", 0.0))
         if result.get("trajectory"):
             response.solution = robot_trajectory_to_msg(result["trajectory"], self.core.model.root_link)
-            response.start_state = self._start_state_msg(result["trajectory"], start)
+            response.start_state = self._start_state_msg(result["trajectory"], params.get("start_state"))
         return response
 
     # ------------------------------------------------------------------ kinematics and validity
