@@ -507,7 +507,7 @@ def test_start_far_from_the_robot_or_absent_controller_sends_nothing(mycobot):
     bus.available["arm_controller"] = False
     result = manager.execute(arm_trajectory([0] * 6, GOAL))
     assert result.error_code.val == CONTROL_FAILED
-    assert "controller 'arm_controller' is not running (nobody subscribes to /arm_controller/joint_trajectory)" in result.message
+    assert "controller 'arm_controller' is not running (no action server on /arm_controller/follow_joint_trajectory)" in result.message
     assert not bus.controllers["arm_controller"].sent
 
 

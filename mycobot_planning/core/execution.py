@@ -1086,7 +1086,7 @@ class TrajectoryExecutionManager:
             if not self.bus.is_available(controller.name):
                 raise ExecutionError(
                     MoveItErrorCode.CONTROL_FAILED,
-                    f"controller '{controller.name}' is not running (nobody subscribes to {controller.command_topic})",
+                    f"controller '{controller.name}' is not running (no action server on {controller.action_name})",
                 )
         baseline = {c.name: self.bus.controller_state(c.name) for c, _ in commands}
         started = self._clock()

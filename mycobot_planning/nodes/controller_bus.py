@@ -13,6 +13,7 @@ from the action's goal response, feedback and result:
 """
 from __future__ import annotations
 
+import dataclasses
 import threading
 import time
 import uuid
@@ -21,6 +22,7 @@ from typing import Any, Callable
 
 from action_msgs.msg import GoalStatus
 from control_msgs.action import FollowJointTrajectory, GripperCommand
+from control_msgs.msg import JointTrajectoryControllerState
 from rclpy.action import ActionClient
 from rclpy.node import Node
 
@@ -31,6 +33,7 @@ from mycobot_planning.core.execution import GRIPPER_COMMAND, ControllerInfo, Con
 #: N: GripperCommand max_effort when the trajectory gives none (the mock has no dynamics; a real
 #: gripper controller clamps it to its own limit)
 DEFAULT_MAX_EFFORT = 10.0
+HEARTBEAT_QOS = 10
 #: s to wait for a controller to confirm a cancel
 CANCEL_CONFIRM_TIMEOUT = 1.0
 FJT_ERRORS = {
@@ -60,10 +63,15 @@ class ActionControllerBus:
         self._by_goal: dict[str, OrderedDict[str, ControllerState]] = {}
         self._handles: dict[str, Any] = {}  # controller -> goal handle of the goal it runs for us
         self._pending: dict[str, str] = {}  # controller -> our goal id sent, not yet answered
+        self._alive: dict[str, float] = {}  # controller -> when its controller_state last arrived
         for c in controllers:
             action = GripperCommand if c.action_type == GRIPPER_COMMAND else FollowJointTrajectory
             self._clients[c.name] = ActionClient(monitor, action, c.action_name)
             self._by_goal[c.name] = OrderedDict()
+            # JTC publishes its state at every update: the heartbeat that tells a busy controller
+            # (a goal not yet answered, feedback delayed on a loaded machine) from a lost one
+            monitor.create_subscription(JointTrajectoryControllerState, f"/{c.name}/controller_state",
+                                        lambda msg, name=c.name: self._on_alive(name), HEARTBEAT_QOS)
 
     # ------------------------------------------------------------------ ControllerBus
     def is_available(self, controller: str) -> bool:
@@ -105,10 +113,20 @@ class ActionControllerBus:
                                             f"{CANCEL_CONFIRM_TIMEOUT:g} s")
 
     def controller_state(self, controller: str, goal_id: str | None = None) -> ControllerState | None:
+        """The goal's state, or (no ``goal_id``) the latest one, heard as recently as the last
+        controller_state heartbeat."""
         with self._lock:
-            if goal_id is None:
-                return self._latest.get(controller)
-            return self._by_goal.get(controller, {}).get(goal_id)
+            if goal_id is not None:
+                return self._by_goal.get(controller, {}).get(goal_id)
+            latest = self._latest.get(controller)
+            alive = self._alive.get(controller)
+        if latest is None or alive is None or alive <= latest.received:
+            return latest
+        return dataclasses.replace(latest, received=alive)
+
+    def _on_alive(self, controller: str) -> None:
+        with self._lock:
+            self._alive[controller] = time.monotonic()
 
     def summary(self) -> dict[str, Any]:
         now = time.monotonic()
