@@ -12,12 +12,29 @@ from pathlib import Path
 PACKAGE = "mycobot_planning"
 
 
+def _ament_share() -> Path | None:
+    """share/mycobot_planning of the install the ament index (AMENT_PREFIX_PATH) knows, if any."""
+    try:
+        from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
+    except ImportError:
+        return None
+    try:
+        return Path(get_package_share_directory(PACKAGE, print_warning=False))
+    except (PackageNotFoundError, KeyError, ValueError, OSError, LookupError):
+        return None
+
+
 def config_dir() -> Path:
     """The folder holding mycobot_280.urdf, the SRDF and the YAML parameter files."""
-    candidates = [
-        Path(__file__).resolve().parent.parent / "config",  # checkout / editable install
-        Path(sys.prefix) / "share" / PACKAGE / "config",  # pip or colcon install
-    ]
+    here = Path(__file__).resolve().parent
+    candidates = [here.parent / "config"]  # checkout / editable install
+    share = _ament_share()  # colcon or `pip install --prefix` install on AMENT_PREFIX_PATH
+    if share is not None:
+        candidates.append(share / "config")
+    # <prefix>/lib/pythonX.Y/site-packages/mycobot_planning -> <prefix>/share/mycobot_planning
+    if len(here.parents) >= 4:
+        candidates.append(here.parents[3] / "share" / PACKAGE / "config")
+    candidates.append(Path(sys.prefix) / "share" / PACKAGE / "config")  # pip install into a venv
     for candidate in candidates:
         if (candidate / "mycobot_280.urdf").is_file():
             return candidate

@@ -18,7 +18,7 @@ import rclpy
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 from rclpy.node import Node
-from rclpy.exceptions import ParameterException
+from rclpy.exceptions import ParameterException, ParameterUninitializedException
 from rclpy.parameter import Parameter
 
 Validator = Callable[[Any], str | None]  # returns an error sentence, or None when the value is fine
@@ -37,6 +37,8 @@ class ParameterSpec:
     read_only: bool = False
     validator: Validator | None = None
     dynamic_typing: bool = False
+    #: the type of an array parameter whose default is empty (rclpy would infer "byte array")
+    array_type: Parameter.Type = Parameter.Type.DOUBLE_ARRAY
 
     def descriptor(self) -> ParameterDescriptor:
         extra = []
@@ -90,7 +92,10 @@ class Parameters:
         self._listeners: list[Callable[[dict[str, Any]], None]] = []
         for spec in specs:
             try:
-                node.declare_parameter(spec.name, spec.default, spec.descriptor())
+                if isinstance(spec.default, list) and not spec.default and not spec.dynamic_typing:
+                    self._declare_empty_array(spec)
+                else:
+                    node.declare_parameter(spec.name, spec.default, spec.descriptor())
             except ParameterException as exc:  # e.g. a --ros-args value outside the declared range
                 raise ValueError(f"parameter {spec.name}: {exc}") from None
         problems = [p for p in (spec.check(self.get(spec.name)) for spec in specs) if p]
@@ -98,6 +103,17 @@ class Parameters:
             raise ValueError("invalid parameters: " + "; ".join(problems))
         node.add_on_set_parameters_callback(self._on_set)
         node.add_post_set_parameters_callback(self._after_set)
+
+    def _declare_empty_array(self, spec: ParameterSpec) -> None:
+        """An array parameter with an empty default, declared with its real type: declared by
+        type (taking a --ros-args override if given), then set to the typed empty array."""
+        self._node.declare_parameter(spec.name, spec.array_type, spec.descriptor())
+        try:
+            self._node.get_parameter(spec.name)
+        except ParameterUninitializedException:
+            result = self._node.set_parameters([Parameter(spec.name, spec.array_type, [])])[0]
+            if not result.successful:
+                raise ValueError(f"parameter {spec.name}: {result.reason}") from None
 
     def get(self, name: str) -> Any:
         value = self._node.get_parameter(name).value
