@@ -4,6 +4,8 @@
 move_group's execute_task_solution action, as MTC's Task::execute and RViz's panel send it."""
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 import pytest
 import rclpy
@@ -16,6 +18,7 @@ from rclpy.action import ActionClient
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from std_srvs.srv import Trigger
 
 from mycobot_planning.paths import config_file
 from mycobot_planning.task.pick_place import PickPlaceParameters, expected_place_pose
@@ -37,11 +40,23 @@ def wire():
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
     got: dict = {"description": None, "statistics": None, "solution": None}
+    statistics_count = [0]
+
+    def on_message(key: str, msg) -> None:
+        got[key] = msg
+        if key == "statistics":
+            statistics_count[0] += 1
+
     for topic, cls in (("/description", TaskDescription), ("/statistics", TaskStatistics), ("/solution", Solution)):
-        node.create_subscription(cls, topic, lambda m, k=topic[1:]: got.__setitem__(k, m), LATCHED)
+        # deep enough to keep every progress message until the executor takes it
+        qos = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        node.create_subscription(cls, topic, lambda m, k=topic[1:]: on_message(k, m), qos)
+    spinner = threading.Thread(target=executor.spin, daemon=True)
+    spinner.start()
 
     def spin_until(predicate, timeout: float = 120.0) -> bool:
-        return wait_until(lambda: (executor.spin_once(timeout_sec=0.05), predicate())[1], timeout)
+        return wait_until(predicate, timeout)
 
     try:
         assert mock.wait_for_output("controller_manager ready", 30), mock.output()
@@ -51,7 +66,8 @@ def wire():
                            "-p", "execute:=false"])
         assert mtc.wait_for_output("MTC pick and place completed", 120), mtc.output()
         assert spin_until(lambda: all(got.values())), got
-        yield {"node": node, "executor": executor, "got": got, "spin_until": spin_until}
+        yield {"node": node, "executor": executor, "got": got, "spin_until": spin_until,
+               "statistics_count": lambda: statistics_count[0]}
     finally:
         executor.shutdown()
         node.destroy_node()
@@ -71,6 +87,20 @@ def test_description_and_statistics_on_mtc_topics(wire):
     assert statistics.task_id == description.task_id
     root = next(s for s in statistics.stages if s.id == description.stages[0].id)
     assert len(root.solved) == 10
+
+
+def test_statistics_are_published_while_planning(wire):
+    """MTC publishes introspection as the task plans; so do our task nodes (every 0.1 s at most).
+    Re-planned through the node's ~/plan service once discovery is done (at start-up the node's
+    first messages can go out before this subscriber is matched), the 10 solutions take longer
+    than that, so progress messages come before the final one."""
+    before = wire["statistics_count"]()
+    client = wire["node"].create_client(Trigger, "/mtc_node/plan")
+    assert client.wait_for_service(timeout_sec=10.0)
+    future = client.call_async(Trigger.Request())
+    assert wire["spin_until"](future.done, 120.0) and future.result().success, future.result()
+    assert wire["spin_until"](lambda: wire["statistics_count"]() - before >= 2, 5.0), \
+        wire["statistics_count"]() - before
 
 
 def test_get_solution_answers_the_published_solution(wire):

@@ -8,15 +8,16 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
-from typing import Mapping
+from typing import Mapping, Sequence
 
 from interfaces_py.msgs import MoveItErrorCode
 
 from .joint_interpolation import plan_joint_interpolation
 from .kinematic_constraints import first_violation
 from .ompl_planner import OmplPlanner
+from .pilz import KNOWN_PLANNER_IDS as PILZ_PLANNER_IDS
 from .pilz import PILZ_PIPELINE_ID, IndustrialMotionPlanner
-from .planning_interface import MotionPlanRequest, MotionPlanResponse, failure
+from .planning_interface import MotionPlanRequest, MotionPlanResponse, PlanningFailure, failure
 from .planning_scene import PlanningScene
 
 OMPL_PIPELINE_ID = "ompl"
@@ -37,6 +38,22 @@ class PlanningPipeline:
     @property
     def pipeline_ids(self) -> list[str]:
         return [OMPL_PIPELINE_ID, PILZ_PIPELINE_ID, JOINT_INTERPOLATION_PIPELINE_ID]
+
+    def planner_id_problem(self, planner_id: str, groups: Sequence[str] = ()) -> str | None:
+        """Why ``planner_id`` names no planner (None when some pipeline has it): an OMPL
+        configuration of one of ``groups`` (default: every configured group, or any configuration
+        for a group the YAML does not list), or one of the industrial planner's."""
+        if not planner_id or planner_id in PILZ_PLANNER_IDS:
+            return None
+        for group in list(groups) or list(self.ompl.config.groups) or ["arm"]:
+            try:
+                self.ompl._resolve(group, planner_id)
+                return None
+            except PlanningFailure:
+                continue
+        return (f"unknown planner id '{planner_id}': neither an OMPL planner configuration "
+                f"({', '.join(sorted(self.ompl.config.planner_configs)[:4])}, ...) nor one of the industrial "
+                f"planner's {list(PILZ_PLANNER_IDS)}")
 
     @staticmethod
     def _within_path_constraints(request: MotionPlanRequest, response: MotionPlanResponse) -> MotionPlanResponse:

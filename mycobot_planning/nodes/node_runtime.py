@@ -92,7 +92,7 @@ class Parameters:
         self._listeners: list[Callable[[dict[str, Any]], None]] = []
         for spec in specs:
             try:
-                if isinstance(spec.default, list) and not spec.default and not spec.dynamic_typing:
+                if isinstance(spec.default, list) and not spec.default:
                     self._declare_empty_array(spec)
                 else:
                     node.declare_parameter(spec.name, spec.default, spec.descriptor())
@@ -105,15 +105,25 @@ class Parameters:
         node.add_post_set_parameters_callback(self._after_set)
 
     def _declare_empty_array(self, spec: ParameterSpec) -> None:
-        """An array parameter with an empty default, declared with its real type: declared by
-        type (taking a --ros-args override if given), then set to the typed empty array."""
-        self._node.declare_parameter(spec.name, spec.array_type, spec.descriptor())
-        try:
-            self._node.get_parameter(spec.name)
-        except ParameterUninitializedException:
-            result = self._node.set_parameters([Parameter(spec.name, spec.array_type, [])])[0]
-            if not result.successful:
-                raise ValueError(f"parameter {spec.name}: {result.reason}") from None
+        """An array parameter with an empty default, declared with its real type (rclpy reads an
+        empty list as a byte array): statically typed ones are declared by type (taking a
+        --ros-args override if given), then set to the typed empty array; dynamically typed ones
+        are declared, then set to the typed empty array unless an override gave a value."""
+        if spec.dynamic_typing:
+            self._node.declare_parameter(spec.name, spec.default, spec.descriptor())
+            if self._node.get_parameter(spec.name).type_ != Parameter.Type.BYTE_ARRAY \
+                    or len(self._node.get_parameter(spec.name).value):
+                return
+        else:
+            self._node.declare_parameter(spec.name, spec.array_type, spec.descriptor())
+            try:
+                self._node.get_parameter(spec.name)
+                return
+            except ParameterUninitializedException:
+                pass
+        result = self._node.set_parameters([Parameter(spec.name, spec.array_type, [])])[0]
+        if not result.successful:
+            raise ValueError(f"parameter {spec.name}: {result.reason}") from None
 
     def get(self, name: str) -> Any:
         value = self._node.get_parameter(name).value

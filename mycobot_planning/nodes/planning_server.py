@@ -57,8 +57,6 @@ from interfaces_py.json_rpc import BAD_REQUEST, JsonRpcServer, RpcError, decode_
 from interfaces_py.msgs import CollisionObject, JointTrajectory, MoveItErrorCode
 from interfaces_py.ros_conversions import collision_object_to_markers, joint_trajectory_to_msg
 from mycobot_planning.core.execution import ExecutionSettings, load_controllers
-from mycobot_planning.core.ompl_interface import OmplConfigError, resolve_planner_id
-from mycobot_planning.core.pilz import KNOWN_PLANNER_IDS
 from mycobot_planning.core.trajectory_limits import DEFAULT_LIMIT_TOLERANCE
 from mycobot_planning.core.planning_pipeline import PlanningPipeline
 from mycobot_planning.capabilities.move_group_capabilities import (
@@ -299,16 +297,7 @@ class PlanningServer(Node):
             return None if value in ids else f"unknown planning pipeline '{value}'; known: {ids}"
 
         def planner_check(value: Any) -> str | None:
-            if not value or value in KNOWN_PLANNER_IDS:
-                return None
-            for group in model.group_names:
-                try:
-                    resolve_planner_id(pipeline.ompl.config, group, value)
-                    return None
-                except OmplConfigError:
-                    continue
-            return (f"unknown planner id '{value}': neither an OMPL planner of any group nor one of the industrial "
-                    f"planner's {list(KNOWN_PLANNER_IDS)}; e.g. 'RRTConnectkConfigDefault'")
+            return pipeline.planner_id_problem(value, model.group_names)
 
         joint_numbers = _numbers("goal.joint_values")
 

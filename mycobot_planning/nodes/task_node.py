@@ -99,6 +99,9 @@ __all__ = [
 
 EXIT_PLANNING_FAILED = 2
 EXIT_EXECUTION_FAILED = 3
+#: s between two statistics messages, and two progress lines in the log, while a task plans
+PROGRESS_PERIOD = 0.1
+PROGRESS_LOG_PERIOD = 1.0
 #: Same QoS as the planning_server's /planned_path publisher (latched).
 DISPLAY_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 MAX_LOGGED_SOLUTIONS = 10
@@ -333,6 +336,7 @@ class TaskNode(Node):
             return self._fail(f"building the task failed: {exc}")
         self.task = task
         self.info(f"Starting task planning: '{task.name}'")
+        task.addTaskCallback(self._progress_reporter())
         try:
             code = task.plan(int(self.params.get("max_solutions")))
         except InitStageException as exc:
@@ -357,6 +361,29 @@ class TaskNode(Node):
         self.info("Stage summary:\n" + "\n".join(stage_summary_lines(task)))
         self._publish(task)
         return solved
+
+    def _progress_reporter(self) -> Callable[[Task], None]:
+        """A task callback that, at most every PROGRESS_PERIOD while the task plans, publishes its
+        statistics (as MTC's introspection does while planning) and logs how far it got."""
+        started = time.monotonic()
+        last = [started, started]  # last statistics, last log line
+
+        def report(task: Task) -> None:
+            now = time.monotonic()
+            if now - last[0] < PROGRESS_PERIOD:
+                return
+            last[0] = now
+            try:
+                self.introspection.publish_statistics(task.statistics())
+            except Exception as exc:  # a report must never break the planning it reports on
+                self.warning(f"publishing planning progress failed: {type(exc).__name__}: {exc}")
+                return
+            if now - last[1] >= PROGRESS_LOG_PERIOD:
+                last[1] = now
+                self.info(f"planning '{task.name}': {task.numSolutions()} solutions so far after "
+                          f"{now - started:.1f} s")
+
+        return report
 
     def _publish(self, task: Task) -> None:
         try:

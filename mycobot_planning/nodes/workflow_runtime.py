@@ -14,6 +14,7 @@ node_runtime), spins it on a background executor so the blocking clients get the
 """
 from __future__ import annotations
 
+import functools
 import signal
 import sys
 import threading
@@ -27,6 +28,7 @@ from rclpy.signals import SignalHandlerOptions
 
 from interfaces_py.clients import MoveGroupClient, PlanResult, RpcError
 from interfaces_py.msgs import MoveItErrorCode, RobotTrajectory
+from mycobot_planning.core.planning_pipeline import PlanningPipeline
 from mycobot_planning.nodes.node_runtime import Parameters, ParameterSpec, use_fast_discovery
 
 __all__ = ["WorkflowFailed", "WorkflowNode", "run_workflow", "PLANNING_SPECS"]
@@ -36,12 +38,20 @@ class WorkflowFailed(Exception):
     """A workflow step failed; the message says which step and why (it is the exit message)."""
 
 
+@functools.lru_cache(maxsize=1)
+def _pipelines() -> PlanningPipeline:
+    """The package's pipelines, for checking planner ids when they are set (the planning_server
+    plans with the same configuration files)."""
+    return PlanningPipeline()
+
+
 #: Planning request parameters every move_group workflow declares (MoveIt's plan_request_params).
 PLANNING_SPECS = [
     ParameterSpec("group", "arm", "planning group to move", non_empty=True),
     ParameterSpec("planning_pipeline", "ompl", "planning pipeline: ompl, pilz_industrial_motion_planner or "
                   "joint_interpolation", non_empty=True),
-    ParameterSpec("planner_id", "", "planner id (empty: the pipeline's default, RRTConnect for ompl)"),
+    ParameterSpec("planner_id", "", "planner id (empty: the pipeline's default, RRTConnect for ompl)",
+                  validator=lambda value: _pipelines().planner_id_problem(value)),
     ParameterSpec("planning_time", 5.0, "allowed planning time per attempt in seconds", range=(0.01, 600.0)),
     ParameterSpec("planning_attempts", 5, "plan() calls before giving up (the seed retries 5 times)",
                   range=(1, 100)),

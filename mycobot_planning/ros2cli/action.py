@@ -90,10 +90,14 @@ def info(args: argparse.Namespace) -> int | str:
 
         def probe() -> tuple[list, list] | None:
             found = _endpoints(node, args.action_name)
-            return found if found[0] or found[1] else None
+            return found if found[1] else None
 
-        # a new node learns the other nodes' endpoints a little after their names
-        clients, servers = (c.wait_for(probe, c.lookup_timeout(args)) if known else None) or ([], [])
+        # A new node learns the other nodes' endpoints a little after their names: wait for a
+        # server (an action nearly always has one), then for the lists to settle.
+        clients, servers = [], []
+        if known:
+            c.wait_for(probe, c.lookup_timeout(args))
+            clients, servers = c.settled(lambda: _endpoints(node, args.action_name), c.LIST_MAX)
     if known is None and not clients and not servers:
         return f"The action '{args.action_name}' is not available"
     print(f"Action: {args.action_name}")

@@ -1,8 +1,8 @@
 """`ros2 param list | get | set | dump | load | describe | delete`, through the node's parameter
 services (rcl_interfaces), with ros2cli's (Jazzy) sentences.
 
-Deliberate differences: when the node refuses a value, `set` and `load` exit 1 (ros2cli prints
-the refusal but exits 0), so that a script can tell; `load` leaves out read-only parameters whose
+As ros2cli, `set` and `load` print a refusal on stderr and still exit 0. Deliberate differences:
+`load` leaves out read-only parameters whose
 file value is already the node's (a file from `ros2 param dump` loads back cleanly); `load` takes
 the node's own section ('/node' or 'node', plus '/**' with --use-wildcard), not every section.
 """
@@ -211,7 +211,7 @@ def set_parameter(args: argparse.Namespace) -> int:
         print("Set parameter successful" + (": " + result.reason if result.reason else ""))
         return 0
     print("Setting parameter failed" + (": " + result.reason if result.reason else ""), file=sys.stderr)
-    return 1
+    return 0  # as ros2cli: the refusal is reported, the command itself worked
 
 
 def _insert(tree: dict, dotted: str, value: Any) -> None:
@@ -313,17 +313,15 @@ def load(args: argparse.Namespace) -> int | str:
             except Exception as exc:  # a value ROS parameters cannot hold (e.g. mixed-type list)
                 failures.append(f"Set parameter {name} failed: {exc}")
         results = call_set_parameters(node, target, messages) if messages else []
-    refused = bool(failures)
     for message, result in zip(messages, results):
         if result.successful:
             print(f"Set parameter {message.name} successful" + (": " + result.reason if result.reason else ""))
         else:
-            refused = True
             print(f"Set parameter {message.name} failed" + (": " + result.reason if result.reason else ""),
                   file=sys.stderr)
     for failure in failures:
         print(failure, file=sys.stderr)
-    return 1 if refused else 0
+    return 0  # as ros2cli: refusals are reported on stderr, the command itself worked
 
 
 def describe(args: argparse.Namespace) -> int | str:
