@@ -20,7 +20,7 @@ def panda() -> RobotModel:
 
 
 #: Names whose presence in a test module means it talks ROS (nodes, processes, rclpy contexts).
-_ROS_NAMES = ("rclpy", "NodeProcess", "ros_env", "use_session_domain", "RobotProcesses")
+_ROS_NAMES = ("rclpy", "NodeProcess", "ros_env", "use_session_domain", "session_domain_id", "RobotProcesses")
 
 
 def pytest_configure(config: pytest.Config) -> None:
