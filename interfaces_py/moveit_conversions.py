@@ -9,6 +9,7 @@ place only: the core. Nothing here imports rclpy; only the generated message cla
 from __future__ import annotations
 
 import math
+from array import array
 from typing import Any, Mapping, Sequence
 
 from builtin_interfaces.msg import Duration
@@ -262,9 +263,10 @@ def joint_trajectory_to_msg(data: Mapping[str, Any]) -> JointTrajectory:
     points = []
     for p in data["points"]:
         point = JointTrajectoryPoint()
-        point.positions = [float(v) for v in p["positions"]]
-        point.velocities = [float(v) for v in p.get("velocities", [])]
-        point.accelerations = [float(v) for v in p.get("accelerations", [])]
+        # array('d'): the generated setters and the C conversion take it without a per-value check
+        point.positions = array("d", p["positions"])
+        point.velocities = array("d", p.get("velocities", ()))
+        point.accelerations = array("d", p.get("accelerations", ()))
         point.time_from_start = duration_to_msg(p.get("time_from_start", 0.0))
         points.append(point)
     msg.points = points

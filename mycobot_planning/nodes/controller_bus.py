@@ -71,7 +71,8 @@ class ActionControllerBus:
             # JTC publishes its state at every update: the heartbeat that tells a busy controller
             # (a goal not yet answered, feedback delayed on a loaded machine) from a lost one
             monitor.create_subscription(JointTrajectoryControllerState, f"/{c.name}/controller_state",
-                                        lambda msg, name=c.name: self._on_alive(name), HEARTBEAT_QOS)
+                                        lambda msg, name=c.name: self._on_alive(name), HEARTBEAT_QOS,
+                                        raw=True)  # liveness only: skip deserializing the message
 
     # ------------------------------------------------------------------ ControllerBus
     def is_available(self, controller: str) -> bool:

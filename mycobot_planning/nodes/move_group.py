@@ -111,7 +111,8 @@ class MoveGroupFace(Node):
         self._inputs = MutuallyExclusiveCallbackGroup()
         self._scene_lock = threading.Lock()
         self._scene_pub = self.create_publisher(PlanningScene, names.MONITORED_PLANNING_SCENE, LATCHED_QOS)
-        self._display_pub = self.create_publisher(DisplayTrajectory, names.DISPLAY_PLANNED_PATH, LATCHED_QOS)
+        # volatile, depth 10, as move_group publishes it
+        self._display_pub = self.create_publisher(DisplayTrajectory, names.DISPLAY_PLANNED_PATH, 10)
 
         for cls, topic, handler in (
             (CollisionObject, names.COLLISION_OBJECT, self._on_collision_object),
@@ -182,7 +183,10 @@ class MoveGroupFace(Node):
             self._scene_pub.publish(planning_scene_to_msg(msg.to_dict(), stamp=self.get_clock().now().to_msg()))
 
     def publish_display(self, trajectory: JointTrajectory, group: str = "") -> None:
-        """/display_planned_path: what RViz's MotionPlanning display animates."""
+        """/display_planned_path: what RViz's MotionPlanning display animates (built only when
+        someone listens: the message is volatile, as move_group's)."""
+        if self._display_pub.get_subscription_count() == 0:
+            return
         msg = DisplayTrajectory()
         msg.model_id = self.core.model.name
         start = dict(zip(trajectory.joint_names, trajectory.points[0].positions)) if trajectory.points else {}
