@@ -33,20 +33,8 @@ from .errors import InitStageException, PropertyError, PropertyTypeError, Proper
 from .geometry import PointStamped, PoseStamped, TwistStamped, Vector3Stamped
 from .properties import Property, PropertyInitializerSource, PropertyMap
 from .solvers import CartesianPath, JointInterpolationPlanner, PipelinePlanner, PlannerInterface, PlanResult
-from .stage import (
-    Connecting,
-    Generator,
-    InterfaceState,
-    MonitoringGenerator,
-    PropagatingBackward,
-    PropagatingEitherWay,
-    PropagatingForward,
-    SolutionBase,
-    SolutionSequence,
-    Stage,
-    SubTrajectory,
-    WrappedSolution,
-)
+from .stage import Connecting, Generator, MonitoringGenerator, PropagatingBackward, PropagatingEitherWay, PropagatingForward, Stage
+from .storage import InterfaceState, SolutionBase, SolutionSequence, SubTrajectory, WrappedSolution
 from .task import Task
 from . import core  # noqa: E402  (MTC-style namespace, imports the names above)
 

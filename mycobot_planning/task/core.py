@@ -5,7 +5,8 @@ from .cost_terms import Clearance, Constant, CostTerm, DistanceToReference, Lamb
 from .errors import InitStageException, TaskError
 from .geometry import PointStamped, PoseStamped, TwistStamped, Vector3Stamped
 from .solvers import CartesianPath, JointInterpolationPlanner, PipelinePlanner, PlannerInterface
-from .stage import Connecting, Generator, InterfaceState, MonitoringGenerator, PropagatingEitherWay, SolutionBase, Stage
+from .stage import Connecting, Generator, MonitoringGenerator, PropagatingEitherWay, Stage
+from .storage import InterfaceState, SolutionBase
 from .task import Task
 
 __all__ = [

@@ -33,7 +33,7 @@ import numpy as np
 from .errors import TaskError
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .stage import SolutionSequence, SubTrajectory, WrappedSolution
+    from .storage import SolutionSequence, SubTrajectory, WrappedSolution
 
 __all__ = [
     "Clearance",

@@ -34,6 +34,7 @@ from .containers import Alternatives, Fallbacks, SerialContainer
 from .cost_terms import Clearance
 from .geometry import PoseStamped, TwistStamped, Vector3Stamped
 from .solvers import CartesianPath, JointInterpolationPlanner, PipelinePlanner
+from ..paths import config_dir
 from .stage import Stage
 from .stages import ComputeIK, CurrentState, FixedState, MoveRelative, MoveTo
 from .task import Task
@@ -166,8 +167,6 @@ def load_ik_clearance_cost_parameters(path: str | Path | None = None) -> dict[st
     """``cumulative`` and ``with_world`` from the YAML file (ros__parameters format; default:
     config/ik_clearance_cost_parameters.yaml). Raises ValueError naming a bad or unknown key."""
     if path is None:
-        from ..paths import config_dir
-
         path = Path(config_dir()) / "ik_clearance_cost_parameters.yaml"
     with open(path, encoding="utf-8") as handle:
         data = yaml.safe_load(handle) or {}

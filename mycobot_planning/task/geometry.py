@@ -16,6 +16,8 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..core.errors import SceneError
+from ..core.planning_scene import PlanningScene
+from ..core.robot_model import RobotModel
 from ..core.transforms import check_pose, make_pose, quat_to_matrix
 
 __all__ = [
@@ -194,3 +196,25 @@ def rigidly_connected_link(scene, frame_id: str) -> str:
     if scene.has_object(frame_id):
         raise SceneError(f"frame '{frame_id}' is a world object, not attached to the robot: it cannot be an ik_frame")
     raise SceneError(f"unknown frame '{frame_id}': not a link of robot '{model.name}' or an attached object")
+
+
+def default_tip(model: RobotModel, group: str) -> str:
+    """The link a group moves to reach poses: its end effector's parent link when the group
+    carries an end effector (MoveIt's getOnlyOneEndEffectorTip), else the chain tip."""
+    for eef in model.end_effectors.values():
+        if eef.parent_group == group:
+            return eef.parent_link
+    return model.group(group).tip_link
+
+
+def robot_tip_for_frame(ik_frame: PoseStamped | None, scene: PlanningScene, group: str) -> tuple[str, np.ndarray]:
+    """MTC's utils::getRobotTipForFrame: the robot link to plan for and the world pose of the
+    ik frame at the scene's current state. Raises SceneError for unknown or world frames."""
+    state = scene.current_state
+    if ik_frame is None:
+        link = default_tip(scene.robot_model, group)
+        return link, state.frame_pose(link)
+    if not ik_frame.frame_id:
+        raise SceneError("ik_frame needs a frame_id (a robot link or an attached object)")
+    link = rigidly_connected_link(scene, ik_frame.frame_id)
+    return link, frame_transform(scene, ik_frame.frame_id, state) @ ik_frame.pose

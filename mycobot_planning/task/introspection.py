@@ -23,7 +23,8 @@ from typing import TYPE_CHECKING, Any
 
 from interfaces_py.msgs import StageDescription, StageStatistics, TaskDescription, TaskStatistics
 
-from .stage import Stage, flow_symbol_end, flow_symbol_start, interface_text
+from .stage import Stage
+from .storage import flow_symbol_end, flow_symbol_start, interface_text
 
 if TYPE_CHECKING:  # pragma: no cover
     from .task import Task

@@ -35,7 +35,7 @@ from ..core.planning_scene import PlanningScene
 from ..core.execution import timed_to_joint_trajectory as execution_joint_trajectory
 from ..core.time_parameterization import TimedTrajectory
 from .errors import TaskError
-from .stage import SolutionBase, SubTrajectory
+from .storage import SolutionBase, SubTrajectory
 
 if TYPE_CHECKING:  # pragma: no cover
     from .task import Task

@@ -37,7 +37,7 @@ from ..core.planning_scene import PlanningScene
 from ..core.time_parameterization import TimedTrajectory
 from ..core.transforms import inverse
 from .errors import PropertyError, TaskError
-from .geometry import PoseStamped, as_pose_stamped
+from .geometry import PoseStamped, as_pose_stamped, robot_tip_for_frame
 from .properties import PropertyMap
 from .trajectories import time_path
 
@@ -338,8 +338,6 @@ class CartesianPath(PlannerInterface):
             raise ValueError(f"min_fraction must be in [0, 1], got {p['min_fraction']}")
 
     def plan(self, from_scene, to_scene, group, timeout, context=None):
-        from .stages.common import robot_tip_for_frame
-
         link, ik_pose = robot_tip_for_frame(self._properties["ik_frame"], from_scene, group)
         offset = inverse(from_scene.current_state.frame_pose(link)) @ ik_pose
         target = to_scene.current_state.frame_pose(link) @ offset

@@ -40,8 +40,12 @@ from ..core.planning_scene import PlanningScene
 from ..core.robot_model import RobotModel
 from .containers import ContainerBase, SerialContainer
 from .errors import TaskError
-from .stage import GENERATE, Interface, SolutionBase, Stage
+from .introspection import explain_failure, print_state, stage_summary, task_description, task_statistics
+from .stage import Stage
+from .storage import GENERATE, Interface, SolutionBase
 from .properties import PropertyMap
+from .solution_export import solution_joint_trajectory, solution_to_msg
+from .solvers import default_pipeline
 
 
 _LOG = logging.getLogger("mycobot_planning.task")
@@ -77,7 +81,6 @@ class TaskContext:
     def pipeline(self) -> PlanningPipeline:
         if self.task.pipeline is not None:
             return self.task.pipeline
-        from .solvers import default_pipeline
 
         return default_pipeline()
 
@@ -332,7 +335,6 @@ class Task:
     def printState(self, stream: TextIO | None = sys.stdout) -> str:
         """MTC's printState: per stage the interface counts and the solutions, indented by depth
         (see introspection.print_state). Written to ``stream`` (None: only returned)."""
-        from .introspection import print_state
 
         text = print_state(self)
         if stream is not None:
@@ -341,7 +343,6 @@ class Task:
 
     def explainFailure(self, stream: TextIO | None = sys.stdout) -> str:
         """MTC's explainFailure: the first failing stage along the task and its first comment."""
-        from .introspection import explain_failure
 
         text = explain_failure(self)
         if stream is not None:
@@ -351,30 +352,25 @@ class Task:
     def stage_summary(self) -> list[dict[str, Any]]:
         """Per stage (pre-order): name, path, depth, type, interface, solutions, failures,
         compute time, best cost and first failure comment."""
-        from .introspection import stage_summary
 
         return stage_summary(self)
 
     def to_msg(self, solution: SolutionBase | None = None) -> TaskSolution:
         """The solution (default: the best) as an interfaces_py TaskSolution."""
-        from .solution_export import solution_to_msg
 
         return solution_to_msg(self, self._pick(solution))
 
     def joint_trajectory(self, solution: SolutionBase | None = None, sample_period: float | None = None) -> JointTrajectory:
         """The solution (default: the best) as one concatenated JointTrajectory over every joint
         it moves (for ``ros2 topic echo`` and simple controllers)."""
-        from .solution_export import solution_joint_trajectory
 
         return solution_joint_trajectory(self._pick(solution), sample_period=sample_period)
 
     def description(self) -> TaskDescription:
-        from .introspection import task_description
 
         return task_description(self)
 
     def statistics(self) -> TaskStatistics:
-        from .introspection import task_statistics
 
         return task_statistics(self)
 

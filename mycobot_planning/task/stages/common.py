@@ -3,34 +3,10 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
-
-from ...core.errors import SceneError
-from ...core.planning_scene import PlanningScene
 from ...core.robot_model import RobotModel
-from ..geometry import PoseStamped, frame_transform, rigidly_connected_link
+from ..geometry import default_tip, robot_tip_for_frame
 
-
-def default_tip(model: RobotModel, group: str) -> str:
-    """The link a group moves to reach poses: its end effector's parent link when the group
-    carries an end effector (MoveIt's getOnlyOneEndEffectorTip), else the chain tip."""
-    for eef in model.end_effectors.values():
-        if eef.parent_group == group:
-            return eef.parent_link
-    return model.group(group).tip_link
-
-
-def robot_tip_for_frame(ik_frame: PoseStamped | None, scene: PlanningScene, group: str) -> tuple[str, np.ndarray]:
-    """MTC's utils::getRobotTipForFrame: the robot link to plan for and the world pose of the
-    ik frame at the scene's current state. Raises SceneError for unknown or world frames."""
-    state = scene.current_state
-    if ik_frame is None:
-        link = default_tip(scene.robot_model, group)
-        return link, state.frame_pose(link)
-    if not ik_frame.frame_id:
-        raise SceneError("ik_frame needs a frame_id (a robot link or an attached object)")
-    link = rigidly_connected_link(scene, ik_frame.frame_id)
-    return link, frame_transform(scene, ik_frame.frame_id, state) @ ik_frame.pose
+__all__ = ["default_tip", "group_of_eef", "joint_goal_values", "robot_tip_for_frame"]
 
 
 def group_of_eef(model: RobotModel, eef: str) -> str:

@@ -31,7 +31,8 @@ from ...core.robot_state import RobotState
 from ...core.transforms import inverse
 from ..errors import InitStageException
 from ..geometry import PoseStamped, as_pose_stamped, frame_transform
-from ..stage import InterfaceState, SolutionBase, Stage, SubTrajectory
+from ..stage import Stage
+from ..storage import InterfaceState, SolutionBase, SubTrajectory
 from ..containers import WrapperBase
 from .common import default_tip, robot_tip_for_frame
 

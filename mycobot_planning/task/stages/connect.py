@@ -17,7 +17,8 @@ import numpy as np
 from ..cost_terms import PathLength
 from ..errors import InitStageException
 from ..solvers import PlannerInterface
-from ..stage import Connecting, InterfaceState, SolutionSequence, SubTrajectory
+from ..stage import Connecting
+from ..storage import InterfaceState, SolutionSequence, SubTrajectory
 from ..trajectories import find_group, merge_trajectories
 
 

@@ -24,10 +24,12 @@ import pinocchio as pin
 
 from interfaces_py.msgs import SolidPrimitive
 
+from ...core.planning_scene import PlanningScene
 from ..cost_terms import Constant
 from ..errors import InitStageException
 from ..geometry import PoseStamped, as_pose_stamped, frame_transform
-from ..stage import InterfaceState, MonitoringGenerator, SolutionBase, SubTrajectory
+from ..stage import MonitoringGenerator
+from ..storage import InterfaceState, SolutionBase, SubTrajectory
 
 
 class GeneratePose(MonitoringGenerator):
@@ -165,8 +167,6 @@ class GenerateGraspPose(GeneratePose):
                 if posture is None:
                     errors.push_back(self, self._describe_undefined("pregrasp"))
                 else:
-                    from ...core.planning_scene import PlanningScene
-
                     try:
                         _apply_posture(PlanningScene(robot_model), robot_model.end_effectors[eef].group, posture)
                     except ValueError as exc:

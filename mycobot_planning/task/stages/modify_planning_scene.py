@@ -19,7 +19,8 @@ from ...core.errors import PlanningError
 from ...core.robot_model import JointModelGroup
 from ..cost_terms import Constant
 from ..errors import TaskError
-from ..stage import InterfaceState, PropagatingEitherWay, SubTrajectory
+from ..stage import PropagatingEitherWay
+from ..storage import BACKWARD, InterfaceState, SubTrajectory
 
 #: Contacts shallower than this (m) are resting contacts, not collisions, for the state check.
 RESTING_CONTACT_DEPTH = 1e-5
@@ -94,7 +95,6 @@ class ModifyPlanningScene(PropagatingEitherWay):
         super().init(robot_model)
 
     def _propagate(self, state: InterfaceState, direction: int):
-        from ..stage import BACKWARD
 
         invert = direction == BACKWARD
         scene = state.scene.diff()

@@ -21,7 +21,8 @@ from ..cost_terms import PathLength
 from ..errors import InitStageException
 from ..geometry import PoseStamped, TwistStamped, Vector3Stamped, as_pose_stamped, as_twist_stamped, as_vector3_stamped, frame_transform
 from ..solvers import PlannerInterface
-from ..stage import BACKWARD, InterfaceState, PropagatingEitherWay, SubTrajectory
+from ..stage import PropagatingEitherWay
+from ..storage import BACKWARD, InterfaceState, SubTrajectory
 from ..trajectories import reverse_trajectory
 from .common import robot_tip_for_frame
 

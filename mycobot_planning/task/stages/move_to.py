@@ -20,7 +20,8 @@ from ..cost_terms import PathLength
 from ..errors import InitStageException
 from ..geometry import PointStamped, PoseStamped, as_point_stamped, as_pose_stamped, frame_transform
 from ..solvers import PlannerInterface
-from ..stage import BACKWARD, InterfaceState, PropagatingEitherWay, SubTrajectory
+from ..stage import PropagatingEitherWay
+from ..storage import BACKWARD, InterfaceState, SubTrajectory
 from ..trajectories import reverse_trajectory
 from .common import joint_goal_values, robot_tip_for_frame
 

@@ -7,7 +7,8 @@ from typing import Any, Callable
 
 from ..containers import WrapperBase
 from ..errors import InitStageException
-from ..stage import SolutionBase, Stage
+from ..stage import Stage
+from ..storage import SolutionBase
 
 
 def _as_predicate(value: Any) -> Callable:

@@ -11,7 +11,8 @@ from ...core.errors import PlanningError
 from ...core.planning_scene import PlanningScene
 from ..cost_terms import Constant
 from ..errors import InitStageException, TaskError
-from ..stage import Generator, InterfaceState, SubTrajectory
+from ..stage import Generator
+from ..storage import InterfaceState, SubTrajectory
 
 
 class CurrentState(Generator):
