@@ -12,12 +12,11 @@ import pytest
 
 from mycobot_planning.core.errors import StateError
 from mycobot_planning.core.time_parameterization import time_parameterize
+from mycobot_planning.core.controllers_config import ControllerConfigError, load_controllers_config
 from mycobot_planning.mock_control.joint_trajectory_follower import (
-    ControllerConfigError,
     ControllerStatus,
     JointTrajectoryFollower,
     TrajectoryCommand,
-    load_controllers_config,
 )
 from mycobot_planning.paths import config_file
 

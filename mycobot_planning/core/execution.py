@@ -49,6 +49,7 @@ from interfaces_py.msgs import (
     RobotTrajectory,
 )
 
+from .controllers_config import load_controllers_config
 from .errors import PlanningError, SceneError
 from .planning_scene import PlanningScene
 from .robot_model import RobotModel
@@ -203,20 +204,12 @@ def load_controllers(source: str | Path | Mapping | None) -> list[ControllerInfo
         raise ValueError(f"{where} must hold a mapping at the top level")
     controllers: list[ControllerInfo] = []
     if "controller_manager" in data:
-        manager = data["controller_manager"]
-        params = manager.get("ros__parameters", manager) if isinstance(manager, Mapping) else {}
-        for name, entry in params.items():
-            if not isinstance(entry, Mapping) or "type" not in entry:
-                continue
-            ctype = str(entry["type"])
-            if "JointTrajectoryController" not in ctype and "GripperActionController" not in ctype:
-                continue  # broadcasters and other controllers take no trajectories
-            joints_entry = data.get(name)
-            if joints_entry is None and "joints" in entry:
-                joints_entry = entry
-            kind = GRIPPER_COMMAND if "GripperActionController" in ctype else FOLLOW_JOINT_TRAJECTORY
-            controllers.append(ControllerInfo(name, _controller_joints(name, joints_entry, where), kind,
-                                              ACTION_NAMESPACES[kind]))
+        # ros2_control's own file: its one parser, other controller types (broadcasters,
+        # forward command controllers, ...) skipped
+        config = load_controllers_config(data, skip_other_types=True)
+        for c in config.controllers:
+            kind = GRIPPER_COMMAND if "GripperActionController" in c.type else FOLLOW_JOINT_TRAJECTORY
+            controllers.append(ControllerInfo(c.name, c.joints, kind, ACTION_NAMESPACES[kind]))
     elif "moveit_simple_controller_manager" in data:
         manager = data["moveit_simple_controller_manager"]
         if not isinstance(manager, Mapping):

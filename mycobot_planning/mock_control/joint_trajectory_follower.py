@@ -51,13 +51,11 @@ from __future__ import annotations
 import math
 from bisect import bisect_right
 from dataclasses import dataclass, field
-from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any, Sequence
 
 import numpy as np
-import yaml
 
-from ..core.errors import PlanningError, StateError
+from ..core.errors import StateError
 from ..core.trajectory_limits import DEFAULT_LIMIT_TOLERANCE, motion_limit_problem
 
 
@@ -76,10 +74,6 @@ class ControllerStatus:
     ALL = (IDLE, EXECUTING, SUCCEEDED, ABORTED, FAILED, STALLED, PREEMPTED, STOPPED)
     #: A goal in one of these states is over and will not change any more.
     TERMINAL = (SUCCEEDED, ABORTED, FAILED, PREEMPTED, STOPPED)
-
-
-class ControllerConfigError(PlanningError, ValueError):
-    """controllers.yaml is malformed or names joints the robot does not have."""
 
 
 # --------------------------------------------------------------------------------- commands
@@ -639,115 +633,3 @@ class JointTrajectoryFollower:
         self._desired_pos[:] = self._actual_pos
         for arr in (self._actual_vel, self._actual_acc, self._desired_vel, self._desired_acc):
             arr[:] = 0.0
-
-
-# --------------------------------------------------------------------------------- config
-
-JTC_TYPE = "joint_trajectory_controller/JointTrajectoryController"
-#: ros2_control's gripper controller; the mock drives it like a one-joint JTC (JointTrajectory in),
-#: so that a real setup's controllers file (``joint: <name>``) loads unchanged.
-GRIPPER_TYPE = "position_controllers/GripperActionController"
-BROADCASTER_TYPE = "joint_state_broadcaster/JointStateBroadcaster"
-
-
-@dataclass(frozen=True)
-class ControllerConfig:
-    name: str
-    joints: tuple[str, ...]
-    update_rate: float
-    goal_tolerance: float
-    start_tolerance: float
-    type: str = JTC_TYPE
-
-
-@dataclass(frozen=True)
-class ControllerManagerConfig:
-    update_rate: float
-    controllers: tuple[ControllerConfig, ...]
-    broadcasters: tuple[str, ...]
-
-
-def load_controllers_config(
-    source: str | Path | Mapping[str, Any], active_joints: Sequence[str] | None = None
-) -> ControllerManagerConfig:
-    """Parse controllers.yaml (ros2_control layout: ``controller_manager.ros__parameters`` lists
-    the controllers and their types, each controller has its own ``ros__parameters``).
-
-    With `active_joints`, every controller joint must be one of them (no mimic or fixed joints)
-    and no joint may belong to two controllers.
-    """
-    where = "controllers config"
-    if isinstance(source, Mapping):
-        data: Any = dict(source)
-    else:
-        where = f"controllers file '{source}'"
-        try:
-            data = yaml.safe_load(Path(source).read_text())
-        except (OSError, yaml.YAMLError) as exc:
-            raise ControllerConfigError(f"cannot read {where}: {exc}") from None
-    if not isinstance(data, Mapping):
-        raise ControllerConfigError(f"{where} must hold a mapping")
-
-    def params(section: str) -> Mapping[str, Any]:
-        entry = data.get(section)
-        value = entry.get("ros__parameters") if isinstance(entry, Mapping) else None
-        if not isinstance(value, Mapping):
-            raise ControllerConfigError(f"{where}: missing '{section}: ros__parameters:' section")
-        return value
-
-    def rate(value: Any, what: str) -> float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0 < float(value) <= 10000):
-            raise ControllerConfigError(f"{where}: {what} must be a number in (0, 10000] Hz, got {value!r}")
-        return float(value)
-
-    manager = params("controller_manager")
-    cm_rate = rate(manager.get("update_rate", 100), "controller_manager.update_rate")
-    controllers: list[ControllerConfig] = []
-    broadcasters: list[str] = []
-    owner: dict[str, str] = {}
-    for name, entry in manager.items():
-        if name == "update_rate":
-            continue
-        if not isinstance(entry, Mapping) or "type" not in entry:
-            raise ControllerConfigError(f"{where}: controller_manager entry '{name}' needs a 'type'")
-        ctype = entry["type"]
-        if ctype == BROADCASTER_TYPE:
-            broadcasters.append(str(name))
-            continue
-        if ctype not in (JTC_TYPE, GRIPPER_TYPE):
-            raise ControllerConfigError(
-                f"{where}: controller '{name}' has type '{ctype}'; supported: {JTC_TYPE}, {GRIPPER_TYPE}, "
-                f"{BROADCASTER_TYPE}")
-        cfg = params(name)
-        joints = cfg.get("joints")
-        if joints is None and ctype == GRIPPER_TYPE and isinstance(cfg.get("joint"), str):
-            joints = [cfg["joint"]]
-        if (not isinstance(joints, list) or not joints
-                or not all(isinstance(j, str) and j for j in joints) or len(set(joints)) != len(joints)):
-            raise ControllerConfigError(f"{where}: {name}.joints must be a non-empty list of distinct joint names")
-        for joint in joints:
-            if active_joints is not None and joint not in active_joints:
-                raise ControllerConfigError(
-                    f"{where}: {name} names joint '{joint}', which is not an active joint of the robot "
-                    f"(active: {list(active_joints)})")
-            if joint in owner:
-                raise ControllerConfigError(f"{where}: joint '{joint}' belongs to both {owner[joint]} and {name}")
-            owner[joint] = name
-        tolerances = {}
-        for key, default in (("goal_tolerance", 0.01), ("start_tolerance", 0.05)):
-            value = cfg.get(key, default)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not (
-                    math.isfinite(value) and value >= 0):
-                raise ControllerConfigError(f"{where}: {name}.{key} must be a number >= 0, got {value!r}")
-            tolerances[key] = float(value)
-        c_rate = rate(cfg.get("update_rate", cm_rate), f"{name}.update_rate")
-        if c_rate > cm_rate:
-            # As in ros2_control: a controller runs every N-th loop of the manager, never faster.
-            raise ControllerConfigError(
-                f"{where}: {name}.update_rate ({c_rate:g} Hz) exceeds controller_manager.update_rate "
-                f"({cm_rate:g} Hz)")
-        controllers.append(ControllerConfig(name=str(name), joints=tuple(joints), update_rate=c_rate,
-                                            type=str(ctype), **tolerances))
-    if not controllers:
-        raise ControllerConfigError(f"{where}: no controllers of type {JTC_TYPE} or {GRIPPER_TYPE}")
-    return ControllerManagerConfig(cm_rate, tuple(controllers), tuple(broadcasters))

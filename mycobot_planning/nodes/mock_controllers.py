@@ -53,14 +53,13 @@ from trajectory_msgs.msg import JointTrajectory
 from interfaces_py.ros_conversions import duration_to_seconds
 from mycobot_planning.core.robot_model import RobotModel
 from mycobot_planning.core.trajectory_limits import DEFAULT_LIMIT_TOLERANCE
+from mycobot_planning.core.controllers_config import ControllerConfig, load_controllers_config
 from mycobot_planning.mock_control.joint_trajectory_follower import (
-    ControllerConfig,
     ControllerStatus,
     FollowerState,
     JointTrajectoryFollower,
     SubmitResult,
     TrajectoryCommand,
-    load_controllers_config,
 )
 from mycobot_planning.nodes.controller_actions import ControllerActions
 from mycobot_planning.nodes.node_runtime import Parameters, ParameterSpec, run_node
