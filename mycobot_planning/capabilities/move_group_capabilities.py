@@ -847,7 +847,7 @@ class MoveGroupCapabilities:
             return {"error_code": _code(getattr(MoveItErrorCode, answer.error), answer.message, "compute_ik"),
                     "solution": None}
         return {"error_code": _code(MoveItErrorCode.SUCCESS, "", "compute_ik"),
-                "solution": state_to_json(answer.state, self.model)}
+                "solution": state_to_json(answer.state)}
 
     def compute_fk(self, params: Mapping[str, Any]) -> dict[str, Any]:
         """MoveIt's compute_fk: {"links", "frame", "robot_state"} -> {"error_code", "poses"
@@ -900,7 +900,7 @@ class MoveGroupCapabilities:
         except RequestError as exc:
             return {"valid": False, "contacts": [], "out_of_bounds": [],
                     "error_code": _code(exc.code, exc.message, "check_state_validity")}
-        answer = self.queries.check_validity(scene, group)
+        answer = self.queries.check_validity(scene)
         return {"valid": answer.valid, "out_of_bounds": answer.bounds,
                 "contacts": [{"body_a": a, "body_b": b, "depth": d} for a, b, d in answer.contacts],
                 "error_code": _code(MoveItErrorCode.SUCCESS, "", "check_state_validity")}

@@ -45,6 +45,22 @@ class ControllerManagerConfig:
     broadcasters: tuple[str, ...]
 
 
+def read_controllers_source(source: str | Path | Mapping[str, Any], what: str) -> tuple[Mapping[str, Any], str]:
+    """(content, how to name it in messages) of a controllers file or of its parsed content."""
+    if isinstance(source, Mapping):
+        data: Any = dict(source)
+        where = what
+    else:
+        where = f"controllers file '{source}'"
+        try:
+            data = yaml.safe_load(Path(source).read_text())
+        except (OSError, yaml.YAMLError) as exc:
+            raise ControllerConfigError(f"cannot read {where}: {exc}") from None
+    if not isinstance(data, Mapping):
+        raise ControllerConfigError(f"{where} must hold a mapping at the top level")
+    return data, where
+
+
 def load_controllers_config(
     source: str | Path | Mapping[str, Any], active_joints: Sequence[str] | None = None,
     skip_other_types: bool = False,
@@ -57,17 +73,7 @@ def load_controllers_config(
     types than trajectory and gripper controllers are ignored (a real stack has forward command
     controllers and the like; only a simulation of them must refuse what it cannot simulate).
     """
-    where = "controllers config"
-    if isinstance(source, Mapping):
-        data: Any = dict(source)
-    else:
-        where = f"controllers file '{source}'"
-        try:
-            data = yaml.safe_load(Path(source).read_text())
-        except (OSError, yaml.YAMLError) as exc:
-            raise ControllerConfigError(f"cannot read {where}: {exc}") from None
-    if not isinstance(data, Mapping):
-        raise ControllerConfigError(f"{where} must hold a mapping")
+    data, where = read_controllers_source(source, "controllers config")
 
     def params(section: str) -> Mapping[str, Any]:
         entry = data.get(section)

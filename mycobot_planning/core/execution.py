@@ -37,7 +37,6 @@ from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping, Protocol, Sequence
 
 import numpy as np
-import yaml
 
 from interfaces_py.msgs import (
     JointTrajectory,
@@ -49,7 +48,7 @@ from interfaces_py.msgs import (
     RobotTrajectory,
 )
 
-from .controllers_config import load_controllers_config
+from .controllers_config import load_controllers_config, read_controllers_source
 from .errors import PlanningError, SceneError
 from .planning_scene import PlanningScene
 from .robot_model import RobotModel
@@ -187,21 +186,11 @@ def load_controllers(source: str | Path | Mapping | None) -> list[ControllerInfo
       ``moveit_simple_controller_manager.<name>.joints``.
     * Plain: ``controllers: {<name>: {joints: [...]}}``.
     """
-    where = "controllers"
     if source is None:
         from ..paths import config_file
 
         source = config_file("moveit_controllers.yaml")
-    if isinstance(source, Mapping):
-        data = dict(source)
-    else:
-        where = f"controllers file '{source}'"
-        try:
-            data = yaml.safe_load(Path(source).read_text())
-        except (OSError, yaml.YAMLError) as exc:
-            raise ValueError(f"cannot read {where}: {exc}") from None
-    if not isinstance(data, Mapping):
-        raise ValueError(f"{where} must hold a mapping at the top level")
+    data, where = read_controllers_source(source, "controllers")
     controllers: list[ControllerInfo] = []
     if "controller_manager" in data:
         # ros2_control's own file: its one parser, other controller types (broadcasters,

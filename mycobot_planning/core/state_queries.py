@@ -94,7 +94,7 @@ class StateQueries:
         return poses
 
     @staticmethod
-    def check_validity(scene: PlanningScene, group: str | None = None) -> ValidityAnswer:
+    def check_validity(scene: PlanningScene) -> ValidityAnswer:
         """Collision-free (robot with itself and the world, attached objects included) and within
         the joint limits, at the scene's current state."""
         state = scene.current_state
@@ -106,7 +106,7 @@ class StateQueries:
         return ValidityAnswer(not report.collision and not bounds, contacts, bounds)
 
 
-def state_to_json(state: RobotState, model: RobotModel) -> dict[str, Any]:
+def state_to_json(state: RobotState) -> dict[str, Any]:
     """The JSON RobotState of every (non-mimic) variable of a core state."""
     values = state.to_joint_dict(include_mimic=False)
     return {"joint_names": list(values), "positions": [float(v) for v in values.values()]}

@@ -62,7 +62,6 @@ class ActionControllerBus:
         self._latest: dict[str, ControllerState] = {}
         self._by_goal: dict[str, OrderedDict[str, ControllerState]] = {}
         self._handles: dict[str, Any] = {}  # controller -> goal handle of the goal it runs for us
-        self._pending: dict[str, str] = {}  # controller -> our goal id sent, not yet answered
         self._alive: dict[str, float] = {}  # controller -> when its controller_state last arrived
         for c in controllers:
             action = GripperCommand if c.action_type == GRIPPER_COMMAND else FollowJointTrajectory
@@ -94,8 +93,6 @@ class ActionControllerBus:
             goal.trajectory.header.frame_id = ""
         self._record(controller, ControllerState("executing", True, "goal sent", goal_id, tuple(info.joints),
                                                  time.monotonic()))
-        with self._lock:
-            self._pending[controller] = goal_id
         future = self._clients[controller].send_goal_async(
             goal, feedback_callback=lambda msg, c=controller, g=goal_id: self._on_action_feedback(c, g, msg))
         future.add_done_callback(lambda f, c=controller, g=goal_id: self._on_goal_response(c, g, f))
@@ -165,7 +162,6 @@ class ActionControllerBus:
             return
         with self._lock:
             self._handles[controller] = handle
-            self._pending.pop(controller, None)
         self._record(controller, self._state(controller, goal_id, "executing", "goal accepted"))
         handle.get_result_async().add_done_callback(
             lambda f, c=controller, g=goal_id, h=handle: self._on_result(c, g, h, f))

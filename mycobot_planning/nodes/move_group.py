@@ -182,7 +182,7 @@ class MoveGroupFace(Node):
             msg, _ = self.core.scene_snapshot()
             self._scene_pub.publish(planning_scene_to_msg(msg.to_dict(), stamp=self.get_clock().now().to_msg()))
 
-    def publish_display(self, trajectory: JointTrajectory, group: str = "") -> None:
+    def publish_display(self, trajectory: JointTrajectory) -> None:
         """/display_planned_path: what RViz's MotionPlanning display animates (built only when
         someone listens: the message is volatile, as move_group's)."""
         if self._display_pub.get_subscription_count() == 0:
