@@ -10,6 +10,7 @@ chosen in the page's dropdown moving the shown robot.
 from __future__ import annotations
 
 import threading
+import time
 import urllib.request
 from pathlib import Path
 
@@ -232,6 +233,22 @@ def _shown(state: dict, names) -> np.ndarray:
 
 @pytest.mark.skipif(not headless_chromium.available(),
                     reason="needs Debian's chromium (/usr/bin/chromium; apt-get install -y chromium)")
+def _pause(node, page, timeout: float = 20.0) -> bool:
+    """Pause the preview from the page; a click can land while the page re-renders (or the
+    preview ends on its own at that moment), so click again until the node says it stopped."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if not node.state()["preview"]["playing"]:
+            return True
+        try:
+            page.click_button("Pause", timeout=2.0)
+        except headless_chromium.BrowserError:
+            pass  # labelled "Play" by now: the preview just ended
+        if wait_until(lambda: not node.state()["preview"]["playing"], 2.0):
+            return True
+    return not node.state()["preview"]["playing"]
+
+
 def test_page_in_headless_chromium(system, mycobot):
     node = system["node"]
     state = node.state()
@@ -256,9 +273,7 @@ def test_page_in_headless_chromium(system, mycobot):
         # choose the stage "move to pick" in the page, pause, and look at its first instant
         page.select_option("Stage", "move to pick")
         assert wait_until(lambda: (node.state()["preview"] or {}).get("stage") == "move to pick", 20.0)
-        if node.state()["preview"]["playing"]:
-            page.click_button("Pause")
-        assert wait_until(lambda: not node.state()["preview"]["playing"], 20.0), node.state()["preview"]
+        assert _pause(node, page), node.state()["preview"]
         first = node.rpc.call("seek", {"time": 0.0})
         assert first["preview"]["steps"] == ["move to pick"]
         needed = ("live robot", "solution robot", "table", "cylinder")
@@ -270,9 +285,7 @@ def test_page_in_headless_chromium(system, mycobot):
         # choose "lift object": the shown robot moves, and the cylinder is now in the gripper
         page.select_option("Stage", "lift object")
         assert wait_until(lambda: (node.state()["preview"] or {}).get("stage") == "lift object", 20.0)
-        if node.state()["preview"]["playing"]:
-            page.click_button("Pause")
-        assert wait_until(lambda: not node.state()["preview"]["playing"], 20.0)
+        assert _pause(node, page), node.state()["preview"]
         second = node.rpc.call("seek", {"time": 0.0})
         arm = mycobot.variable_names[:6]
         assert np.max(np.abs(_shown(second, arm) - _shown(first, arm))) > 0.1  # the shown state changed
