@@ -9,7 +9,8 @@ from .robot_state import RobotState
 from .acm import AllowedCollisionMatrix
 from .planning_scene import CollisionReport, Contact, DistanceReport, PlanningScene
 from .kinematics import IKSolver, solve_ik
-from .time_parameterization import TimedTrajectory, retime, time_parameterize
+from .robot_trajectory import TimedTrajectory
+from .trajectory_processing import retime, time_parameterize
 from .planning_interface import JointGoal, MotionPlanRequest, MotionPlanResponse, NamedGoal, PoseGoal
 from .planning_pipeline import PlanningPipeline
 from .cartesian_path import compute_cartesian_path, plan_relative_motion

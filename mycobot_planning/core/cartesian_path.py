@@ -54,7 +54,7 @@ from .planning_interface import MotionPlanResponse, PlanningFailure, check_group
 from .planning_scene import PlanningScene
 from .robot_model import JointModelGroup, RobotModel
 from .robot_state import RobotState
-from .time_parameterization import TimedTrajectory
+from .robot_trajectory import TimedTrajectory
 from .transforms import check_pose
 
 __all__ = [

@@ -24,3 +24,8 @@ class KinematicsError(PlanningError, ValueError):
 
 class SceneError(PlanningError, ValueError):
     """A planning-scene update that cannot be applied; the scene is left unchanged."""
+
+
+class TimeParameterizationError(PlanningError, ValueError):
+    """Bad input to time parameterisation or a malformed timed trajectory (NaN, wrong shape,
+    non-positive limits, bad scaling), or a profile Ruckig could not compute."""

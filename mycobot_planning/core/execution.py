@@ -52,7 +52,7 @@ from .controllers_config import load_controllers_config, read_controllers_source
 from .errors import PlanningError, SceneError
 from .planning_scene import PlanningScene
 from .robot_model import RobotModel
-from .time_parameterization import TimedTrajectory
+from .robot_trajectory import joint_trajectory_to_timed, timed_to_joint_trajectory
 from .trajectory_limits import DEFAULT_LIMIT_TOLERANCE, motion_limit_problem
 
 __all__ = [
@@ -68,6 +68,7 @@ __all__ = [
     "TrajectoryExecutionManager",
     "allowed_duration",
     "check_start_state",
+    "joint_trajectory_to_timed",
     "load_controllers",
     "parse_task_solution",
     "parse_trajectory",
@@ -243,62 +244,6 @@ def check_controllers(model: RobotModel, controllers: Sequence[ControllerInfo]) 
                 f"controller '{controller.name}' drives {unknown}, which are not active joints of robot "
                 f"'{model.name}' (active joints: {model.variable_names})"
             )
-
-
-# ---------------------------------------------------------------------------- trajectories
-def timed_to_joint_trajectory(trajectory: TimedTrajectory, sample_period: float | None = None) -> JointTrajectory:
-    """A core TimedTrajectory as the JointTrajectory message (times from 0) that a controller
-    reproduces exactly.
-
-    A joint trajectory controller interpolates cubic Hermite splines when points carry positions
-    and velocities, quintic ones when they also carry accelerations. Planned trajectories
-    (interpolation "cubic": piecewise constant jerk, breakpoints included) are exactly the cubic
-    Hermite spline through their points, so they are sent *without* accelerations: with them the
-    controller would fit quintics whose acceleration overshoots the limits at every acceleration
-    step. "quintic" trajectories keep their accelerations. With ``sample_period`` the trajectory is
-    first resampled on that grid (breakpoints kept), which keeps the spline exact and gives
-    displays and controllers evenly spaced points.
-    """
-    if sample_period:
-        trajectory = trajectory.resample(sample_period)
-    with_accelerations = trajectory.interpolation == "quintic"
-    t0 = float(trajectory.times[0])
-    points = [
-        JointTrajectoryPoint(
-            positions=trajectory.positions[k].tolist(),
-            velocities=trajectory.velocities[k].tolist(),
-            accelerations=trajectory.accelerations[k].tolist() if with_accelerations else [],
-            time_from_start=max(0.0, float(trajectory.times[k]) - t0),
-        )
-        for k in range(len(trajectory))
-    ]
-    return JointTrajectory(joint_names=list(trajectory.joint_names), points=points)
-
-
-def joint_trajectory_to_timed(trajectory: JointTrajectory) -> TimedTrajectory:
-    """The inverse of timed_to_joint_trajectory: the TimedTrajectory a controller would follow.
-
-    Points without accelerations define a cubic Hermite spline (what a joint trajectory
-    controller interpolates); the accelerations stored at each point are that spline's, taken
-    just after the point (zero after a final point at rest), as TimedTrajectory keeps them.
-    """
-    points = trajectory.points
-    times = np.array([p.time_from_start for p in points], dtype=float)
-    positions = np.array([p.positions for p in points], dtype=float)
-    d = len(trajectory.joint_names)
-    velocities = np.array([p.velocities if p.velocities else [0.0] * d for p in points], dtype=float)
-    if all(len(p.accelerations) == d for p in points):
-        accelerations = np.array([p.accelerations for p in points], dtype=float)
-        return TimedTrajectory(list(trajectory.joint_names), times, positions, velocities, accelerations, interpolation="quintic")
-    accelerations = np.zeros_like(positions)
-    if len(points) > 1:
-        dt = np.diff(times)[:, None]
-        dp = np.diff(positions, axis=0)
-        v0, v1 = velocities[:-1], velocities[1:]
-        accelerations[:-1] = 6.0 * dp / dt**2 - (4.0 * v0 + 2.0 * v1) / dt
-        if np.any(velocities[-1] != 0.0):  # still moving at the end: the spline's last value
-            accelerations[-1] = -6.0 * dp[-1] / dt[-1] ** 2 + (2.0 * v0[-1] + 4.0 * v1[-1]) / dt[-1]
-    return TimedTrajectory(list(trajectory.joint_names), times, positions, velocities, accelerations, interpolation="cubic")
 
 
 def parse_trajectory(value: Any, what: str = "trajectory") -> tuple[JointTrajectory, str]:

@@ -85,7 +85,7 @@ from .planning_interface import (
 from .planning_scene import PlanningScene
 from .robot_model import JointModelGroup, RobotModel
 from .robot_state import RobotState
-from .time_parameterization import TimedTrajectory
+from .robot_trajectory import TimedTrajectory
 
 __all__ = [
     "CIRC",

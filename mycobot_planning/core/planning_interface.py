@@ -21,7 +21,8 @@ from .kinematics import IKSolver
 from .planning_scene import PlanningScene
 from .robot_model import JointModelGroup, RobotModel
 from .robot_state import RobotState
-from .time_parameterization import DEFAULT_MAX_DEVIATION, TimedTrajectory, time_parameterize
+from .robot_trajectory import TimedTrajectory
+from .trajectory_processing import DEFAULT_MAX_DEVIATION, time_parameterize
 from .transforms import check_pose
 
 

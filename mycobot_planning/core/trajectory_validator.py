@@ -41,7 +41,7 @@ import numpy as np
 from .errors import PlanningError
 from .planning_scene import PlanningScene
 from .robot_state import RobotState
-from .time_parameterization import TimedTrajectory
+from .robot_trajectory import TimedTrajectory
 
 __all__ = [
     "DEFAULT_RESOLUTION",

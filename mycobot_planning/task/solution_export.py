@@ -32,8 +32,7 @@ from interfaces_py.msgs import (
 )
 
 from ..core.planning_scene import PlanningScene
-from ..core.execution import timed_to_joint_trajectory as execution_joint_trajectory
-from ..core.time_parameterization import TimedTrajectory
+from ..core.robot_trajectory import timed_to_joint_trajectory
 from .errors import TaskError
 from .storage import SolutionBase, SubTrajectory
 
@@ -41,14 +40,6 @@ if TYPE_CHECKING:  # pragma: no cover
     from .task import Task
 
 __all__ = ["scene_diff_msg", "solution_joint_trajectory", "solution_to_msg", "timed_to_joint_trajectory"]
-
-
-def timed_to_joint_trajectory(trajectory: TimedTrajectory | None, sample_period: float | None = None) -> JointTrajectory:
-    """A TimedTrajectory as a JointTrajectory message, exactly as the planning server sends it to
-    controllers (core.execution's conversion; an empty message for a stage without motion)."""
-    if trajectory is None:
-        return JointTrajectory(joint_names=[], points=[])
-    return execution_joint_trajectory(trajectory, sample_period if len(trajectory) > 1 else None)
 
 
 def scene_diff_msg(start: PlanningScene, end: PlanningScene) -> PlanningSceneMsg:

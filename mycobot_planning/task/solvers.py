@@ -34,7 +34,7 @@ from ..core.trajectory_validator import validate_trajectory
 from ..core.planning_interface import JointGoal, MotionPlanRequest, PlanningFailure, PoseGoal, goal_states
 from ..core.planning_pipeline import PlanningPipeline
 from ..core.planning_scene import PlanningScene
-from ..core.time_parameterization import TimedTrajectory
+from ..core.robot_trajectory import TimedTrajectory
 from ..core.transforms import inverse
 from .errors import PropertyError, TaskError
 from .geometry import PoseStamped, as_pose_stamped, robot_tip_for_frame

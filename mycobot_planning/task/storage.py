@@ -13,7 +13,7 @@ import math
 from typing import TYPE_CHECKING, Any, Callable, Iterator, NamedTuple
 
 from ..core.planning_scene import PlanningScene
-from ..core.time_parameterization import TimedTrajectory
+from ..core.robot_trajectory import TimedTrajectory
 from .errors import TaskError
 
 if TYPE_CHECKING:  # pragma: no cover

@@ -19,7 +19,7 @@ from ..core.planning_interface import time_group_path
 from ..core.planning_scene import PlanningScene
 from ..core.robot_model import JointModelGroup, RobotModel
 from ..core.robot_state import RobotState
-from ..core.time_parameterization import TimedTrajectory
+from ..core.robot_trajectory import TimedTrajectory
 
 #: Joint-space resolution (rad, max-norm) of the collision checks between merged waypoints;
 #: the trajectory validator's default, so both look equally closely.
