@@ -357,7 +357,7 @@ def bench_moveit_api(repeat: int, seed: int) -> None:
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.node import Node
 
-    from mycobot_planning.core.execution import load_controllers
+    from mycobot_planning.core.trajectory_execution import load_controllers
     from mycobot_planning.core.planning_pipeline import PlanningPipeline
     from mycobot_planning.capabilities.move_group_capabilities import MoveGroupCapabilities
     from mycobot_planning.core.robot_model import RobotModel

@@ -50,7 +50,7 @@ from interfaces_py.msgs import (
 
 from ..core.cartesian_path import compute_cartesian_path
 from ..core.errors import PlanningError, RobotModelError, SceneError, StateError
-from ..core.execution import (
+from ..core.trajectory_execution import (
     ControllerBus,
     ControllerInfo,
     ExecutionError,
@@ -58,8 +58,8 @@ from ..core.execution import (
     TrajectoryExecutionManager,
     parse_task_solution,
     parse_trajectory,
-    timed_to_joint_trajectory,
 )
+from ..core.robot_trajectory import timed_to_joint_trajectory
 from ..core.kinematic_constraints import ConstraintError, PathConstraints, path_constraints_from_json
 from ..core.planning_contexts import ContextFactory, PlanningContextPool
 from ..core.pilz import KNOWN_PLANNER_IDS as PILZ_PLANNER_IDS

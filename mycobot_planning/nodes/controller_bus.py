@@ -28,7 +28,7 @@ from rclpy.node import Node
 
 from interfaces_py.msgs import JointTrajectory
 from interfaces_py.ros_conversions import joint_trajectory_to_msg
-from mycobot_planning.core.execution import GRIPPER_COMMAND, ControllerInfo, ControllerState
+from mycobot_planning.core.trajectory_execution import GRIPPER_COMMAND, ControllerInfo, ControllerState
 
 #: N: GripperCommand max_effort when the trajectory gives none (the mock has no dynamics; a real
 #: gripper controller clamps it to its own limit)

@@ -20,7 +20,7 @@ from __future__ import annotations
 from typing import Any, Sequence
 
 from interfaces_py.clients import RpcError
-from mycobot_planning.core.execution import load_controllers
+from mycobot_planning.core.trajectory_execution import load_controllers
 from mycobot_planning.nodes.node_runtime import ParameterSpec
 from mycobot_planning.nodes.perception_object_source import PerceptionObjectSource, perception_parameter_specs
 from mycobot_planning.nodes.task_node import TaskNode, main_for

@@ -56,7 +56,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 from interfaces_py.json_rpc import BAD_REQUEST, JsonRpcServer, RpcError, decode_request, log_safe
 from interfaces_py.msgs import CollisionObject, JointTrajectory, MoveItErrorCode
 from interfaces_py.ros_conversions import collision_object_to_markers, joint_trajectory_to_msg
-from mycobot_planning.core.execution import ExecutionSettings, load_controllers
+from mycobot_planning.core.trajectory_execution import ExecutionSettings, load_controllers
 from mycobot_planning.core.trajectory_limits import DEFAULT_LIMIT_TOLERANCE
 from mycobot_planning.core.planning_pipeline import PlanningPipeline
 from mycobot_planning.capabilities.move_group_capabilities import (
