@@ -24,8 +24,6 @@ from ompl import geometric as og
 from mycobot_planning.core.ompl_interface import (
     UNAVAILABLE_MOVEIT_PLANNERS,
     OmplConfigError,
-    _apply_params,
-    _validate_params,
     available_planners,
     canonical_planner_type,
     load_ompl_config,
@@ -33,6 +31,7 @@ from mycobot_planning.core.ompl_interface import (
     plan_joint_space,
     resolve_planner_id,
 )
+from mycobot_planning.core.ompl_interface.planners import apply_params, validate_params
 from mycobot_planning.paths import config_file
 
 LVSF = 0.005
@@ -201,9 +200,9 @@ def _declared_params(planner) -> set[str]:
 def test_param_table_matches_what_ompl_declares(ptype):
     """Our name->setter table must cover OMPL's declared parameters (printSettings lists them,
     ParamSet is not bound) and every setter it names must exist on the class."""
-    from mycobot_planning.core.ompl_interface import _PLANNERS
+    from mycobot_planning.core.ompl_interface.planners import PLANNERS
 
-    spec = _PLANNERS[ptype]
+    spec = PLANNERS[ptype]
     space = ob.RealVectorStateSpace(3)
     space.setBounds(-1.0, 1.0)
     si = ob.SpaceInformation(space)
@@ -235,13 +234,13 @@ def test_params_reach_the_planner():
     }
     for ptype, (raw, getter, expected) in cases.items():
         planner = getattr(og, ptype.split("::")[1].replace("KPIECE", "KPIECE1"))(si)
-        _apply_params(planner, ptype, _validate_params(ptype, raw, "test"))
+        apply_params(planner, ptype, validate_params(ptype, raw, "test"))
         assert getattr(planner, getter)() == pytest.approx(expected)
     fmt = og.FMT(si)
-    _apply_params(fmt, "geometric::FMT", _validate_params("geometric::FMT", {"nearest_k": 0}, "test"))
+    apply_params(fmt, "geometric::FMT", validate_params("geometric::FMT", {"nearest_k": 0}, "test"))
     assert fmt.getNearestK() is False
     rrtstar = og.RRTstar(si)
-    _apply_params(rrtstar, "geometric::RRTstar", {"delay_collision_checking": False})
+    apply_params(rrtstar, "geometric::RRTstar", {"delay_collision_checking": False})
     assert rrtstar.getDelayCC() is False
 
 
@@ -388,10 +387,10 @@ def test_same_seed_same_path(ptype):
 def test_edge_validator_checks_the_same_states_as_ompls(monkeypatch):
     """RRTConnect's edges are checked by our _EdgeValidator: the same states in the same order
     as OMPL's DiscreteMotionValidator, so the same seed gives the same path and check count."""
-    import mycobot_planning.core.ompl_interface as ompl_interface
+    import mycobot_planning.core.ompl_interface.planners as ompl_interface
 
     world, start, goal = narrow_passage_world()
-    spec = ompl_interface._PLANNERS["geometric::RRTConnect"]
+    spec = ompl_interface.PLANNERS["geometric::RRTConnect"]
     assert spec.plain_motion_checks
 
     def run():
@@ -399,8 +398,8 @@ def test_edge_validator_checks_the_same_states_as_ompls(monkeypatch):
                                 {}, timeout=30.0, seed=11, interpolate_states=0)
 
     ours = run()
-    monkeypatch.setitem(ompl_interface._PLANNERS, "geometric::RRTConnect",
-                        ompl_interface._PlannerSpec(**{**spec.__dict__, "plain_motion_checks": False}))
+    monkeypatch.setitem(ompl_interface.PLANNERS, "geometric::RRTConnect",
+                        ompl_interface.PlannerSpec(**{**spec.__dict__, "plain_motion_checks": False}))
     theirs = run()
     world.assert_valid_path(ours, start, [goal])
     assert ours.validity_checks == theirs.validity_checks

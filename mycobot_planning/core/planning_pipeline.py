@@ -14,7 +14,7 @@ from interfaces_py.msgs import MoveItErrorCode
 
 from .joint_interpolation import plan_joint_interpolation
 from .kinematic_constraints import first_violation
-from .ompl_planner import OmplPlanner
+from .ompl_interface import OmplPlanner
 from .pilz import KNOWN_PLANNER_IDS as PILZ_PLANNER_IDS
 from .pilz import PILZ_PIPELINE_ID, IndustrialMotionPlanner
 from .planning_interface import MotionPlanRequest, MotionPlanResponse, PlanningFailure, failure

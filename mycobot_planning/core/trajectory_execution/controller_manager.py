@@ -10,6 +10,7 @@ from typing import Any, Mapping, Protocol, Sequence
 
 from interfaces_py.msgs import JointTrajectory, JointTrajectoryPoint, MoveItErrorCode
 
+from ...paths import config_file
 from ..controllers_config import load_controllers_config, read_controllers_source
 from ..robot_model import RobotModel
 from .settings import ExecutionError
@@ -76,8 +77,6 @@ def load_controllers(source: str | Path | Mapping | None) -> list[ControllerInfo
     * Plain: ``controllers: {<name>: {joints: [...]}}``.
     """
     if source is None:
-        from ..paths import config_file
-
         source = config_file("moveit_controllers.yaml")
     data, where = read_controllers_source(source, "controllers")
     controllers: list[ControllerInfo] = []

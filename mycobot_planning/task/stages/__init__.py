@@ -2,12 +2,15 @@
 stages``; ``stages.CurrentState("current")``)."""
 from .compute_ik import ComputeIK
 from .connect import Connect
-from .generate_pose import GenerateGraspPose, GeneratePlacePose, GeneratePose
+from .generate_grasp_pose import GenerateGraspPose
+from .generate_place_pose import GeneratePlacePose
+from .generate_pose import GeneratePose
 from .modify_planning_scene import ModifyPlanningScene
 from .move_relative import MoveRelative
 from .move_to import MoveTo
 from .predicate_filter import PredicateFilter
-from .states import CurrentState, FixedState
+from .current_state import CurrentState
+from .fixed_state import FixedState
 
 __all__ = [
     "ComputeIK",

@@ -1,0 +1,250 @@
+"""OmplPlanner, MoveIt's OMPL planner manager: ompl_interface on our scene, IK and Ruckig timing.
+
+solve.py knows OMPL and nothing of robots; this module turns a MotionPlanRequest into
+its inputs (the group's joint box, the scene's validity checker, IK-sampled goal states for pose
+goals) and its result back into a timed trajectory with MoveIt's error codes. As in MoveIt, the
+planner stops at its first exact solution, the path is simplified (shortcutting, smoothing) and
+interpolated to the validity-checking resolution, then timed.
+"""
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from interfaces_py.msgs import MoveItErrorCode
+
+from ...paths import config_file
+from .config import GroupConfig, OmplConfig, ResolvedPlanner, load_ompl_config, parse_projection_evaluator, resolve_planner_id
+from .planners import OmplConfigError
+from .solve import plan_joint_space
+from ..kinematic_constraints import first_violation
+from ..robot_state import RobotState
+from ..planning_interface import (
+    MotionPlanRequest,
+    MotionPlanResponse,
+    PlanningFailure,
+    PoseGoal,
+    check_group,
+    check_path_constraints_at_ends,
+    check_request_numbers,
+    check_scaling,
+    failure,
+    goal_states,
+    start_state_of,
+    success,
+    time_group_path,
+)
+from ..planning_scene import PlanningScene
+from ..robot_model import JointModelGroup
+from ..trajectory_validator import validate_trajectory
+
+_STATUS_CODES = {
+    "INVALID_START": MoveItErrorCode.START_STATE_IN_COLLISION,
+    "INVALID_GOAL": MoveItErrorCode.GOAL_IN_COLLISION,
+    "TIMEOUT": MoveItErrorCode.TIMED_OUT,
+    "ABORT": MoveItErrorCode.PREEMPTED,
+    "INFEASIBLE": MoveItErrorCode.PLANNING_FAILED,
+    "CRASH": MoveItErrorCode.CRASH,
+    "INVALID_PATH": MoveItErrorCode.INVALID_MOTION_PLAN,
+}
+
+#: Share of the planning time that IK for pose goals may use before OMPL starts.
+IK_TIME_SHARE = 0.25
+
+#: Re-plans (each with a 4x finer edge resolution) when the timed path collides between OMPL's
+#: checks. OMPL checks edges at longest_valid_segment_fraction x the joint box diagonal (0.07 rad
+#: for the myCobot at MoveIt's 0.005), which lets a gripper sweep through a 5 mm wall between two
+#: checks; MoveIt has the same gap and closes it with its ValidateSolution adapter. Here the
+#: trajectory validator does that job on the timed trajectory (what is executed), every
+#: 0.005 rad, once: the response says so (``validated``), so callers need not check again.
+MAX_REPLANS = 3
+
+
+class OmplPlanner:
+    """Plans with OMPL under a MoveIt-format ompl_planning.yaml (config/ompl_planning.yaml by default)."""
+
+    def __init__(self, config: OmplConfig | str | Path | Mapping | None = None) -> None:
+        if config is None:
+            config = config_file("ompl_planning.yaml")
+        self.config: OmplConfig = config if isinstance(config, OmplConfig) else load_ompl_config(config)
+
+    def _resolve(self, group: str, planner_id: str) -> ResolvedPlanner:
+        """The planner for a group; groups the YAML does not list (any URDF + SRDF robot) get every
+        configured planner with RRTConnect as the default, as MoveIt's setup assistant would write."""
+        config = self.config
+        if group not in config.groups:
+            names = tuple(config.planner_configs)
+            default = "RRTConnectkConfigDefault" if "RRTConnectkConfigDefault" in names else None
+            groups = dict(config.groups)
+            groups[group] = GroupConfig(
+                name=group,
+                planner_configs=names,
+                default_planner_config=default,
+                longest_valid_segment_fraction=0.005,
+                projection_evaluator=None,
+            )
+            config = OmplConfig(planner_configs=config.planner_configs, groups=groups, pipeline=config.pipeline)
+        try:
+            return resolve_planner_id(config, group, planner_id)
+        except OmplConfigError as exc:
+            raise failure(MoveItErrorCode.INVALID_MOTION_PLAN, str(exc)) from None
+
+    @staticmethod
+    def _projection_dims(jmg: JointModelGroup, resolved: ResolvedPlanner) -> list[int] | None:
+        if not resolved.projection_evaluator:
+            return None
+        kind, names = parse_projection_evaluator(resolved.projection_evaluator)
+        if kind != "joints":
+            return None
+        dims = [jmg.joint_names.index(n) for n in names if n in jmg.joint_names]
+        return dims or None
+
+    def plan(self, scene: PlanningScene, request: MotionPlanRequest) -> MotionPlanResponse:
+        """Plan the request; never raises for bad input (the error code says what was wrong)."""
+        started = time.perf_counter()
+        try:
+            return self._plan(scene, request, started)
+        except PlanningFailure as exc:
+            return exc.to_response(started, request)
+
+    def _plan(self, scene: PlanningScene, request: MotionPlanRequest, started: float) -> MotionPlanResponse:
+        model = scene.robot_model
+        check_request_numbers(request)
+        jmg = check_group(model, request.group)
+        velocity_scaling, acceleration_scaling = check_scaling(model, request)
+        resolved = self._resolve(jmg.name, request.planner_id)
+        start = start_state_of(scene, request)
+        rng = np.random.default_rng(request.seed)
+        budget = float(request.allowed_planning_time)
+        ik_time = budget * IK_TIME_SHARE if isinstance(request.goal, PoseGoal) else 0.0
+        goals = goal_states(scene, jmg, start, request.goal, max(1, request.num_ik_goals), max(ik_time, 1e-3), rng)
+        goals = check_path_constraints_at_ends(request, start, goals)
+        start_vector = start.group_positions(jmg.name)
+        goal_vectors = [g.group_positions(jmg.name) for g in goals]
+        lower = model.lower_limits[jmg.variable_indices]
+        upper = model.upper_limits[jmg.variable_indices]
+        lower = np.where(np.isfinite(lower), lower, -math.pi)
+        upper = np.where(np.isfinite(upper), upper, math.pi)
+        validity = scene.validity_checker(jmg.name, start, check_bounds=False)  # OMPL stays in bounds
+        constraints = request.path_constraints
+        if constraints:
+            validity = _constrained(validity, constraints, start, jmg)
+
+        best = None
+        last = None
+        attempts = request.num_planning_attempts
+        fraction = resolved.longest_valid_segment_fraction
+        replans = 0
+        attempt = 0
+        while attempt < attempts:
+            remaining = budget - (time.perf_counter() - started)
+            if remaining <= 0 or (request.cancel is not None and request.cancel.is_set()):
+                break
+            seed = None if request.seed is None else int(request.seed) + 1 + attempt + 1000 * replans
+            result = plan_joint_space(
+                lower,
+                upper,
+                validity,
+                start_vector,
+                goal_vectors,
+                planner_type=resolved.type,
+                planner_params=resolved.params,
+                timeout=remaining / (attempts - attempt),
+                longest_valid_segment_fraction=fraction,
+                simplify=True,
+                interpolate_states=0,
+                seed=seed,
+                projection_dims=self._projection_dims(jmg, resolved),
+                stop_on_first_solution=True,
+                cancel=request.cancel,
+            )
+            last = result
+            if result.status == "ABORT":
+                break
+            trajectory = None
+            if result.success:
+                trajectory = time_group_path(model, jmg, result.path, velocity_scaling, acceleration_scaling)
+                report = validate_trajectory(scene, trajectory, jmg.name, start)
+                broken = _path_violation(constraints, start, jmg, result.path) if constraints and report.valid else None
+                if broken is not None:
+                    if replans < MAX_REPLANS:  # a segment leaves the constraints between checks: finer
+                        replans += 1
+                        fraction /= 4.0
+                        continue
+                    result.success, result.status = False, "INVALID_PATH"
+                    result.message = f"every path found left the path constraints between checks: {broken}"
+                elif not report.valid:
+                    if report.contacts and replans < MAX_REPLANS:
+                        # An edge passes through an obstacle between OMPL's checks: plan again, finer.
+                        replans += 1
+                        fraction /= 4.0
+                        continue
+                    result.success, result.status = False, "INVALID_PATH"
+                    result.message = ("every path found crossed an obstacle between collision checks"
+                                      if report.contacts else "; ".join(report.problems[:2]))
+            if result.success and (best is None or _length(result.path) < _length(best[0].path)):
+                best = (result, trajectory)
+            attempt += 1
+        if request.cancel is not None and request.cancel.is_set():  # preempted: no partial answers
+            raise failure(MoveItErrorCode.PREEMPTED, f"planning for group '{jmg.name}' was cancelled (stop requested)")
+        if best is None:
+            status = last.status if last is not None else "TIMEOUT"
+            code = _STATUS_CODES.get(status, MoveItErrorCode.PLANNING_FAILED)
+            detail = f" ({last.message})" if last is not None and last.message else ""
+            raise failure(
+                code,
+                f"{resolved.config_name} found no path for group '{jmg.name}' in "
+                f"{budget:.3g} s: {status}{detail}",
+            )
+        best_result, trajectory = best
+        response = success(
+            trajectory,
+            started,
+            request,
+            start,
+            path=best_result.path,
+            message=f"{resolved.config_name}: {len(best_result.path)} waypoints, {trajectory.duration:.3f} s",
+            validated=True,
+        )
+        response.planner_id = f"{jmg.name}[{resolved.config_name}]"
+        return response
+
+
+#: rad: largest joint step between two states checked against path constraints on a planned path
+CONSTRAINT_CHECK_STEP = 0.005
+
+
+def _constrained(validity: Any, constraints: Any, start: RobotState, jmg: Any) -> Any:
+    """The scene's validity check plus the path constraints (MoveIt's OMPL interface rejects
+    states that break them the same way)."""
+    state = start.copy()
+    index = np.asarray(jmg.variable_indices)
+    q = state.positions.copy()
+
+    def check(values: np.ndarray) -> bool:
+        if not validity(values):
+            return False
+        q[index] = values
+        state.set_positions(q)
+        return constraints.satisfied(state)
+
+    return check
+
+
+def _path_violation(constraints: Any, start: RobotState, jmg: Any, path: np.ndarray) -> str | None:
+    """Why the straight segments of ``path`` leave the constraints somewhere (checked every
+    CONSTRAINT_CHECK_STEP), or None."""
+    dense = [path[:1]]
+    for a, b in zip(path[:-1], path[1:]):
+        steps = max(1, int(np.ceil(np.max(np.abs(b - a)) / CONSTRAINT_CHECK_STEP)))
+        dense.append(a + (b - a) * (np.arange(1, steps + 1)[:, None] / steps))
+    found = first_violation(constraints, start, jmg.joint_names, np.vstack(dense))
+    return None if found is None else found[1]
+
+
+def _length(path: np.ndarray) -> float:
+    return float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1))) if len(path) > 1 else 0.0

@@ -1,0 +1,57 @@
+"""FixedState: a task starts from a scene given in advance."""
+from __future__ import annotations
+
+from ...core.planning_scene import PlanningScene
+from ..cost_terms import Constant
+from ..errors import InitStageException, TaskError
+from ..stage import Generator
+from ..storage import InterfaceState, SubTrajectory
+
+
+class FixedState(Generator):
+    def __init__(self, name: str = "initial state", scene: PlanningScene | None = None) -> None:
+        super().__init__(name)
+        self._properties.declare("ignore_collisions", False, "spawn the state even if it collides", type=bool)
+        self.setCostTerm(Constant(0.0))
+        self._scene = scene
+        self._ran = False
+
+    def setState(self, scene: PlanningScene) -> None:
+        if not isinstance(scene, PlanningScene):
+            raise TaskError(f"stage '{self._name}': expected a PlanningScene, got {type(scene).__name__}")
+        self._scene = scene
+
+    def setIgnoreCollisions(self, ignore: bool) -> None:
+        self._properties.set("ignore_collisions", ignore)
+
+    def reset(self) -> None:
+        super().reset()
+        self._ran = False
+
+    def init(self, robot_model) -> None:
+        errors = InitStageException()
+        try:
+            super().init(robot_model)
+        except InitStageException as exc:
+            errors.append(exc)
+        if self._scene is None:
+            errors.push_back(self, "no state given (call setState with a PlanningScene)")
+        elif self._scene.robot_model is not robot_model:
+            errors.push_back(self, f"the scene is for robot '{self._scene.robot_model.name}', the task's robot is "
+                                   f"'{robot_model.name}'")
+        if errors:
+            raise errors
+        self._ran = False
+
+    def canCompute(self) -> bool:
+        return not self._ran and self._scene is not None
+
+    def compute(self) -> None:
+        self._ran = True
+        scene = self._scene.copy()  # type: ignore[union-attr]
+        solution = SubTrajectory()
+        if not self._properties["ignore_collisions"] and scene.is_state_colliding():
+            report = scene.check_collision(max_contacts=1)
+            solution.markAsFailure("in collision: " + "; ".join(str(c) for c in report.contacts))
+        self.spawn(InterfaceState(scene), solution)
+
