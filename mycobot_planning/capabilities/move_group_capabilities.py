@@ -99,6 +99,9 @@ _CARTESIAN_KEYS = {
     "revolute_jump_threshold", "prismatic_jump_threshold", "path_constraints",
 }
 
+#: Seconds a request waits for the first /joint_states message (MoveIt's waitForCurrentRobotState: 1 s).
+CURRENT_STATE_WAIT = 1.0
+
 
 class RequestError(PlanningError, ValueError):
     """A request the server refuses, with the code to answer (MoveIt's or BAD_REQUEST)."""
@@ -222,6 +225,7 @@ class MoveGroupCapabilities:
         self.scene = PlanningScene(model)
         self._joint_values: dict[str, float] = {}
         self._joint_stamp: float | None = None
+        self._first_joint_state = threading.Event()
         self._name_cache: dict[tuple[str, ...], tuple[np.ndarray, np.ndarray]] = {}
         self._last_plan: tuple[JointTrajectory, str] | None = None
         self._last_plan_problem = "nothing has been planned yet"
@@ -267,6 +271,7 @@ class MoveGroupCapabilities:
         with self._lock:
             self._joint_values.update(zip(key, values.tolist()))
             self._joint_stamp = self._clock()
+            self._first_joint_state.set()
             if sel.size:
                 current = self.scene.current_state.positions
                 if not np.array_equal(current[target], values[sel]):
@@ -284,8 +289,14 @@ class MoveGroupCapabilities:
             return dict(self._joint_values), self._clock() - self._joint_stamp
 
     def joint_state_problem(self, joints: Sequence[str]) -> tuple[int, str] | None:
-        """Why the current state cannot be used for ``joints`` (code, message), or None."""
+        """Why the current state cannot be used for ``joints`` (code, message), or None.
+
+        Before the first /joint_states message it waits up to CURRENT_STATE_WAIT for one, as
+        move_group's waitForCurrentRobotState does: a request that arrives right after start-up
+        would otherwise fail on discovery timing."""
         positions, age = self.joint_positions()
+        if positions is None and self._first_joint_state.wait(CURRENT_STATE_WAIT):
+            positions, age = self.joint_positions()
         if positions is None:
             return (MoveItErrorCode.ROBOT_STATE_STALE,
                     "no joint state received on /joint_states yet: is the joint state broadcaster running?")
