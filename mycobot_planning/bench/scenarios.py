@@ -8,7 +8,7 @@ import numpy as np
 from interfaces_py.msgs import CollisionObject
 from mycobot_planning.core import PlanningScene, RobotModel, RobotState
 from mycobot_planning.core.kinematics import IKSolver
-from mycobot_planning.core.ompl_planner import OmplPlanner
+from mycobot_planning.core.ompl_interface import OmplPlanner
 from mycobot_planning.core.planning_interface import JointGoal, MotionPlanRequest, PoseGoal
 from mycobot_planning.core.transforms import quat_to_matrix
 from mycobot_planning.paths import example_robot_data_dir
@@ -20,6 +20,7 @@ from .pick_place_scenarios import PICK_PLACE_SCENARIOS
 from .robustness import bench_robustness
 from .ros_scenarios import ROS_SCENARIOS
 from .task_scenarios import TASK_SCENARIOS
+from .time_parameterization_scenarios import TIME_PARAMETERIZATION_SCENARIOS
 from .viewer_scenarios import VIEWER_SCENARIOS
 
 
@@ -300,4 +301,5 @@ SCENARIOS: dict[str, Callable[..., None]] = {
     **ROS_SCENARIOS,
     **PICK_PLACE_SCENARIOS,
     **VIEWER_SCENARIOS,
+    **TIME_PARAMETERIZATION_SCENARIOS,
 }

@@ -60,6 +60,14 @@ PEERS: dict[str, PeerSpec] = {
         check="import pinocchio, coal, pyroboplan.planning.rrt, pyroboplan.ik.differential_ik",
         version_of="pyroboplan",
     ),
+    # Not a planner: the time_parameterization scenario compares our dense-path TOPP with it.
+    # 0.6.10's wheel imports and solves under numpy 2.4.6 (checked); matplotlib comes as a dep.
+    "toppra": PeerSpec(
+        name="toppra",
+        requirements=("toppra==0.6.10", "numpy==2.4.6", "scipy==1.17.1"),
+        check="import toppra, toppra.algorithm, toppra.constraint",
+        version_of="toppra",
+    ),
 }
 
 
