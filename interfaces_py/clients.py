@@ -41,6 +41,7 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 
 from interfaces_py.json_rpc import JsonRpcClient, RpcError, RpcTimeout
+from interfaces_py.pose_conversion import pose_message
 from interfaces_py.msgs import (
     AttachedCollisionObject,
     CollisionObject,
@@ -157,28 +158,8 @@ class _Client:
 
 # ---------------------------------------------------------------------------- conversions
 def _pose_json(pose: Any, what: str = "pose") -> Any:
-    """A pose as the server accepts it: Pose dict or 7 numbers.
-
-    Accepts interfaces_py Pose, a 4x4 matrix, [x, y, z, qx, qy, qz, qw], or anything shaped like
-    geometry_msgs/Pose (``.position.x``, ``.orientation.w``).
-    """
-    if isinstance(pose, Pose):
-        return pose.to_dict()
-    if hasattr(pose, "position") and hasattr(pose, "orientation") and hasattr(pose.position, "x"):
-        p, q = pose.position, pose.orientation
-        return Pose(position=[p.x, p.y, p.z], orientation=[q.x, q.y, q.z, q.w]).to_dict()
-    try:
-        arr = np.asarray(pose, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(f"{what}: expected a Pose, a 4x4 matrix or 7 numbers, got {type(pose).__name__}") from None
-    try:
-        if arr.shape == (4, 4):
-            return Pose.from_matrix(arr).to_dict()
-        if arr.shape == (7,):
-            return Pose(position=arr[:3], orientation=arr[3:]).to_dict()
-    except MessageError as exc:
-        raise ValueError(f"{what}: {exc}") from None
-    raise ValueError(f"{what}: expected a Pose, a 4x4 matrix or 7 numbers, got shape {arr.shape}")
+    """A pose as the server accepts it (a Pose dict), from any form pose_conversion takes."""
+    return pose_message(pose, what).to_dict()
 
 
 def _trajectory_json(trajectory: Any) -> dict[str, Any]:

@@ -17,11 +17,11 @@ from interfaces_py.msgs import MoveItErrorCode
 from mycobot_planning.core.execution import ControllerInfo, ExecutionSettings
 from mycobot_planning.core.planning_contexts import PlanningContextPool
 from mycobot_planning.core.planning_pipeline import PlanningPipeline
+from interfaces_py.msgs import WORKSPACE_BOUND
 from mycobot_planning.capabilities.move_group_capabilities import (
     MAX_PLANNING_ATTEMPTS,
     MAX_PLANNING_TIME,
     MAX_WAYPOINTS,
-    WORKSPACE_BOUND,
     MoveGroupCapabilities,
 )
 from mycobot_planning.core.robot_model import RobotModel

@@ -29,6 +29,7 @@ from typing import Any, Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
+from interfaces_py.pose_conversion import PoseError, pose_matrix
 from interfaces_py.msgs import (
     AttachedCollisionObject,
     CollisionObject,
@@ -61,7 +62,7 @@ from .collision import (
 from .errors import RobotModelError, SceneError, StateError
 from .robot_model import RobotModel
 from .robot_state import RobotState
-from .transforms import inverse, is_pose
+from .transforms import inverse
 
 __all__ = [
     "AllowedCollisionMatrix",
@@ -111,32 +112,11 @@ def _as_message(value: Any, cls: type, what: str):
 
 
 def _pose_matrix(pose: Any, what: str) -> np.ndarray:
-    """4x4 matrix from a msgs Pose or a 4x4 array, refusing NaN and non-rigid transforms."""
-    if isinstance(pose, Pose):
-        position, orientation = list(pose.position), list(pose.orientation)
-        values = np.array(position + orientation, dtype=float) if len(position) == 3 and len(orientation) == 4 else None
-        if values is None:
-            raise SceneError(f"{what}: a pose needs 3 position and 4 orientation values")
-        if not np.all(np.isfinite(values)):
-            raise SceneError(f"{what}: pose contains NaN or infinite values")
-        norm = float(np.linalg.norm(values[3:]))
-        if norm < 1e-9:
-            raise SceneError(f"{what}: pose orientation quaternion has zero length")
-        if abs(norm - 1.0) > 1e-9:
-            pose = Pose(position=position, orientation=[q / norm for q in orientation])
-        matrix = pose.to_matrix()
-    else:
-        try:
-            matrix = np.asarray(pose, dtype=float)
-        except (TypeError, ValueError):
-            raise SceneError(f"{what}: expected a Pose or a 4x4 matrix, got {type(pose).__name__}") from None
-        if matrix.shape != (4, 4):
-            raise SceneError(f"{what}: expected a 4x4 matrix, got shape {matrix.shape}")
-        if not np.all(np.isfinite(matrix)):
-            raise SceneError(f"{what}: pose contains NaN or infinite values")
-    if not is_pose(matrix):
-        raise SceneError(f"{what}: pose is not a rigid transform")
-    return matrix
+    """The pose as a 4x4 (interfaces_py.pose_conversion), a bad one refused as a SceneError."""
+    try:
+        return pose_matrix(pose, what)
+    except PoseError as exc:
+        raise SceneError(str(exc)) from None
 
 
 def _pose_msg(matrix: np.ndarray) -> Pose:

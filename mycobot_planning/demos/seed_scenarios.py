@@ -19,6 +19,7 @@ from typing import Sequence
 import numpy as np
 
 from interfaces_py.msgs import AttachedCollisionObject, CollisionObject, Pose
+from interfaces_py.pose_conversion import pose_message
 
 # Links of the myCobot's gripper: an object held by (or hanging from) the flange may touch them.
 GRIPPER_TOUCH_LINKS = (
@@ -206,11 +207,8 @@ DEFAULT_MARKER_POSE = (0.02, 0.05, 0.40, 0.0, 0.0, math.sin(0.15), math.cos(0.15
 
 
 def pose_from_list(values: Sequence[float], what: str) -> Pose:
-    """Pose from [x, y, z, qx, qy, qz, qw] (a ROS parameter), ValueError naming ``what``."""
-    arr = _check_vector(what, values, 7)
-    if np.linalg.norm(arr[3:]) < 1e-9:
-        raise ValueError(f"{what}: the quaternion (values 4-7) must not be zero")
-    return Pose(position=arr[:3].tolist(), orientation=arr[3:].tolist())
+    """Pose from [x, y, z, qx, qy, qz, qw] (a ROS parameter); PoseError (a ValueError) naming ``what``."""
+    return pose_message(values, what)
 
 
 def pose_to_list(pose: Pose) -> list[float]:

@@ -51,11 +51,6 @@ def pose_vector(T: np.ndarray) -> list[float]:
     return [float(v) for v in (*T[:3, 3], *matrix_to_rpy(T[:3, :3]))]
 
 
-def pose_matrix(values: Sequence[float], what: str = "pose") -> np.ndarray:
-    """4x4 pose of [x, y, z, roll, pitch, yaw]; :class:`PerceptionError` naming ``what`` otherwise."""
-    return pose_from_vector(values, what)
-
-
 # ---------------------------------------------------------------------------- camera
 def camera_parameter_defaults(config: DepthCameraConfig) -> dict[str, Any]:
     """The camera parameters that reproduce ``config`` (a camera-scene file's camera).
@@ -161,7 +156,7 @@ def cloud_to_target_transform(cloud_frame: str, target_frame: str, cloud_frame_i
     if cloud_frame == target_frame:
         return None
     if cloud_frame_id and cloud_frame == cloud_frame_id:
-        return pose_matrix(cloud_frame_pose, "cloud_frame_pose")
+        return pose_from_vector(cloud_frame_pose, "cloud_frame_pose")
     known = f"'{target_frame}'" + (f" and '{cloud_frame_id}' (cloud_frame_id)" if cloud_frame_id else "")
     raise CloudFormatError(
         f"the point cloud is in frame '{cloud_frame}', but the known frames are {known}: set "

@@ -25,7 +25,8 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import yaml
 
-from interfaces_py.msgs import CollisionObject, Pose
+from interfaces_py.msgs import CollisionObject
+from interfaces_py.pose_conversion import PoseError, pose_matrix
 
 from .errors import PerceptionError
 
@@ -38,14 +39,12 @@ DEFAULT_COLORS = {
 
 
 def pose_from_vector(values: Sequence[float], what: str = "pose") -> np.ndarray:
-    """4x4 pose from the seeds' ``[x, y, z, roll, pitch, yaw]`` (fixed-axis rpy, as in URDF)."""
+    """4x4 pose from the seeds' ``[x, y, z, roll, pitch, yaw]`` (or any form pose_matrix takes),
+    a bad one refused as a PerceptionError."""
     try:
-        vec = np.asarray(values, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        raise PerceptionError(f"{what}: expected [x, y, z, roll, pitch, yaw], got {values!r}") from None
-    if vec.size != 6 or not np.all(np.isfinite(vec)):
-        raise PerceptionError(f"{what}: expected six finite numbers [x, y, z, roll, pitch, yaw], got {values!r}")
-    return Pose.from_xyz_rpy(vec[:3].tolist(), vec[3:].tolist()).to_matrix()
+        return pose_matrix(values, what)
+    except PoseError as exc:
+        raise PerceptionError(str(exc)) from None
 
 
 def yaw_pose(x: float, y: float, z: float, yaw: float = 0.0) -> np.ndarray:

@@ -15,10 +15,12 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from interfaces_py.pose_conversion import pose_matrix
+
 from ..core.errors import SceneError
 from ..core.planning_scene import PlanningScene
 from ..core.robot_model import RobotModel
-from ..core.transforms import check_pose, make_pose, quat_to_matrix
+from ..core.transforms import check_pose, make_pose
 
 __all__ = [
     "PointStamped",
@@ -122,14 +124,6 @@ class TwistStamped:
 
 
 # ------------------------------------------------------------------ converters (property coercion)
-def _ros_pose_matrix(pose: Any) -> np.ndarray:
-    p, q = pose.position, pose.orientation
-    T = np.eye(4)
-    T[:3, :3] = quat_to_matrix([q.x, q.y, q.z, q.w])
-    T[:3, 3] = [p.x, p.y, p.z]
-    return T
-
-
 def as_pose_stamped(value: Any) -> PoseStamped:
     """PoseStamped from a PoseStamped, a frame name (identity pose in it, e.g. an ik_frame
     link), ``(frame_id, 4x4)``, or a geometry_msgs/PoseStamped-like object."""
@@ -141,7 +135,7 @@ def as_pose_stamped(value: Any) -> PoseStamped:
         return PoseStamped(value[0], value[1])
     header = getattr(value, "header", None)
     if header is not None and hasattr(value, "pose"):
-        return PoseStamped(header.frame_id, _ros_pose_matrix(value.pose))
+        return PoseStamped(header.frame_id, pose_matrix(value.pose, "pose"))
     raise TypeError("expected a PoseStamped, a frame name or (frame_id, 4x4 pose)")
 
 
