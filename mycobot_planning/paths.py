@@ -6,6 +6,7 @@ one rule for finding them.
 """
 from __future__ import annotations
 
+import os
 import sys
 from pathlib import Path
 
@@ -58,3 +59,10 @@ def example_robot_data_dir() -> Path:
         if candidate.is_dir():
             return candidate
     raise FileNotFoundError("example-robot-data is not installed (pip install example-robot-data)")
+
+
+def use_fast_discovery() -> None:
+    """Point Fast DDS at config/fastdds_discovery.xml (frequent announcements) unless the user
+    chose a profile; must run before rclpy.init in the process."""
+    if "FASTRTPS_DEFAULT_PROFILES_FILE" not in os.environ:
+        os.environ["FASTRTPS_DEFAULT_PROFILES_FILE"] = str(config_file("fastdds_discovery.xml"))

@@ -33,7 +33,7 @@ from mycobot_planning.core.trajectory_validator import validate_trajectory
 from mycobot_planning.nodes.task_node import EXIT_PLANNING_FAILED
 from mycobot_planning.nodes.task_topics import SOLUTION_QOS, STATISTICS_QOS, task_topics
 from mycobot_planning.paths import config_file
-from mycobot_planning.task.pick_place import PickPlaceParameters, expected_place_pose
+from mycobot_planning.demos.pick_place import PickPlaceParameters, expected_place_pose
 from ros_testing import PYTHON, REPO, NodeProcess, ros_env, use_session_domain, wait_until
 
 PARAMS_FILE = str(config_file("mtc_node_params.yaml"))

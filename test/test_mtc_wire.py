@@ -21,7 +21,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_srvs.srv import Trigger
 
 from mycobot_planning.paths import config_file
-from mycobot_planning.task.pick_place import PickPlaceParameters, expected_place_pose
+from mycobot_planning.demos.pick_place import PickPlaceParameters, expected_place_pose
 from ros_testing import NodeProcess, use_session_domain, wait_until
 
 LATCHED = QoSProfile(depth=2, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)

@@ -61,7 +61,7 @@ from mycobot_planning.perception import (
     load_camera_scene,
     pack_xyzrgb,
 )
-from mycobot_planning.task.pick_place import PickPlaceParameters, expected_place_pose, load_parameters
+from mycobot_planning.demos.pick_place import PickPlaceParameters, expected_place_pose, load_parameters
 from ros_testing import PYTHON, REPO, NodeProcess, ros_env, use_session_domain, wait_until
 
 TOPIC = "/camera_head/depth/color/points"

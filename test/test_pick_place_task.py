@@ -15,7 +15,7 @@ from mycobot_planning.core.execution import joint_trajectory_to_timed
 from mycobot_planning.core.time_parameterization import TimedTrajectory
 from mycobot_planning.core.trajectory_validator import validate_trajectory
 from mycobot_planning.paths import config_file
-from mycobot_planning.task.pick_place import (
+from mycobot_planning.demos.pick_place import (
     MTC_NODE_PARAMETER_NAMES,
     PARAMETERS,
     PICK_PLACE_DEMO_PARAMETERS,

@@ -12,7 +12,7 @@ import pytest
 
 from mycobot_planning.bench import task_scenarios
 from mycobot_planning.core import PlanningScene
-from mycobot_planning.task.demos import (
+from mycobot_planning.demos.mtc_demos import (
     build_fallbacks_move_to_task,
     build_ik_clearance_cost_task,
     build_modular_task,

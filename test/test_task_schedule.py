@@ -4,7 +4,7 @@ generator inherit the depth of the partial solution they derive from (see task/s
 from __future__ import annotations
 
 from mycobot_planning.task import Generator, InterfaceState, Task, stages
-from mycobot_planning.task.pick_place import PickPlaceParameters, build_pick_place_task, pick_place_scene
+from mycobot_planning.demos.pick_place import PickPlaceParameters, build_pick_place_task, pick_place_scene
 from mycobot_planning.task.stage import GENERATOR_KEY, Priority, schedule_key
 from task_helpers import scene_at
 

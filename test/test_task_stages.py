@@ -519,7 +519,7 @@ def test_place_pose_needs_an_attached_object(mycobot):
 
 
 def test_compute_ik_ignore_collisions_keeps_colliding_solutions(mycobot):
-    from mycobot_planning.task.demos import ik_clearance_cost_scene
+    from mycobot_planning.demos.mtc_demos import ik_clearance_cost_scene
 
     target = make_pose([-0.183, 0.0175, 0.15], rpy=[math.pi / 4, 0.0, 0.0])
 

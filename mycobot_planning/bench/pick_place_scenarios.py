@@ -21,7 +21,7 @@ import time
 import numpy as np
 
 from mycobot_planning.core import RobotModel
-from mycobot_planning.task.pick_place import PickPlaceParameters, build_pick_place_task, pick_place_scene
+from mycobot_planning.demos.pick_place import PickPlaceParameters, build_pick_place_task, pick_place_scene
 
 from .common import emit, machine, spread, stats
 

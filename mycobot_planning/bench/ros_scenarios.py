@@ -79,7 +79,7 @@ class RobotProcesses:
         return env
 
     def __enter__(self) -> "RobotProcesses":
-        from mycobot_planning.nodes.node_runtime import use_fast_discovery
+        from mycobot_planning.paths import use_fast_discovery
 
         use_fast_discovery()  # before any context of this process: frequent discovery announcements
         # this process's own clients join the same domain

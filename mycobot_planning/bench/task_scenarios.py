@@ -49,7 +49,7 @@ def _bench(name: str, build, repeat: int, seed: int, runs: int | None = None) ->
 
 def bench_modular(repeat: int, seed: int) -> None:
     """The modular demo: current → ready → 5 × (x +0.05, y -0.02, rz -18°, ready) → home."""
-    from mycobot_planning.task.demos import build_modular_task
+    from mycobot_planning.demos.mtc_demos import build_modular_task
 
     model = RobotModel.mycobot()
     scene = PlanningScene(model)
@@ -58,7 +58,7 @@ def bench_modular(repeat: int, seed: int) -> None:
 
 def bench_fallbacks_move_to(repeat: int, seed: int) -> None:
     """The fallbacks demo: three initial states × Fallbacks(Cartesian, PTP, OMPL)."""
-    from mycobot_planning.task.demos import build_fallbacks_move_to_task
+    from mycobot_planning.demos.mtc_demos import build_fallbacks_move_to_task
 
     model = RobotModel.mycobot()
     scene = PlanningScene(model)
@@ -67,7 +67,7 @@ def bench_fallbacks_move_to(repeat: int, seed: int) -> None:
 
 def bench_ik_clearance_cost(repeat: int, seed: int) -> None:
     """The IK clearance demo: all distinct IK solutions of one pose, ranked by clearance."""
-    from mycobot_planning.task.demos import build_ik_clearance_cost_task, ik_clearance_cost_scene
+    from mycobot_planning.demos.mtc_demos import build_ik_clearance_cost_task, ik_clearance_cost_scene
 
     model = RobotModel.mycobot()
     scene = ik_clearance_cost_scene(model)

@@ -103,7 +103,7 @@ def is_timed_smooth(model: RobotModel, group: str, path: np.ndarray) -> bool:
 
 def pick_place_problems(model: RobotModel, seed: int) -> list[dict[str, Any]]:
     """Paths of the pick-and-place demo's best solution that our planner times as "smooth"."""
-    from mycobot_planning.task.pick_place import PickPlaceParameters, build_pick_place_task, pick_place_scene
+    from mycobot_planning.demos.pick_place import PickPlaceParameters, build_pick_place_task, pick_place_scene
 
     params = PickPlaceParameters()
     task = build_pick_place_task(model, params, pick_place_scene(model, params), seed=seed)

@@ -16,7 +16,7 @@ import sys
 import numpy as np
 import yaml
 
-from mycobot_planning.nodes.node_runtime import use_fast_discovery
+from mycobot_planning.paths import use_fast_discovery
 
 #: How far from the place pose the object may stand (m).
 PLACE_TOLERANCE = 0.01
@@ -38,7 +38,7 @@ def stage_tree(log: str) -> list[str] | None:
 
 def parameters_with_overrides(params_path: str, ros_args: list[str]):
     """The parameter file's PickPlaceParameters with the demo's `-p name:=value` applied."""
-    from mycobot_planning.task.pick_place import load_parameters
+    from mycobot_planning.demos.pick_place import load_parameters
 
     params = load_parameters(params_path)
     overrides = {}
@@ -80,7 +80,7 @@ def main(argv: list[str] | None = None) -> int:
             print("Stage tree (printState of the planned task):")
             print("\n".join(tree))
 
-    from mycobot_planning.task.pick_place import expected_place_pose
+    from mycobot_planning.demos.pick_place import expected_place_pose
 
     expected = expected_place_pose(params)[:3, 3]
     use_fast_discovery()

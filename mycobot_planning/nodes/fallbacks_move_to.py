@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from mycobot_planning.nodes.task_node import TaskNode, main_for
 from mycobot_planning.task import Task
-from mycobot_planning.task.demos import build_fallbacks_move_to_task
+from mycobot_planning.demos.mtc_demos import build_fallbacks_move_to_task
 
 NODE_NAME = "fallbacks_move_to_demo"
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 from mycobot_planning.nodes.node_runtime import ParameterSpec
 from mycobot_planning.nodes.task_node import TaskNode, main_for
 from mycobot_planning.task import Task
-from mycobot_planning.task.demos import build_ik_clearance_cost_task, load_ik_clearance_cost_parameters
+from mycobot_planning.demos.mtc_demos import build_ik_clearance_cost_task, load_ik_clearance_cost_parameters
 
 NODE_NAME = "ik_clearance_cost_demo"
 

@@ -4,14 +4,14 @@ From the planning_server's current state: move to 'ready', five "Cartesian Path"
 (x +0.05, y -0.02, rz -18° with a Cartesian solver, then moveTo 'ready'), move to 'home'.
 Node ``modular_demo`` (as in the seed); parameters, topics and services: nodes/task_node.py.
 With ``execute:=true`` the robot runs the solution; the task is built by
-mycobot_planning.task.demos.build_modular_task.
+mycobot_planning.demos.mtc_demos.build_modular_task.
 """
 from __future__ import annotations
 
 from mycobot_planning.nodes.node_runtime import ParameterSpec
 from mycobot_planning.nodes.task_node import TaskNode, main_for
 from mycobot_planning.task import Task
-from mycobot_planning.task.demos import build_modular_task
+from mycobot_planning.demos.mtc_demos import build_modular_task
 
 NODE_NAME = "modular_demo"
 

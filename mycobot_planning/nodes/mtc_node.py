@@ -13,7 +13,7 @@ later; the Trigger services ``/mtc_node/plan`` (plan again; a changed table or o
 parameter re-does the scene first) and ``/mtc_node/execute`` do what they say. A bad value is
 refused with the reason (array sizes, empty names, ranges, a minimum above its maximum) and the
 node keeps running. Node plumbing (parameters every task node has, topics, services, exit codes
-with ``exit_when_done``): nodes/task_node.py. The task itself: mycobot_planning.task.pick_place.
+with ``exit_when_done``): nodes/task_node.py. The task itself: mycobot_planning.demos.pick_place.
 """
 from __future__ import annotations
 
@@ -25,7 +25,7 @@ from mycobot_planning.nodes.node_runtime import ParameterSpec
 from mycobot_planning.nodes.perception_object_source import PerceptionObjectSource, perception_parameter_specs
 from mycobot_planning.nodes.task_node import TaskNode, main_for
 from mycobot_planning.task import Task
-from mycobot_planning.task.pick_place import (
+from mycobot_planning.demos.pick_place import (
     MTC_NODE_PARAMETER_NAMES,
     PARAMETERS,
     PickPlaceParameters,

@@ -8,7 +8,6 @@ cleanly. Each node declares its parameters through `ParameterSpec`s and starts t
 from __future__ import annotations
 
 import math
-import os
 import sys
 import traceback
 from dataclasses import dataclass
@@ -20,6 +19,9 @@ from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 from rclpy.node import Node
 from rclpy.exceptions import ParameterException, ParameterUninitializedException
 from rclpy.parameter import Parameter
+
+from mycobot_planning.paths import use_fast_discovery
+
 
 Validator = Callable[[Any], str | None]  # returns an error sentence, or None when the value is fine
 
@@ -158,15 +160,6 @@ class Parameters:
                     listener(changed)
                 except Exception as exc:  # a listener's failure is logged, the node keeps running
                     self._node.get_logger().error(f"applying {sorted(changed)} failed: {exc}")
-
-
-def use_fast_discovery() -> None:
-    """Point Fast DDS at config/fastdds_discovery.xml (frequent announcements) unless the user
-    chose a profile; must run before rclpy.init in the process."""
-    if "FASTRTPS_DEFAULT_PROFILES_FILE" not in os.environ:
-        from ..paths import config_file
-
-        os.environ["FASTRTPS_DEFAULT_PROFILES_FILE"] = str(config_file("fastdds_discovery.xml"))
 
 
 def run_node(factory: Callable[[], Node], args: list[str] | None = None, threads: int = 4) -> int:

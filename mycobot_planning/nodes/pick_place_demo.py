@@ -2,7 +2,7 @@
 
     ros2 run mycobot_planning pick_place_demo --ros-args --params-file config/pick_place_demo_params.yaml
 
-The same pick and place as mtc_node (nodes/mtc_node.py, task: mycobot_planning.task.pick_place)
+The same pick and place as mtc_node (nodes/mtc_node.py, task: mycobot_planning.demos.pick_place)
 under the node name ``pick_place_demo`` and with Example 1's parameter file. Example 1 names the
 end effector (``eef_name``) and the support surface (``surface_link``, used by the "allow
 collision (object,support)" and "forbid collision (object,surface)" stages) itself; mtc_node
@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from mycobot_planning.nodes.mtc_node import PickPlaceTaskNode
 from mycobot_planning.nodes.task_node import main_for
-from mycobot_planning.task.pick_place import MTC_NODE_PARAMETER_NAMES, PICK_PLACE_DEMO_PARAMETERS
+from mycobot_planning.demos.pick_place import MTC_NODE_PARAMETER_NAMES, PICK_PLACE_DEMO_PARAMETERS
 
 NODE_NAME = "pick_place_demo"
 #: Example 1's parameters first (its file's order), then mtc_node's others.

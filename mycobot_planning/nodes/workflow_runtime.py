@@ -29,7 +29,8 @@ from rclpy.signals import SignalHandlerOptions
 from interfaces_py.clients import MoveGroupClient, PlanResult, RpcError
 from interfaces_py.msgs import MoveItErrorCode, RobotTrajectory
 from mycobot_planning.core.planning_pipeline import PlanningPipeline
-from mycobot_planning.nodes.node_runtime import Parameters, ParameterSpec, use_fast_discovery
+from mycobot_planning.nodes.node_runtime import Parameters, ParameterSpec
+from mycobot_planning.paths import use_fast_discovery
 
 __all__ = ["WorkflowFailed", "WorkflowNode", "run_workflow", "PLANNING_SPECS"]
 

@@ -26,18 +26,18 @@ import yaml
 
 from interfaces_py.msgs import CollisionObject
 
-from ..core.planning_scene import PlanningScene
-from ..core.robot_model import RobotModel
-from ..core.robot_state import RobotState
-from ..core.transforms import make_pose
-from .containers import Alternatives, Fallbacks, SerialContainer
-from .cost_terms import Clearance
-from .geometry import PoseStamped, TwistStamped, Vector3Stamped
-from .solvers import CartesianPath, JointInterpolationPlanner, PipelinePlanner
-from ..paths import config_dir
-from .stage import Stage
-from .stages import ComputeIK, CurrentState, FixedState, MoveRelative, MoveTo
-from .task import Task
+from mycobot_planning.core.planning_scene import PlanningScene
+from mycobot_planning.core.robot_model import RobotModel
+from mycobot_planning.core.robot_state import RobotState
+from mycobot_planning.core.transforms import make_pose
+from mycobot_planning.task.containers import Alternatives, Fallbacks, SerialContainer
+from mycobot_planning.task.cost_terms import Clearance
+from mycobot_planning.task.geometry import PoseStamped, TwistStamped, Vector3Stamped
+from mycobot_planning.task.solvers import CartesianPath, JointInterpolationPlanner, PipelinePlanner
+from mycobot_planning.paths import config_dir
+from mycobot_planning.task.stage import Stage
+from mycobot_planning.task.stages import ComputeIK, CurrentState, FixedState, MoveRelative, MoveTo
+from mycobot_planning.task.task import Task
 
 __all__ = [
     "IK_CLEARANCE_COST_PARAMETERS",

@@ -40,16 +40,16 @@ import yaml
 
 from interfaces_py.msgs import CollisionObject
 
-from ..core.planning_scene import PlanningScene
-from ..core.robot_model import RobotModel
-from ..core.robot_state import RobotState
-from .containers import SerialContainer
-from .geometry import PoseStamped, Vector3Stamped
-from .solvers import CartesianPath, JointInterpolationPlanner, PipelinePlanner
-from .stage import Stage
-from .stages import ComputeIK, Connect, CurrentState, GenerateGraspPose, GeneratePlacePose, ModifyPlanningScene, \
+from mycobot_planning.core.planning_scene import PlanningScene
+from mycobot_planning.core.robot_model import RobotModel
+from mycobot_planning.core.robot_state import RobotState
+from mycobot_planning.task.containers import SerialContainer
+from mycobot_planning.task.geometry import PoseStamped, Vector3Stamped
+from mycobot_planning.task.solvers import CartesianPath, JointInterpolationPlanner, PipelinePlanner
+from mycobot_planning.task.stage import Stage
+from mycobot_planning.task.stages import ComputeIK, Connect, CurrentState, GenerateGraspPose, GeneratePlacePose, ModifyPlanningScene, \
     MoveRelative, MoveTo
-from .task import Task
+from mycobot_planning.task.task import Task
 
 __all__ = [
     "PARAMETERS",
