@@ -1,31 +1,6 @@
 """Blocking Python clients of the planning_server: MoveIt's PlanningSceneInterface and MoveGroup.
 
-They hide the ROS plumbing (JSON-RPC over two std_msgs/String topics, see interfaces_py.json_rpc)
-behind one blocking method per action, each with a timeout, so a plain script reads like a
-moveit_commander script::
-
-    from interfaces_py.clients import MoveGroupClient, PlanningSceneInterface
-
-    with PlanningSceneInterface() as scene:
-        scene.add_box("table", size=(0.1, 0.2, 0.03), pose=[0.22, 0.12, -0.015, 0, 0, 0, 1])
-    with MoveGroupClient("arm") as arm:
-        arm.set_named_target("ready")
-        ok, trajectory, error_code = arm.plan()
-        if ok:
-            arm.execute(trajectory)
-
-Each client owns a private rclpy context, node and executor thread, so it works in a script
-without ``rclpy.init`` and alongside other clients. Pass ``node=`` to use a node of your own
-instead; that node must be spun by an executor on another thread than the one calling the
-client (a callback of a single-threaded executor calling ``plan()`` would wait for an answer
-that executor can never deliver).
-
-Errors: scene operations raise :class:`~interfaces_py.json_rpc.RpcError` (``code`` and
-``message`` from the server, e.g. an unknown object id; :class:`RpcTimeout` when nobody
-answers). Planning and execution never raise for their outcome: like MoveIt they return a
-:class:`~interfaces_py.msgs.MoveItErrorCode` (truthy on success), and a server that does not
-answer in time yields TIMED_OUT / COMMUNICATION_FAILURE codes. Bad arguments raise ValueError
-at once, before anything is sent.
+The full story: docs/interfaces.md, section interfaces_py.clients.
 """
 from __future__ import annotations
 

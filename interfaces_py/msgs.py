@@ -1,28 +1,6 @@
 """MoveIt-style messages as plain, validated dataclasses with an exact JSON wire form.
 
-Why this module exists: the design card limits the ROS graph to common_interfaces + std_srvs,
-and common_interfaces has no CollisionObject, PlanningScene, RobotTrajectory, MoveItErrorCode...
-So these travel as JSON inside ``std_msgs/String``, and this module is the single schema for
-that JSON. It imports no ROS package (only numpy), so ``mycobot_planning.core`` and plain
-scripts can use it without a ROS environment; ``interfaces_py.ros_conversions`` maps the
-parts that *do* have a standard message (poses, primitives, joint states, trajectories,
-markers) onto ROS types.
-
-Rules every class follows (implemented once, in :class:`_Message`):
-
-* Field names, constants and semantics mirror the MoveIt / shape_msgs messages, so MoveIt
-  users can read the JSON without a manual (times are float seconds, not sec/nanosec).
-* Construction validates and normalises (tuples and numpy arrays become lists of Python
-  floats), so an instance that exists is a valid message; errors are :class:`MessageError`
-  naming the offending field path, e.g. ``CollisionObject.primitives[0].dimensions``.
-* ``to_dict``/``from_dict``/``to_json``/``from_json`` round-trip exactly:
-  ``X.from_json(x.to_json()) == x`` with bit-identical floats (json writes ``repr(float)``,
-  which Python parses back to the same double). Non-finite floats are rejected everywhere.
-* ``from_dict`` fills omitted fields with their defaults (hand-written JSON stays short), but
-  rejects unknown keys, because a typo silently ignored is a bug found much later.
-
-Instances are mutable dataclasses for convenience; validation runs at construction, so code
-that mutates fields afterwards should rebuild via ``dataclasses.replace`` to re-validate.
+The full story: docs/interfaces.md, section interfaces_py.msgs.
 """
 
 from __future__ import annotations

@@ -1,24 +1,6 @@
 """Blocking Python client of the perception_server: the seed's get-planning-scene service.
 
-    from interfaces_py.perception_client import PerceptionClient
-
-    with PerceptionClient() as perception:
-        result = perception.get_planning_scene("cylinder", [0.35, 0.0125], timeout=30.0)
-        if result:
-            print(result.target_object_id, result.target.pose)   # cylinder_0, its CollisionObject pose
-        else:
-            print("perception failed:", result.message)
-
-Like interfaces_py.clients (whose plumbing it shares): a private rclpy context, node and
-executor thread, so it works in a plain script; or ``node=`` to talk through a node of your own
-that an executor spins on another thread. The request goes over JSON-RPC
-(``/perception_server/requests`` / ``responses``, see interfaces_py.json_rpc).
-
-Outcomes never raise: a cloud that cannot be read, no support surface, no object of the
-requested shape, a malformed target request — all come back as a :class:`PerceptionResult`
-with ``success`` false and the server's ``message``. Communication does raise, as the
-planning scene operations of interfaces_py.clients do: :class:`RpcTimeout` when no
-perception_server answers in time, :class:`RpcError` for a request the server refuses.
+The full story: docs/interfaces.md, section interfaces_py.perception_client.
 """
 from __future__ import annotations
 
@@ -93,7 +75,7 @@ class PerceptionResult:
 
 
 class PerceptionClient(_Client):
-    """Calls the perception_server (see the module docstring)."""
+    """Calls the perception_server (see docs/interfaces.md (interfaces_py.perception_client))."""
 
     _prefix = "perception_client"
 

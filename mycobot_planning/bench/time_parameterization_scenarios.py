@@ -1,37 +1,6 @@
 """Benchmark ``time_parameterization``: our dense-path TOPP against the ``toppra`` package.
 
-Why: our ``"smooth"`` timing (core time_parameterization) is a hand-written TOPP-RA over a C2
-spline through the waypoints; toppra 0.6.10 is the reference implementation of that method.
-This scenario says, on the paths our planners really produce, whether ours is as fast (motion
-duration), stays within the joint limits and on the checked polyline, and what it costs to run
-and to import, so keeping our own code (rather than depending on toppra) stays a measured
-decision.
-
-Paths (the untimed joint-space waypoints a planner hands to timing):
-
-* ``cartesian``: ``compute_cartesian_path``'s ``path`` for the ``cartesian`` scenario's 0.3 m
-  line (eef_step 0.25 mm, 1201 waypoints) and for a 0.3 m line down and sideways from the same
-  start (eef_step 1 mm).
-* ``pick_place``: the pick-and-place demo task (default parameters, planned ROS-free with the
-  run's seed), best solution: every sub-trajectory whose path ``time_group_path`` (the
-  planner's "auto" timing, no scaling) times as "smooth" -- found by comparing its output with
-  ``method="smooth"``'s, since the choice itself is internal.
-
-Ours runs in-process: ``time_parameterize(path, vmax, amax, method="smooth")`` with the arm's
-joint_limits.yaml limits, no scaling. toppra runs in its peer venv (``peers/venvs.py``,
-created on first use) through ``peers/toppra_runner.py``, at its default gridpoints and at a
-dense grid (see that file). Both are sampled every 1 ms with the same code
-(``toppra_runner.sampled_metrics``): ``max_vel_ratio`` / ``max_acc_ratio`` are the largest
-|qd| / vmax and |qdd| / amax (> 1: a limit is broken), ``max_deviation`` the largest distance
-(joint-space norm) of a sample from the polyline. ``ours_path_deviation`` is our own
-exact bound (``path_deviation``, from the Bezier control points). ``compute_ms`` is wall time of
-one timing call, after one untimed warm-up per path; ``*_import_ms`` the wall time of a fresh
-``python -c "import ..."`` process (median of 5), next to ``*_python_startup_ms`` for
-``python -c pass`` in the same interpreter.
-
-Output: one record per path, method and repeat, then the summary: per set of paths the median
-over its paths of each figure (of the per-path median over repeats for compute_ms), and under
-``worst`` the largest ratio / deviation over its paths.
+The full story: docs/bench.md, section mycobot_planning.bench.time_parameterization_scenarios.
 """
 from __future__ import annotations
 

@@ -1,23 +1,6 @@
 """The planning server's logic without ROS: MoveIt's move_group capabilities on our core.
 
-The planning_server's two faces (nodes/planning_server.py: JSON and std_srvs; nodes/move_group.py:
-moveit_msgs on move_group's names) only translate ROS topics, services and parameters into calls
-on :class:`MoveGroupCapabilities`; everything they decide lives here, so it is interpreted once
-and can be unit-tested without processes:
-
-* the **monitored planning scene** and its updates, inherited from
-  :class:`~mycobot_planning.core.planning_scene_monitor.PlanningSceneMonitor`;
-* **planning requests** as JSON-able dicts (group, goal, pipeline, planner, time, scaling, start
-  state) turned into :class:`~mycobot_planning.core.planning_interface.MotionPlanRequest` and
-  answered with a MoveIt error code, the trajectory and the planning time;
-* **execution** of the last plan, a given trajectory or a whole task solution through the
-  :class:`~mycobot_planning.core.trajectory_execution.TrajectoryExecutionManager`;
-* **state queries**: IK, FK and state validity at a request's robot state
-  (:mod:`~mycobot_planning.core.state_queries`), and the planner interfaces and parameters.
-
-Every method takes and returns the JSON forms of interfaces_py.msgs, which are exactly the
-JSON-RPC payloads. Bad requests raise :class:`RequestError` (scene operations) or come back with
-a MoveIt error code (planning and execution), as move_group answers them.
+The full story: docs/core.md, section mycobot_planning.capabilities.move_group_capabilities.
 """
 from __future__ import annotations
 
@@ -150,7 +133,7 @@ def goal_from_parameters(values: Mapping[str, Any], last_set: str | None = None)
 
 
 class MoveGroupCapabilities(PlanningSceneMonitor):
-    """Monitored scene + planning + execution of the planning server (see module docstring).
+    """Monitored scene + planning + execution of the planning server (see docs/core.md (mycobot_planning.capabilities.move_group_capabilities)).
 
     Thread-safe: ROS callbacks (joint states, scene updates, requests, stop) arrive on several
     executor threads. The scene is guarded by one lock held only for short updates; planning
@@ -397,7 +380,7 @@ class MoveGroupCapabilities(PlanningSceneMonitor):
         return constraints or None
 
     def plan(self, params: Mapping[str, Any]) -> dict[str, Any]:
-        """Plan a request (see module docstring); never raises for bad input.
+        """Plan a request (see docs/core.md (mycobot_planning.capabilities.move_group_capabilities)); never raises for bad input.
 
         Returns {"error_code", "trajectory" (RobotTrajectory dict or None), "planning_time",
         "group", "planner_id"}. A successful plan becomes the "last plan" for execute().

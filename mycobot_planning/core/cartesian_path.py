@@ -1,38 +1,6 @@
 """Cartesian paths (MoveIt's computeCartesianPath) and relative motions (MTC's MoveRelative).
 
-A Cartesian path moves an ik frame (a link, optionally with a rigid offset such as a TCP) along
-straight lines through a list of world-frame poses: position interpolated linearly, orientation
-by slerp, in steps no longer than ``eef_step``. Each step is solved by IK seeded with the
-previous step, and the path stops at the first step that has no IK solution, collides or jumps
-in joint space. The caller gets the reachable prefix and the fraction of the path it covers,
-and decides what to do with a partial path, exactly as with MoveIt's ``computeCartesianPath``.
-
-Why a dedicated per-step solver instead of calling ``IKSolver.solve`` for every step: a step is
-a tiny, known change of the target, so a first-order predictor (one Newton step with the
-Jacobian already computed at the previous solution) lands within micrometres, and one more
-forward-kinematics evaluation confirms it. That costs one Pinocchio Jacobian call, one 6x6 solve
-and one collision check per step, a few tens of microseconds, where a general IK query (seed
-table lookup, restarts, RobotState objects) costs hundreds. When the corrector does not converge
-(near singularities, at joint limits) ``IKSolver.refine`` runs a longer descent from the previous
-solution only. Neither ever samples other IK branches: where the seed's branch ends the path
-stops (``no_ik_solution``) instead of flipping to another configuration, which is safer than
-MoveIt's KDL restarts. Near a singularity the branch itself can demand a large joint motion for
-a small Cartesian step (the wrist swings round); that is what ``jump_threshold`` and the
-absolute per-joint thresholds catch, and the collision check between steps covers it when they
-are off.
-
-Fraction (MoveIt's definition): with W waypoints the path has W segments (start pose -> first
-waypoint, then waypoint to waypoint), each worth 1/W; a segment cut after k of its n steps adds
-k/n of its share. Jump truncation recomputes the fraction from the step where the path is cut
-(MoveIt multiplies by a ratio of state counts instead; the result is the same for uniform steps).
-
-Relative motions follow MTC's MoveRelative: a translation along a direction, or a twist (linear
-+ angular, rotation about the ik frame's origin), both expressed in a frame's axes ('world', a
-link, or a collision object), planned as a one-waypoint Cartesian path. ``min_distance`` /
-``max_distance`` keep MTC's conventions (see :func:`plan_relative_motion`).
-
-Nothing here raises for bad input: every problem comes back as a MoveIt error code with a
-message naming it.
+The full story: docs/core.md, section mycobot_planning.core.cartesian_path.
 """
 from __future__ import annotations
 

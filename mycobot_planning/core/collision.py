@@ -1,33 +1,6 @@
 """Collision geometry of a planning scene, compiled for one-call-per-state checking.
 
-Why this module looks the way it does (medians measured on the 2-core development machine,
-random states within the joint limits; ``PlanningScene.is_valid_positions``):
-
-    myCobot, tutorial scene (table + cylinder)   ~6.2 µs free, ~5.5 µs colliding
-    Panda, triangle-mesh links, table + cylinder ~5.6 µs free, ~12 µs colliding
-    same pairs, plain pin.computeCollisions       ~18 µs (myCobot), ~54 µs (Panda) when free
-
-* A scene is compiled into ONE Pinocchio ``GeometryModel``: the robot's collision geometries,
-  world objects as geometry objects on the universe joint, attached objects on their link's
-  parent joint. The collision pairs are every pair the allowed collision matrix does not allow.
-  A state check is then a single C++ call, ``pin.computeCollisions(model, data, broadphase, q,
-  True)``: forward kinematics, geometry placements, AABB culling and narrow phase with early exit.
-* Pinocchio's *naive* broad phase (all-pairs AABB test before GJK) is the fastest manager for
-  robot-sized scenes (up to about 100 objects: its AABB test costs nanoseconds while a GJK
-  call costs a fraction of a microsecond); the dynamic AABB tree only wins beyond that, so it is
-  used for very large scenes.
-* Every collision request has a security margin of 1e-6 m. Coal 3.0's GJK may stop with
-  "collision" and a tiny *positive* distance (below its 1e-6 tolerance); coal then reports no
-  collision because that distance exceeds its 1e-12 collision threshold. Depending on what the
-  solver saw before, this hid penetrations of several centimetres (cylinder-cylinder, box-
-  cylinder). With the margin, "within 1 µm" counts as touching and those misses disappear.
-* Pairs whose two bodies hang from the same joint (a world object and the robot base, two links
-  joined by a fixed joint) have a constant outcome: they are evaluated once at compile time and
-  left out of the per-state check when free (kept when colliding, so such a scene is always in
-  collision, as in MoveIt). Distance queries still see them.
-
-Compiled scenes are immutable: a scene recompiles lazily after a change, and copies of a scene
-share the compiled object until one of them changes.
+The full story: docs/core.md, section mycobot_planning.core.collision.
 """
 from __future__ import annotations
 
@@ -62,7 +35,7 @@ ROBOT_ATTACHED = "Robot attached"
 OBJECT = "Object"
 _KIND_ORDER = {OBJECT: 0, ROBOT_ATTACHED: 1, ROBOT_LINK: 2}
 
-#: Objects closer than this count as touching (see the module docstring for why it is not 0).
+#: Objects closer than this count as touching (see docs/core.md (mycobot_planning.core.collision) for why it is not 0).
 SECURITY_MARGIN = 1e-6
 #: Above this many geometry objects the dynamic AABB tree beats the naive broad phase.
 _AABB_TREE_THRESHOLD = 150

@@ -1,30 +1,6 @@
 """MTC's JointInterpolationPlanner as a core planner: a straight line in joint space.
 
-The Task Constructor uses it for short, obviously free motions (opening the gripper, "move to
-ready") because it is instant and predictable: every joint moves linearly from the start to the
-goal, all arriving together. It does not avoid obstacles; it only refuses a line that collides.
-
-Behaviour, following MTC's ``solvers::JointInterpolationPlanner``:
-
-* joint and named goals are used as they are; a pose goal is first turned into joint values by IK
-  seeded from the start state (MTC calls ``setFromIK`` on the start state), i.e. the solution
-  nearest the start;
-* the line is cut into equal steps so that no joint moves more than ``max_step`` per step, and
-  every state, start and goal included, is checked; the first invalid one fails the plan;
-* the result is timed by the shared time parameterisation (Ruckig), which keeps the motion on the
-  line, under the request's velocity/acceleration scaling.
-
-Why ``max_step`` is 0.01 rad and not MTC's 0.1 rad
----------------------------------------------------
-MTC checks discrete states only, with a default ``max_step`` of 0.1 rad. On the myCobot a link
-0.3 m from the axis sweeps 3 cm in 0.1 rad, enough to pass straight through a thin obstacle (a
-cylinder of 2.5 cm diameter in the tutorial scene) between two checked states. 0.01 rad bounds the
-sweep to ~3 mm for the same cost class (a collision check is ~10 us here, so a 3 rad line costs
-~3 ms). OMPL's default checking resolution in this package (0.5 % of the space extent) is of the
-same order. The trajectory validator checks at 0.005 rad by default, so a line that only grazes an
-obstacle between two of our checks can still be caught there.
-
-This module has no ROS dependency.
+The full story: docs/core.md, section mycobot_planning.core.joint_interpolation.
 """
 from __future__ import annotations
 
@@ -63,7 +39,7 @@ __all__ = [
 ]
 
 DEFAULT_MAX_STEP = 0.01
-"""Largest joint motion (rad or m) between two checked states of the line (see module docstring)."""
+"""Largest joint motion (rad or m) between two checked states of the line (see docs/core.md (mycobot_planning.core.joint_interpolation))."""
 
 PLANNER_ID = "JointInterpolation"
 

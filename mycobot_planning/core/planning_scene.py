@@ -1,24 +1,7 @@
 """PlanningScene: the robot's current state, world collision objects, attached objects and the
 allowed collision matrix — MoveIt's planning_scene::PlanningScene for this package.
 
-Inputs are interfaces_py.msgs messages (CollisionObject, AttachedCollisionObject, PlanningScene),
-so the node, the task constructor and user scripts share one schema. Dicts and JSON text of those
-messages are accepted too; a malformed one raises SceneError.
-
-Design (why it is shaped like this):
-
-* Scene content is made of immutable values (collision.SceneObject / AttachedBody holding Coal
-  shapes). ``copy()`` and ``diff()`` are shallow dict copies sharing those values and the compiled
-  collision model, so MTC-style branching (one scene per stage solution) costs microseconds.
-* Every update is validated completely before anything changes: a rejected update raises
-  SceneError naming the problem and leaves the scene exactly as it was. Multi-part updates
-  (planning-scene messages) are applied to a staged copy that replaces the scene only on success.
-* Collision checking compiles the scene into one Pinocchio geometry model with a broad phase
-  (core/collision.py); a validity check is a single C++ call per state. ``is_valid_positions`` is
-  the planners' entry (a NumPy vector in, a bool out, no RobotState built).
-* Object poses: world objects are stored in the world frame (a frame_id naming a robot link is
-  resolved at the scene's current state when the object is added, as MoveIt does); attached
-  objects are stored relative to their link, so they move with the robot.
+The full story: docs/core.md, section mycobot_planning.core.planning_scene.
 """
 from __future__ import annotations
 

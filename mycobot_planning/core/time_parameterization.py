@@ -3,21 +3,5 @@
 New code imports the trajectory type from core.robot_trajectory and the timing from
 core.trajectory_processing.
 """
-from .robot_trajectory import DEFAULT_SAMPLE_PERIOD, TimedTrajectory
-from .trajectory_processing import (
-    DEFAULT_MAX_DEVIATION,
-    TimeParameterizationError,
-    path_deviation,
-    retime,
-    time_parameterize,
-)
-
-__all__ = [
-    "DEFAULT_MAX_DEVIATION",
-    "DEFAULT_SAMPLE_PERIOD",
-    "TimeParameterizationError",
-    "TimedTrajectory",
-    "path_deviation",
-    "retime",
-    "time_parameterize",
-]
+from .trajectory_processing import *  # noqa: F401,F403 - the old module's public names
+from .trajectory_processing import __all__  # noqa: F401

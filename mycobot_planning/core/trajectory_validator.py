@@ -1,35 +1,6 @@
 """An independent check of a timed trajectory against a planning scene and the joint limits.
 
-Why a separate validator
-------------------------
-Every planner collision-checks its own geometric path, and the time parameterisation promises to
-stay on it. A bug in either (a skipped segment, an interpolation that cuts a corner, a velocity
-profile that overshoots) would go unnoticed if the only checks were the planner's own. This module
-trusts nothing from the planner: it re-derives the motion from the trajectory's own interpolation
-(:meth:`TimedTrajectory.sample`, which is how a ros2_control JointTrajectoryController would
-execute it) and checks, densely *between* the stored points, everything MoveIt's execution
-pipeline would care about:
-
-* collisions of the full robot (group joints from the trajectory, every other joint held at the
-  start state) through the scene's collision-only checker (:meth:`PlanningScene.validity_checker`);
-* position limits, and velocity / acceleration limits scaled by the request's factors;
-* continuity: no position jump at a stored point (a cubic interpolation built from velocities can
-  hide one) and no pair of stored points further apart than the unscaled velocity limit allows;
-* the first point equals the start state, time stamps strictly increase, and the robot is at rest
-  at both ends.
-
-Problems are reported as sentences naming the joint, the time and the contact, because the report
-is read by people (and shown in error messages), not parsed.
-
-Sampling resolution
--------------------
-States are checked so that no group joint moves more than ``resolution`` (rad or m) between two
-consecutive checked states: an initial subdivision from each interval's chord and end speeds is
-refined by splitting any gap that still moves more than that, so overshooting interpolations are
-caught too. A gap that cannot be refined below ``resolution`` even at 1 ns is a position jump,
-reported as such.
-
-This module has no ROS dependency.
+The full story: docs/core.md, section mycobot_planning.core.trajectory_validator.
 """
 from __future__ import annotations
 
@@ -417,7 +388,7 @@ def validate_trajectory(
     acceleration_scaling: float = 1.0,
     tolerance: float = 1e-6,
 ) -> ValidationReport:
-    """Check ``trajectory`` (over ``group``'s joints) in ``scene``; see the module docstring.
+    """Check ``trajectory`` (over ``group``'s joints) in ``scene``; see docs/core.md (mycobot_planning.core.trajectory_validator).
 
     ``start_state`` (default: the scene's current state) supplies the joints outside the group
     and the state the trajectory must start at (group joints within ``tolerance``). ``tolerance``

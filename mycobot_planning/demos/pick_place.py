@@ -1,32 +1,6 @@
 """The seeds' pick and place (mtc_node, and Example 1 ``pick_place_demo``), ROS-free.
 
-What the seeds do, rebuilt on our task constructor:
-
-* the scene: a box table ``table_name`` of ``table_dimensions`` whose *top* is at
-  ``table_pose`` (its centre is lowered by half its height), and a cylinder ``object_name``
-  (``object_dimensions`` = [height, radius]) standing at ``object_pose`` (its centre raised by
-  ``place_pose_z_offset_factor`` x height). Poses are [x, y, z, roll, pitch, yaw] with the
-  seeds' conversion: translation, then rotations about x, y and z in that order (intrinsic),
-  which differs from URDF rpy when more than one angle is non-zero
-  (:func:`vector_to_pose`).
-* the task "pick_place_task": current state → open gripper → move to pick (Connect: arm by
-  OMPL RRTConnect, gripper by joint interpolation) → pick object {approach object, grasp pose
-  IK {generate grasp pose}, allow collision (gripper,object), close gripper, attach object,
-  allow collision (object,support), lift object, forbid collision (object,surface)} → move to
-  place → place object {lower object, place pose IK {generate place pose}, open gripper,
-  forbid collision (gripper,object), detach object, retreat after place} → move home.
-* the place target: ``place_pose`` with z raised by ``place_pose_z_offset_factor`` x height +
-  ``place_surface_offset`` (the object's centre: with the defaults it stands 3 cm lower than
-  on the table, "on the floor" in the seed's Gazebo world) — :func:`expected_place_pose`.
-
-Parameters live in :class:`PickPlaceParameters` (names and defaults of the seed's
-mtc_node_params.yaml, validated on construction); :data:`PARAMETERS` describes each one for
-the nodes, which declare them as ROS parameters. Example 1 differs only in two names it has
-and mtc_node does not: ``eef_name`` (mtc_node uses the gripper group name as end effector)
-and ``surface_link`` (mtc_node uses the table name as the support surface).
-
-Where we depart from the seed for speed (never in the tree, the names or the results a user
-sees) the builder's keyword arguments say so: see :func:`build_pick_place_task`.
+The full story: docs/demos.md, section mycobot_planning.demos.pick_place.
 """
 from __future__ import annotations
 

@@ -1,50 +1,6 @@
 """Following a joint trajectory in time, as ros2_control's JointTrajectoryController (JTC) does.
 
-Why this exists: ros2_control is not available as a wheel, yet execution (the planning server's
-monitoring, the MTC demos' "execute") needs controllers that accept
-``trajectory_msgs/JointTrajectory``, move the joints along it at the controller rate, can be
-preempted or stopped, refuse malformed commands, and can be told to misbehave so that execution
-monitoring can be tested. The ROS node (``mycobot_planning.nodes.mock_controllers``) is a thin
-shell around :class:`JointTrajectoryFollower`, which holds all the logic and is tested here
-without ROS.
-
-Behaviour copied from the JTC, so that anything that works against the mock also makes sense
-against a real controller:
-
-* Interpolation between points: linear when the points give positions only, cubic Hermite on
-  (position, velocity) when they give velocities, quintic Hermite on (position, velocity,
-  acceleration) when they also give accelerations. (This is the controller's own spline, which
-  is why it is not :class:`~mycobot_planning.core.time_parameterization.TimedTrajectory`: that
-  class reproduces a planner's piecewise constant-jerk profile, the controller does not know it.)
-* A new trajectory *replaces* the one being executed (preemption). If its first point lies in the
-  future, the controller interpolates from the state it is in when the command arrives (position,
-  velocity and acceleration), so preemption never makes the joints jump. A first point at
-  ``time_from_start = 0`` is taken as "start here": it must match the current position within
-  ``start_tolerance`` (JTC would jump; a mock that jumps would hide bugs, so we refuse instead).
-* A trajectory with no points means "stop": the controller holds where it is.
-* Joint names may come in any order but must be exactly the controller's joints (JTC's
-  ``allow_partial_joints_goal`` is false by default).
-* After the last point the controller holds the last position; the goal succeeds when every joint
-  is within ``goal_tolerance`` of it.
-
-Time is a float in seconds on any monotonic-enough clock the caller chooses (the node uses its ROS
-clock); the follower never reads a clock itself, so tests are exact and instantaneous.
-
-Fault injection (set on the follower, read at every update, measured from the start of each
-goal):
-
-* ``fail_after``: at that time the goal ends with status ``failed``; the joints stop where they
-  are and are held there.
-* ``stall_after``: at that time the joints stop moving while the controller keeps reporting
-  ``executing`` (the desired state keeps advancing, the actual one does not, so the tracking
-  error grows). Once the trajectory's end time has passed without the goal tolerance being met,
-  the status becomes ``stalled`` (still active: nothing completes the goal until it is
-  preempted or stopped), which is what a monitor watching the clock would conclude too.
-
-Negative values disable them. A value that has already passed when it is set takes effect at the
-next update (the joints never jump back in time).
-
-This module has no ROS dependency.
+The full story: docs/mock_control.md, section mycobot_planning.mock_control.joint_trajectory_follower.
 """
 from __future__ import annotations
 

@@ -1,39 +1,6 @@
 """camera_simulator: a simulated RGB-D camera publishing sensor_msgs/PointCloud2 (XYZ + RGB).
 
-    ros2 run mycobot_planning camera_simulator                      # config/camera_scene.yaml
-    ros2 run mycobot_planning camera_simulator --ros-args -p width:=320 -p height:=240 -p rate:=2.0
-
-Why: the perception chain (perception_server → planning scene → mtc_node) must run without
-Gazebo. Every ``1 / rate`` seconds the node renders the ground-truth scene with
-:class:`mycobot_planning.perception.DepthCamera` (only surfaces the camera sees return points;
-depth noise growing with depth; dropouts as NaN pixels of an organised cloud) and publishes it
-on ``topic`` (default ``/camera_head/depth/color/points``, the seed's camera_head topic) in the
-layout depth drivers use: fields x, y, z, rgb (FLOAT32, rgb packed 0x00RRGGBB), point_step 16,
-height x width organised, is_dense false.
-
-Frames (no tf2 here, so this is a decision, documented): with ``output_frame`` "world" (the
-default) the points are expressed in the scene's frame and ``header.frame_id`` is
-``scene_frame_id`` (base_link, = world for the myCobot), so the perception_server needs no
-camera pose at all. With "camera" they are in the optical frame (z forward, x right, y down)
-named ``camera_frame_id``, as a real camera publishes them; the node then logs the
-``cloud_frame_id`` / ``cloud_frame_pose`` values the perception_server needs to transform them.
-
-QoS: reliable, volatile, depth 1. A 640x480 frame is 4.9 MB; one in flight is all a consumer
-wants (the perception_server keeps only the latest).
-
-Parameters (``ros2 param describe /camera_simulator <name>``; refused with a reason when
-invalid, applied at the next frame when accepted): ``scene_file`` (read-only; camera + scene
-YAML, "" for none), ``rate`` (Hz), ``output_frame``, ``seed`` (noise; -1: different every
-run), ``topic`` (read-only), the camera parameters (``width``, ``height``, ``horizontal_fov``,
-``camera_position``, ``camera_look_at``, ``near``, ``far``, ``depth_noise_stddev``,
-``depth_noise_quadratic``, ``dropout_probability``, ``max_incidence_angle_deg``,
-``camera_frame_id``; defaults from the file's camera) and the scene parameters (``table_size``,
-``table_pose``, ``cylinders`` [x, y, height, radius]*n, ``boxes`` [x, y, yaw, sx, sy, sz]*n,
-``ground_plane_z``, ``scene_frame_id``: when one of table_size / cylinders / boxes is non-empty
-they replace the file's scene). See nodes/perception_setup.py for the conversions.
-
-The ground truth is published once, latched, on ``~/ground_truth`` (std_msgs/String JSON
-interfaces_py PlanningSceneWorld), so tests and users can compare detections with it.
+The full story: docs/nodes.md, section mycobot_planning.nodes.camera_simulator.
 """
 from __future__ import annotations
 
@@ -112,7 +79,7 @@ def _one_of(name: str, options: tuple[str, ...]):
 
 
 class CameraSimulator(Node):
-    """See the module docstring."""
+    """See docs/nodes.md (mycobot_planning.nodes.camera_simulator)."""
 
     def __init__(self) -> None:
         super().__init__(NODE_NAME)

@@ -1,35 +1,6 @@
 """Mock ros2_control: joint trajectory controllers and a joint state broadcaster in one node.
 
-ros2_control has no wheels, so this node stands in for the controller manager of the seeds'
-Gazebo bring-up: node name ``controller_manager``, one joint trajectory controller per entry of
-``config/controllers.yaml`` (``arm_controller``, ``grip_action_controller``) and a broadcaster
-publishing ``/joint_states`` with every non-fixed joint, mimic joints computed from the robot
-model. The joints move exactly as commanded (no dynamics), unless told by parameter to fail or
-stall, so that execution monitoring can be tested.
-
-Per controller ``<name>``:
-
-* subscribes ``/<name>/joint_trajectory`` (trajectory_msgs/JointTrajectory). An empty points
-  list means stop. ``header.stamp`` = 0 starts on receipt, a later stamp delays the first point.
-  ``header.frame_id``, when set, is used as the goal id in state reports (so a sender can find
-  the reports about its own goal); otherwise the id is ``<name>#<n>``.
-* publishes ``/<name>/state`` (std_msgs/String, JSON: joint_names, desired, actual, error,
-  active, status, message, goal_id) at the controller rate and at once on every event
-  (accepted, rejected, preempted, stopped).
-* serves ``/<name>/stop`` (std_srvs/Trigger): stop and hold.
-* parameters ``<name>.fail_after`` and ``<name>.stall_after`` (seconds after a goal starts;
-  negative disables), settable at any time with ``ros2 param set``.
-
-All controllers run in one loop at ``controller_manager.update_rate`` of controllers.yaml (a
-controller with a lower ``update_rate`` runs every N-th loop, as in ros2_control); the broadcaster
-publishes in that loop too when ``publish_rate`` equals it, else on its own timer.
-
-Node parameters: ``robot_description`` / ``robot_description_semantic`` (XML; empty = the
-package's myCobot 280), ``controllers_file`` (empty = config/controllers.yaml), ``publish_rate``
-(Hz of /joint_states) and ``initial_positions.<joint>`` (rad; setting one while its controller is
-idle moves the joint there at once, like resetting a simulator).
-
-All following logic lives in :mod:`mycobot_planning.mock_control.joint_trajectory_follower`.
+The full story: docs/nodes.md, section mycobot_planning.nodes.mock_controllers.
 """
 from __future__ import annotations
 
@@ -107,7 +78,7 @@ class _Controller:
 
 
 class MockControllerManager(Node):
-    """The controller_manager stand-in (see module docstring)."""
+    """The controller_manager stand-in (see docs/nodes.md (mycobot_planning.nodes.mock_controllers))."""
 
     def __init__(self) -> None:
         super().__init__(NODE_NAME)

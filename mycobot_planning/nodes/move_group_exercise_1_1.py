@@ -1,23 +1,6 @@
 """ROSCon 2024 exercise 1-1 on the myCobot: plan to a pick pose, attach, plan to a place pose, detach.
 
-The seed's program (a MoveGroupInterface on a UR arm, hot dog scenario) does, in order:
-
-1. set the pose target to the pick pose above the sausage; plan, retrying up to 5 times; execute;
-2. attach the sausage to the robot; set the pose target to the place pose above the bun; plan
-   (up to 5 attempts); execute;
-3. detach the sausage and, if the place motion was planned, drop it into the bun.
-
-This node does the same through the planning_server (our move_group) with the interfaces_py
-MoveGroupClient, after putting the scene in place (the seed's scenario helper does that in its
-launch file). Poses come from :class:`~mycobot_planning.demos.seed_scenarios.HotDogScenario`,
-scaled to the myCobot's 0.28 m reach; every one of them is a parameter.
-
-Run (with the robot up: ``scripts/robot.sh start``)::
-
-    ros2 run mycobot_planning move_group_exercise_1_1
-    python -m mycobot_planning.nodes.move_group_exercise_1_1 --ros-args -p grasp_height:=0.11
-
-Exit code 0 when the sausage ends in the bun, 1 (with the failed step logged) otherwise.
+The full story: docs/nodes.md, section mycobot_planning.nodes.move_group_exercise_1_1.
 """
 from __future__ import annotations
 
@@ -77,7 +60,7 @@ def reset_objects(arm: MoveGroupClient, ids: list[str], log) -> None:
 
 
 class Exercise11(WorkflowNode):
-    """See the module docstring."""
+    """See docs/nodes.md (mycobot_planning.nodes.move_group_exercise_1_1)."""
 
     def __init__(self) -> None:
         super().__init__(NODE_NAME, PLANNING_SPECS + scenario_specs())

@@ -1,28 +1,6 @@
 """ROSCon 2024 exercise 1-2 on the myCobot: a zig-zag of straight Cartesian moves over the hot dog.
 
-The seed's program (UR arm, the hot dog of exercise 1-1 assembled, the robot holding a mustard
-bottle) does, in order:
-
-1. plan to a start pose just above the hot dog (pose target, up to 5 attempts) and execute;
-2. get the zig-zag waypoints of the mustard stripe from that start pose;
-3. compute a Cartesian path through them with ``eef_step`` 0.002 m (and a jump threshold),
-   which reports the ``fraction`` of the path it could follow;
-4. if the fraction is above 0, execute the path and show the mustard.
-
-This node does the same through the planning_server with the interfaces_py MoveGroupClient. The
-scene (bun, sausage in the bun, the bottle held by the gripper) is put in place first, as the
-seed's launch file does. Poses come from
-:class:`~mycobot_planning.demos.seed_scenarios.HotDogScenario`, scaled to the myCobot's 0.28 m
-reach (a 5 cm zig-zag 12 cm above the hot dog instead of the UR's larger one).
-
-Run (with the robot up: ``scripts/robot.sh start``)::
-
-    ros2 run mycobot_planning move_group_exercise_1_2
-    python -m mycobot_planning.nodes.move_group_exercise_1_2 --ros-args -p eef_step:=0.005
-
-Exit code 0 when the (possibly partial) path was executed, 1 when nothing of it could be
-planned or execution failed; ``min_fraction`` makes a partial path a failure too. The log line
-"Cartesian path: fraction F" reports the fraction.
+The full story: docs/nodes.md, section mycobot_planning.nodes.move_group_exercise_1_2.
 """
 from __future__ import annotations
 
@@ -65,7 +43,7 @@ def _specs() -> list[ParameterSpec]:
 
 
 class Exercise12(WorkflowNode):
-    """See the module docstring."""
+    """See docs/nodes.md (mycobot_planning.nodes.move_group_exercise_1_2)."""
 
     def __init__(self) -> None:
         super().__init__(NODE_NAME, _specs())

@@ -1,23 +1,6 @@
 """Scan-N-Plan's vision node: where is the part? (the seed's LocalizePart service)
 
-The seed's ``vision_node`` keeps the latest AR marker pose from the camera and answers a
-``LocalizePart`` service: the part's pose in the requested base frame, found by transforming the
-marker pose with tf2. Without custom services or tf2 here:
-
-* ``/part_localizer/localize_part`` (std_srvs/Trigger): ``success`` and, in ``message``, the JSON
-  ``{"pose": {"position": [x, y, z], "orientation": [x, y, z, w]}, "frame_id": <base_frame>,
-  "marker_age": seconds}`` (the interfaces_py Pose schema); on failure a sentence saying why
-  (no marker seen yet, marker too old, marker in an unknown frame).
-* JSON-RPC method ``localize_part`` on ``/part_localizer/requests`` (interfaces_py.json_rpc),
-  params ``{"base_frame": "world"}`` (optional), same result, errors as RPC errors: the request
-  form of LocalizePart, for callers that choose the frame.
-
-The transform from the camera to the base frame is the camera's mounting pose, a parameter
-(``camera_pose``, what a static transform publisher gives tf2 in the seed). The default camera
-looks straight down from 0.5 m over the myCobot's workspace (see seed_scenarios).
-
-Parameters: ``marker_topic``, ``base_frame``, ``camera_frame``, ``camera_pose``,
-``max_marker_age`` (0: any age). Runs until Ctrl-C: ``ros2 run mycobot_planning part_localizer``.
+The full story: docs/nodes.md, section mycobot_planning.nodes.part_localizer.
 """
 from __future__ import annotations
 
@@ -52,7 +35,7 @@ def _pose_check(value: Any) -> str | None:
 
 
 class PartLocalizer(Node):
-    """See the module docstring."""
+    """See docs/nodes.md (mycobot_planning.nodes.part_localizer)."""
 
     def __init__(self) -> None:
         super().__init__(NODE_NAME)

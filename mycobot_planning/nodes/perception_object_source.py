@@ -1,44 +1,6 @@
 """Objects from perception for task nodes: ask the perception_server, put the answer in the scene.
 
-Why: the seeds' last step replaces the hard-coded ``object_pose`` of mtc_node with what a
-depth camera sees. This module is the ROS side of that for a task node (mtc_node): it asks the
-perception_server (interfaces_py.perception_client) for the target, expresses the detected
-objects in the node's world frame, and applies them to the planning_server's scene instead of
-the seed's table and cylinder. It needs nothing of mtc_node but ``params`` (node_runtime
-Parameters), ``scene_interface`` (PlanningSceneInterface) and ``model`` (RobotModel), which
-every TaskNode has; a plain node works too (parameters through ``get_parameter``).
-
-Use in a task node (mtc_node)::
-
-    from mycobot_planning.nodes.perception_object_source import (
-        PerceptionObjectSource, perception_parameter_specs)
-
-    specs = [..., *perception_parameter_specs()]          # before TaskNode.__init__
-    self.perception = PerceptionObjectSource(self)         # after it (creates the RPC client)
-
-    def build_task(self):
-        params = self.task_parameters()
-        if self.perception.enabled:                        # use_perception:=true
-            params = self.perception.setup_planning_scene(params)
-        else:
-            self.setup_planning_scene(params)
-        ...
-
-Parameters it declares (:func:`perception_parameter_specs`): ``use_perception`` (bool, false),
-``perception_server`` (read-only node name, /perception_server), ``perception_timeout`` (s).
-The target is the detected cylinder most similar to ``object_dimensions`` [height, radius]:
-the pick-and-place task grasps cylinders, and object_dimensions already says which cylinder
-the user wants, so there is no second pair of target parameters to keep consistent.
-
-What :meth:`PerceptionObjectSource.setup_planning_scene` does: detect; remove the seed's
-``object_name`` / ``table_name`` objects if an earlier run left them (perception replaces them)
-and the objects an earlier perception put there and that are gone now; add the support surface,
-the target and every other detected object (obstacles); return the task parameters with
-``object_name`` = the target's id (cylinder_0), ``object_dimensions`` = the detected height and
-radius, ``object_pose`` = its base, ``table_name`` = the support surface's id (so the task
-allows object–support contact while lifting and placing, as the seed does with its table). Like
-mtc_node's own scene set-up it runs at the first plan and again only when one of those inputs
-changed: after an execution the object stays where the robot left it.
+The full story: docs/nodes.md, section mycobot_planning.nodes.perception_object_source.
 """
 from __future__ import annotations
 
@@ -163,7 +125,7 @@ class PerceivedObjects:
 
 
 class PerceptionObjectSource:
-    """Takes a task node's object from the perception_server (see the module docstring)."""
+    """Takes a task node's object from the perception_server (see docs/nodes.md (mycobot_planning.nodes.perception_object_source))."""
 
     def __init__(self, node: Node, *, server: str | None = None, timeout: float | None = None) -> None:
         self.node = node
@@ -243,7 +205,7 @@ class PerceptionObjectSource:
 
     def setup_planning_scene(self, params: Any, force: bool = False) -> Any:
         """Detect, update the planning_server's scene, and return ``params`` (PickPlaceParameters)
-        pointing at the detected cylinder and support surface (see the module docstring).
+        pointing at the detected cylinder and support surface (see docs/nodes.md (mycobot_planning.nodes.perception_object_source)).
         ValueError when perception or the scene update fails (the task is not built)."""
         key = (tuple(params.object_dimensions), params.world_frame, params.object_name, params.table_name,
                self._server)

@@ -1,51 +1,6 @@
 """perception_server: point cloud → support surface + cylinders and boxes as collision objects.
 
-    ros2 run mycobot_planning perception_server --ros-args --params-file config/perception_server.yaml
-
-The seed's get_planning_scene_server as a node of ours. It subscribes to ``point_cloud_topic``
-(sensor_msgs/PointCloud2, default /camera_head/depth/color/points) and keeps only the latest
-cloud; a request converts and segments that cloud with
-:class:`mycobot_planning.perception.SceneDetector` (nothing is computed for clouds nobody asks
-about). The answer is the seed's GetPlanningScene response as JSON
-(``DetectionResult.to_response()``): ``success``, ``message``, ``target_object_id``,
-``support_surface_id``, ``scene_world`` (interfaces_py PlanningSceneWorld: the support surface
-and the objects cylinder_0.., box_0.. as CollisionObject ADDs in ``target_frame``), a summary per
-object, timings, plus ``frame_id``, ``cloud`` (frame, size, age) and, when applied,
-``applied_to_planning_server``.
-
-Interfaces (std_srvs only, as everywhere in the package):
-
-* JSON-RPC ``get_planning_scene`` on ``/perception_server/requests`` (interfaces_py.json_rpc;
-  client: interfaces_py.perception_client.PerceptionClient), params ``{"target_shape":
-  "cylinder"|"box", "target_dimensions": [h, r] | [x, y, z], "apply": bool}``, all optional
-  (defaults: the parameters below).
-* std_srvs/Trigger ``~/get_planning_scene``: the same with the target parameters; ``success`` as
-  in the answer, ``message`` = the JSON answer (its ``message`` says what was found or why not).
-
-Failures are answers, never crashes: no cloud received yet ("no point cloud received on
-<topic>"), a cloud that cannot be read (missing x/y/z fields, a truncated buffer, only NaNs), a
-cloud in an unknown frame, no support surface, no object of the requested shape — each gives
-``success: false`` and the reason, and the node keeps serving.
-
-Frames (no tf2 in the package): a cloud whose ``header.frame_id`` is ``target_frame`` is used as
-it is (the camera_simulator's default); a cloud in ``cloud_frame_id`` is transformed by
-``cloud_frame_pose`` [x, y, z, roll, pitch, yaw], that frame's pose in ``target_frame`` (for
-optical-frame clouds of a fixed camera; the camera_simulator with output_frame:=camera logs the
-values); any other frame is refused with a message naming these parameters.
-
-``apply_to_planning_server`` (bool, default false): after a successful detection, the support
-surface and the objects are added to the planning_server's scene (interfaces_py.clients
-PlanningSceneInterface), objects a previous detection added and that are gone now are removed,
-and objects the robot holds are left alone.
-
-Parameters: every setting of the pipeline, named as in the seed's get_planning_scene_server.yaml
-(mycobot_planning.perception.params.PerceptionParameters: descriptions and ranges from there;
-``point_cloud_topic`` read-only), every set checked through PerceptionParameters.replace with
-the other current values (a crop box with min above max is refused with the reason; an atomic
-set is checked as a whole, so both bounds can move at once) and used from the next request on; plus
-``target_shape``, ``target_dimensions``, ``apply_to_planning_server``, ``planning_server``,
-``cloud_frame_id``, ``cloud_frame_pose``, ``max_cloud_age`` (s, 0 = any age) and
-``sensor_qos`` (read-only; true subscribes best-effort, as sensor-data publishers need).
+The full story: docs/nodes.md, section mycobot_planning.nodes.perception_server.
 """
 from __future__ import annotations
 
@@ -138,7 +93,7 @@ def _server_check(value: Any) -> str | None:
 
 
 class PerceptionServer(Node):
-    """See the module docstring."""
+    """See docs/nodes.md (mycobot_planning.nodes.perception_server)."""
 
     def __init__(self) -> None:
         super().__init__(NODE_NAME)
@@ -239,7 +194,7 @@ class PerceptionServer(Node):
     # ------------------------------------------------------------------ requests
     def get_planning_scene(self, target_shape: Any = None, target_dimensions: Any = None,
                            apply: bool | None = None) -> dict[str, Any]:
-        """Detect in the latest cloud; the JSON-able answer (see the module docstring)."""
+        """Detect in the latest cloud; the JSON-able answer (see docs/nodes.md (mycobot_planning.nodes.perception_server))."""
         shape = self.params.get("target_shape") if target_shape is None else target_shape
         dims = self.params.get("target_dimensions") if target_dimensions is None else target_dimensions
         apply = bool(self.params.get("apply_to_planning_server")) if apply is None else bool(apply)

@@ -1,24 +1,6 @@
 """ROS-free helpers of the perception nodes: parameters ⇄ camera and scene, and cloud frames.
 
-Why a module of its own: the camera_simulator and perception_server nodes are thin rclpy
-wrappers around :mod:`mycobot_planning.perception`; what is left between ROS parameters and
-that core (flat number lists → camera and ground-truth scene, the cloud's frame → the
-transform into ``target_frame``, one log line per detection) is plain Python, and plain Python
-is what unit tests reach without a ROS graph. Nothing here imports rclpy.
-
-Camera parameters (camera_simulator): ``width``, ``height``, ``horizontal_fov`` (rad),
-``camera_position`` [x, y, z] and ``camera_look_at`` [x, y, z] (the optical axis goes from the
-one to the other; image "up" is towards +z), ``near``, ``far``, ``depth_noise_stddev``,
-``depth_noise_quadratic``, ``dropout_probability``, ``max_incidence_angle_deg``,
-``camera_frame_id``. Their defaults come from the camera of ``scene_file`` (see
-:func:`camera_parameter_defaults`), so ``-p width:=320`` changes the resolution of the file's
-camera and nothing else.
-
-Scene parameters: the scene of ``scene_file``, unless one of ``table_size``, ``cylinders``,
-``boxes`` is non-empty (or there is no file); then the scene is
-:meth:`GroundTruthScene.from_flat_parameters` of ``table_size`` [x, y, z], ``table_pose``
-[x, y, z, roll, pitch, yaw] (the table's centre), ``cylinders`` [x, y, height, radius] * n and
-``boxes`` [x, y, yaw, sx, sy, sz] * n standing on the table, and ``ground_plane_z``.
+The full story: docs/nodes.md, section mycobot_planning.nodes.perception_setup.
 """
 from __future__ import annotations
 
@@ -126,7 +108,7 @@ def scene_parameters_given(values: Mapping[str, Any]) -> bool:
 
 def scene_from_parameters(values: Mapping[str, Any], file_scene: GroundTruthScene | None) -> GroundTruthScene:
     """The ground-truth scene: ``file_scene`` unless the flat parameters describe one (see the
-    module docstring); ``scene_frame_id`` names its frame either way."""
+    docs/nodes.md (mycobot_planning.nodes.perception_setup)); ``scene_frame_id`` names its frame either way."""
     frame = str(values.get("scene_frame_id") or "").strip()
     if not frame:
         raise PerceptionError("scene: scene_frame_id must not be empty")

@@ -1,33 +1,6 @@
 """planning_server: the move_group stand-in (thin rclpy shell around MoveGroupCapabilities).
 
-ROS interface (names from the issue-4 contract; MoveIt's where one exists):
-
-This module is the standard-message face; MoveIt's face (moveit_msgs on move_group's names) is the
-node ``move_group`` of the same process (nodes/move_group.py). Both call the same
-MoveGroupCapabilities.
-
-* in: ``/joint_states`` (sensor_msgs/JointState) -> the monitored scene's current state;
-  ``/planning_server/planning_scene`` (std_msgs/String, JSON PlanningScene diff),
-  ``/planning_server/collision_object`` (JSON CollisionObject),
-  ``/planning_server/attached_collision_object`` (JSON AttachedCollisionObject): scene updates,
-  validated before they are applied (a bad one is logged as a warning and changes nothing).
-* out: ``/planning_server/monitored_planning_scene`` (String, JSON PlanningScene; on change and at
-  ``scene_publish_rate``; transient local so late joiners get the latest),
-  ``/planning_scene_markers`` (visualization_msgs/MarkerArray: world objects and attached
-  objects, which follow their link as the robot moves), ``/planned_path``
-  (trajectory_msgs/JointTrajectory: every planned trajectory).
-* std_srvs/Trigger services: ``~/plan`` (goal from the goal.* parameters), ``~/execute`` (last
-  plan), ``~/plan_and_execute``, ``~/stop``, ``~/get_planning_scene`` (message = JSON scene).
-* JSON-RPC on ``/planning_server/requests`` -> ``/planning_server/responses`` (interfaces_py
-  clients wrap it): get_planning_scene, apply_planning_scene, apply_collision_object,
-  attach_object, detach_object, get_objects, plan, execute, plan_and_execute,
-  compute_cartesian_path, execute_task_solution, stop, get_state.
-* controllers (from ``controllers_file``, MoveIt's moveit_controllers.yaml by default): goals on
-  ros2_control's actions, ``/<controller>/follow_joint_trajectory`` (FollowJointTrajectory) or
-  ``/<controller>/gripper_cmd`` (GripperCommand), cancelled on stop (nodes/controller_bus.py).
-
-Long requests (planning, execution) run on reentrant callback groups of a multi-threaded
-executor, so joint states, scene updates and ``stop`` keep being served while they run.
+The full story: docs/nodes.md, section mycobot_planning.nodes.planning_server.
 """
 from __future__ import annotations
 
@@ -132,7 +105,7 @@ def _declare(node: Node, specs: list[ParameterSpec]) -> Parameters:
 # ---------------------------------------------------------------------------- controllers in ROS
 # ---------------------------------------------------------------------------- the node
 class PlanningServer(Node):
-    """See the module docstring."""
+    """See docs/nodes.md (mycobot_planning.nodes.planning_server)."""
 
     def __init__(self) -> None:
         super().__init__(NODE_NAME)
@@ -536,15 +509,22 @@ class PlanningServer(Node):
         response.message = f"{code.name}: {detail or code.message}" if detail or code.message else code.name
         return response
 
-    def _srv_plan(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+    def _goal_request(self, response: Trigger.Response, what: str) -> dict[str, Any] | None:
+        """The plan request the goal.* parameters describe; None (and ``response`` filled) if they
+        do not describe one."""
         values = {k.split(".", 1)[1]: self._params.get(k)
                   for k in ("goal.group", "goal.named_target", "goal.joint_values", "goal.pose", "goal.link")}
         last = self._goal_last_set.split(".", 1)[1] if self._goal_last_set else None
         try:
-            params = goal_from_parameters(values, last)
+            return goal_from_parameters(values, last)
         except RequestError as exc:
             response.success, response.message = False, f"INVALID_GOAL_CONSTRAINTS: {exc.message}"
-            self.get_logger().warning(f"plan refused: {exc.message}")
+            self.get_logger().warning(f"{what} refused: {exc.message}")
+            return None
+
+    def _srv_plan(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        params = self._goal_request(response, "plan")
+        if params is None:
             return response
         result = self.core.plan(params)
         goal = params["goal"]
@@ -561,13 +541,8 @@ class PlanningServer(Node):
         return self._trigger(response, self.core.execute({}))
 
     def _srv_plan_and_execute(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
-        values = {k.split(".", 1)[1]: self._params.get(k)
-                  for k in ("goal.group", "goal.named_target", "goal.joint_values", "goal.pose", "goal.link")}
-        last = self._goal_last_set.split(".", 1)[1] if self._goal_last_set else None
-        try:
-            params = goal_from_parameters(values, last)
-        except RequestError as exc:
-            response.success, response.message = False, f"INVALID_GOAL_CONSTRAINTS: {exc.message}"
+        params = self._goal_request(response, "plan_and_execute")
+        if params is None:
             return response
         return self._trigger(response, self.core.plan_and_execute(params))
 

@@ -1,23 +1,6 @@
 """Scan-N-Plan's application node: ask the vision node where the part is, move the tool there.
 
-The seed's ``myworkcell_node`` calls the vision node's LocalizePart service, takes the returned
-pose (in ``base_frame``) as the goal of the tool frame, gets the current robot state from the
-planning scene monitor, plans with MoveItCpp (plan_request_params: ompl, 10 s, 3 attempts,
-velocity and acceleration scaling 0.5) and executes the plan. Here:
-
-1. call ``<localizer>/localize_part`` (std_srvs/Trigger; the pose comes back as JSON), retrying
-   until ``localize_timeout`` while no marker has been seen yet;
-2. set that pose as the target of ``tool_frame`` (empty: the group's tip link, ``link6_flange``
-   on the myCobot) and plan through the planning_server, which plans from the current state it
-   monitors on /joint_states;
-3. execute the plan.
-
-Run (with the robot, the marker publisher and the localizer up)::
-
-    ros2 run mycobot_planning scan_n_plan
-    python -m mycobot_planning.nodes.scan_n_plan --ros-args -p tool_frame:=gripper_base
-
-Exit code 0 when the tool reached the part, 1 (with the failed step logged) otherwise.
+The full story: docs/nodes.md, section mycobot_planning.nodes.scan_n_plan.
 """
 from __future__ import annotations
 
@@ -50,7 +33,7 @@ def _specs() -> list[ParameterSpec]:
 
 
 class ScanNPlan(WorkflowNode):
-    """See the module docstring."""
+    """See docs/nodes.md (mycobot_planning.nodes.scan_n_plan)."""
 
     def __init__(self) -> None:
         super().__init__(NODE_NAME, _specs())

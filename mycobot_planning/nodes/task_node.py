@@ -1,56 +1,6 @@
 """The shared base of the task nodes (modular, fallbacks_move_to, ik_clearance_cost, mtc_node, ...).
 
-MTC demos all do the same around their task: load the robot model, take the current scene
-from move_group, ``plan()``, log printState and a stage summary, publish the solution for
-RViz, optionally ``execute()`` it, and keep spinning so the result can be inspected. This
-module does that once, so a task node only says how its task is built::
-
-    from mycobot_planning.nodes.task_node import TaskNode, run_task_node
-    from mycobot_planning.nodes.node_runtime import ParameterSpec
-    from mycobot_planning.task import demos
-
-    class ModularDemo(TaskNode):
-        def __init__(self) -> None:
-            super().__init__("modular_demo", title="modular demo")
-
-        def build_task(self):               # called for every (re-)plan
-            return demos.build_modular_task(self.model, seed=self.seed)
-
-    def main(args=None):
-        sys.exit(run_task_node(ModularDemo, args))
-
-What the base provides (names relative to the node, e.g. ``/modular_demo``):
-
-* Parameters (declared through node_runtime, refused with a reason when invalid):
-  ``execute`` (bool, false) execute the best solution after the start-up planning; setting it
-  to true later (``ros2 param set /modular_demo execute true``) executes the current best
-  solution without re-planning. ``exit_when_done`` (bool, false) exit after the start-up
-  planning (and execution, if asked) with code 0 on success, EXIT_PLANNING_FAILED (2) or
-  EXIT_EXECUTION_FAILED (3) otherwise; run_node exits 1 for bad configuration.
-  ``max_solutions`` (int >= 0, 0 = all), ``planning_timeout`` (s, 0 = none), ``seed`` (int,
-  -1 = a different random sequence every time), ``planning_server`` (read-only server node
-  name), ``server_timeout`` (s to wait for the planning_server), ``exit_linger`` (s the node
-  lives at least before exit_when_done exits, so late-discovering subscribers still receive
-  the latched topics; the exit also waits until matched subscribers acknowledged them). Subclasses add their own
-  through ``parameters=[ParameterSpec(...)]`` and read them with ``self.params.get(name)``.
-* CurrentState: the task's scene provider fetches the planning_server's scene (JSON-RPC
-  ``get_planning_scene``) each time the task plans (:meth:`TaskNode.fetch_scene`).
-* After planning: the log gets "Task planning completed successfully", "Found N solutions",
-  "Task state:" + printState exactly as task.introspection gives it, the solutions with their
-  costs and comments, and "Stage summary:" with one "  <stage>: N solutions, M failures" line
-  per top-level stage (the seeds' output); a failure logs its error code and explainFailure.
-  Topics (see nodes/task_topics.py): ``~/task/description``, ``~/task/statistics``,
-  ``~/task/solution`` (the best solution as interfaces_py TaskSolution JSON) and
-  ``/planned_path`` (trajectory_msgs/JointTrajectory of the whole best solution:
-  positions and velocities, no accelerations, as execution.timed_to_joint_trajectory sends
-  planned trajectories; a solution without motion, e.g. an IK pose, is shown as one point).
-* Execution: the best TaskSolution goes to move_group's ``/execute_task_solution`` action (MTC's capability; moveit_task_constructor_msgs)
-  (it runs the sub-trajectories on their controllers and applies the scene diffs between them).
-* std_srvs/Trigger services ``~/plan`` (re-plan, rebuilding the task so changed parameters
-  apply; does not execute) and ``~/execute`` (execute the current best solution).
-
-Planning and execution run one at a time (a lock); the start-up work runs on a worker thread
-so the node answers parameter and service requests meanwhile.
+The full story: docs/nodes.md, section mycobot_planning.nodes.task_node.
 """
 from __future__ import annotations
 
@@ -198,7 +148,7 @@ def _duration(msg: TaskSolution) -> float:
 
 # ---------------------------------------------------------------------------- the node
 class TaskNode(Node):
-    """Base class of task nodes; subclasses implement :meth:`build_task` (see module docstring).
+    """Base class of task nodes; subclasses implement :meth:`build_task` (see docs/nodes.md (mycobot_planning.nodes.task_node)).
 
     Public API for subclasses and tests:
 

@@ -1,38 +1,6 @@
 """Task introspection topics: how a node shows its tasks to the task viewer (MTC's introspection).
 
-MoveIt Task Constructor publishes ``description``, ``statistics`` and ``solution`` topics under
-the task's introspection namespace, and RViz's Motion Planning Tasks panel subscribes to them.
-Our equivalent, with JSON in ``std_msgs/String`` (interfaces_py schemas) because the design
-card allows standard messages only:
-
-=====================================  =========================================  ==============
-topic                                  content                                    QoS
-=====================================  =========================================  ==============
-``/<node>/task/description``           ``interfaces_py.msgs.TaskDescription``     reliable,
-                                       (the stage tree, parents before children)  transient local,
-                                                                                  depth 1
-``/<node>/task/statistics``            ``TaskStatistics`` (per stage: solution    same
-                                       ids and costs, failures, compute time)
-``/<node>/task/solution``              ``TaskSolution`` (a complete solution:     reliable,
-                                       start scene + steps, each naming its       transient local,
-                                       stage in ``info.stage_id``)                depth 16
-=====================================  =========================================  ==============
-
-``<node>`` is the publishing node's fully qualified name (``/mtc_node``, ``/ns/pick_place_demo``).
-Transient local keeps the latest description and statistics and the last 16 solutions for a
-viewer that starts later, as a latched topic would. The ``task_id`` of the messages tells
-several tasks of one node apart. The viewer finds publishers by polling the ROS graph for
-String topics whose names end in ``/task/description``, ``/task/statistics`` or
-``/task/solution``: nothing needs configuring.
-
-A task node does::
-
-    introspection = TaskIntrospection(node)
-    task.plan(max_solutions=5)
-    introspection.publish(task)          # description, statistics, the best solutions
-
-The publishing helper lives here (rclpy); the messages are built by the ROS-free
-``Task.description() / statistics() / to_msg()``.
+The full story: docs/nodes.md, section mycobot_planning.nodes.task_topics.
 """
 from __future__ import annotations
 
@@ -107,7 +75,7 @@ def parse_task_topic(topic: str) -> tuple[str, str] | None:
 
 
 class TaskIntrospection:
-    """Publishes a node's tasks on the three task topics (see the module docstring), and on MTC's
+    """Publishes a node's tasks on the three task topics (see docs/nodes.md (mycobot_planning.nodes.task_topics)), and on MTC's
     own introspection interface (moveit_task_constructor_msgs on ``/description``,
     ``/statistics``, ``/solution``, and the ``/get_solution`` service), as an MTC task with the
     default namespace does, so RViz's Motion Planning Tasks panel shows our tasks."""

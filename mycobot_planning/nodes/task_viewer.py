@@ -1,27 +1,6 @@
 """task_viewer: RViz's robot display and Motion Planning Tasks panel, as a local web page.
 
-``ros2 run mycobot_planning task_viewer`` serves http://127.0.0.1:8080/ (the ``host`` and
-``port`` parameters; localhost only by default, since the page can be used without a password;
-port 0 picks a free one, a busy one the next free). The page needs no internet: the viewer
-library (viser) ships its built client.
-
-In (all optional; the page fills in as they arrive):
-
-* ``/joint_states`` (sensor_msgs/JointState): the live robot (blue), at most
-  ``max_update_rate`` updates per second, always the newest state (a burst never queues).
-* ``/planning_server/monitored_planning_scene`` (std_msgs/String, JSON PlanningScene, transient local): the
-  world objects and attached objects.
-* ``/planned_path`` (trajectory_msgs/JointTrajectory, transient local): animated from
-  the live state (orange robot) when ``auto_play_planned_path``.
-* task topics of any node, found by polling the graph every ``discovery_period`` s: see
-  ``mycobot_planning.nodes.task_topics`` (``/<node>/task/description``, ``.../statistics``,
-  ``.../solution``). Each task's stage tree is listed; choosing a stage and one of its
-  solutions shows that part of the solution and animates it (play / pause / time slider).
-
-Out: ``~/url`` (std_msgs/String, transient local): the page's address, for scripts. JSON-RPC on
-``/task_viewer/requests`` (interfaces_py.json_rpc): ``get_state`` (what the page shows: robot,
-objects and colours, tasks, preview, joint-state display lag), ``select`` {task, stage,
-solution}, ``play``, ``pause``, ``seek`` {time}, ``show_live``, ``get_display_lags`` {reset}.
+The full story: docs/nodes.md, section mycobot_planning.nodes.task_viewer.
 """
 from __future__ import annotations
 
@@ -61,7 +40,7 @@ def _host_check(value: Any) -> str | None:
 
 
 class TaskViewerNode(Node):
-    """See the module docstring."""
+    """See docs/nodes.md (mycobot_planning.nodes.task_viewer)."""
 
     def __init__(self) -> None:
         super().__init__(NODE_NAME)

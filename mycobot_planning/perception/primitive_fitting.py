@@ -1,36 +1,6 @@
 """Cylinder or box? Circle and line models on the support-plane projection, with Hough voting.
 
-Objects stand on the support plane, so their walls project onto the plane as curves: a
-cylinder's visible wall becomes an arc of a circle, a box's visible walls become one or two
-perpendicular line segments. That holds however little of the object the camera sees, which is
-what makes the approach (Goron et al., ROBOTIK 2012, as the seed's appendix uses it) robust to
-one-sided views.
-
-Per cluster (:func:`fit_primitive`):
-
-1. Express the cluster in the plane frame (u, v along the plane, h the height above it) and
-   split it into *wall* points (normal nearly horizontal) and *cap* points (normal nearly
-   vertical: box tops, cylinder lids).
-2. ``num_iterations`` rounds. In each round, on a working copy of the wall points, RANSAC fits
-   a 2D line and a 2D circle; their inliers are filtered as the seed describes (Euclidean
-   clusters of inliers: at most ``circle_max_clusters`` / ``line_max_clusters``, two circle
-   clusters must reach the same height; curvature above / below a threshold; a circle inlier's
-   RSD radius close to the circle's radius; the point's horizontal normal radial to the circle
-   / perpendicular to the line). A model keeping at least ``inlier_threshold`` points is valid;
-   of the two, the one keeping more votes — into a 3D Hough space (centre u, centre v, radius)
-   for circles, into a (theta, rho) space for lines — with its filtered inlier count as the
-   weight. Its inliers leave the working set and the round goes on until too few points remain.
-3. Neighbouring Hough bins are clustered: circles by (centre, radius) bins, lines by their
-   direction modulo 90 degrees, because both visible walls of one box vote for the same yaw.
-   The best line cluster and the best circle cluster compete; more votes wins.
-4. The winner becomes a 3D primitive with its bottom on the plane: a cylinder from a geometric
-   least-squares circle over all agreeing wall points, its top at the object's top; a box
-   whose yaw is the vote-weighted line direction, whose footprint is the extent of the points
-   along and across that direction, and whose height is the object's top.
-
-Thresholds that are distances or curvatures are compared against the measured sensor noise
-(:class:`NoiseModel`, from the support plane) and never set below what the noise allows; the
-seed's values were tuned on noise-free simulated clouds.
+The full story: docs/perception.md, section mycobot_planning.perception.primitive_fitting.
 """
 from __future__ import annotations
 
@@ -311,7 +281,7 @@ def _cluster_count_ok(local: np.ndarray, tolerance: float, min_size: int, max_cl
 
 
 class PrimitiveFitter:
-    """Fits one cylinder or box per cluster (see module docstring). Stateless apart from the
+    """Fits one cylinder or box per cluster (see docs/perception.md (mycobot_planning.perception.primitive_fitting)). Stateless apart from the
     parameters, the plane frame and the noise model of the current cloud."""
 
     def __init__(self, params: PerceptionParameters, frame: PlaneFrame, noise: NoiseModel) -> None:

@@ -1,27 +1,6 @@
 """Cost terms: how a stage ranks its solutions (MTC's cost_terms.h).
 
-A stage's cost term is applied to every successful solution it produces, before the solution is
-stored; the cost orders the stage's solutions and, summed along a sequence, the task's. A term
-may also return a comment (the Clearance term names the closest bodies), which is appended to
-the solution's comment. A term returning ``inf`` turns the solution into a failure.
-
-* ``CostTerm`` (every stage's default): keep the cost the stage set (e.g. ComputeIK's distance
-  to the current state).
-* ``Constant(c)``: always ``c``.
-* ``PathLength(joints=None)``: joint-space length of the trajectory (sum over joints of the
-  absolute motion between consecutive points, MoveIt's RobotState::distance), optionally
-  weighted per joint. MoveTo, MoveRelative and Connect use it by default.
-* ``TrajectoryDuration``: execution time (s).
-* ``LinkMotion(link)``: Cartesian path length (m) of a link's origin.
-* ``Clearance(with_world=True, cumulative=False, group_property="group", mode=AUTO)``: 1/(d+1e-5)
-  for the distance d of the group's links to the world (with_world) or to the robot itself; on
-  trajectories the average over the waypoints. ``cumulative`` sums each link's own minimum
-  distance instead of taking the overall minimum (MoveIt sums per body pair; we have per-link
-  minima from the scene, the closest analogue).
-* ``DistanceToReference(reference, mode, weights)``: distance to a reference joint state.
-* any callable ``f(solution) -> cost`` or ``-> (cost, comment)`` (``LambdaCostTerm``).
-
-For sequences (containers) trajectory terms sum their children's costs, as in MTC.
+The full story: docs/task.md, section mycobot_planning.task.cost_terms.
 """
 from __future__ import annotations
 

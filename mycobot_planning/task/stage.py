@@ -1,47 +1,6 @@
 """Stages, interface states and solutions: the planning engine of the task constructor.
 
-How MTC plans, and therefore how this module is built
------------------------------------------------------
-A task is a tree of stages. Leaves compute; containers combine. Stages talk only through
-*interfaces*: ordered lists of :class:`InterfaceState` (a planning scene plus a few properties).
-Each stage has up to four connections to its neighbours:
-
-* ``starts`` / ``ends``: its own pull interfaces, where neighbours put states for it to work on;
-* ``prev_ends`` / ``next_starts``: the neighbours' pull interfaces it pushes new states into.
-
-What a stage reads and writes defines its kind (MTC's interface flags):
-
-* a **generator** (CurrentState, FixedState, GeneratePose, ComputeIK) writes both ways:
-  ``← →``;
-* a **propagator** (MoveTo, MoveRelative, ModifyPlanningScene) reads one side and writes the
-  other: forward ``→ →`` or backward ``← ←``. Which one is not fixed when the stage is built:
-  the container resolves it from the neighbours when the task is initialised, so a stage
-  after a generator propagates forward and one before it backward;
-* a **connector** (Connect) reads both sides, ``→ ←``, and plans between pairs of states.
-
-Every computed result is a *solution* (:class:`SubTrajectory`, or a :class:`SolutionSequence`
-/ :class:`WrappedSolution` built by containers) linking a start and an end state. Failures are
-solutions with infinite cost and a comment, kept for introspection. A SerialContainer joins its
-children's solutions into end-to-end sequences as soon as they connect, and lifts them to its
-own interfaces, so a task's solutions are complete, costed paths, sorted by cost.
-
-States waiting in an interface are processed best first: the longest partial solution they
-belong to, then the lowest cost (MTC's state priority), so planning effort goes to the
-branches closest to a full solution.
-
-Where we differ from MTC: the schedule. MTC's SerialContainer computes every child that can
-compute once per round, so every open branch advances at the same pace, and on the seeds' pick
-and place the first solution waits for lifts, approaches and connects of grasps that are not
-needed yet. Here a SerialContainer computes one child per step: the one holding the most
-promising pending work (:meth:`Stage._schedule_key`), ranked like the states themselves, with
-one addition: a state made by a monitoring generator (the place poses derived from a lifted
-grasp) carries the depth of the partial solution it derives from (``lineage_depth``), so the
-place side of a grasp that got far is worked on before new grasps. Every pending item is still
-processed (each step consumes one), so a task planned to exhaustion still works through every
-state and pair MTC would; with ``max_solutions`` the first solutions come sooner (on the pick and
-place about a third sooner) and may be other ones than MTC would find first.
-
-Nothing here imports rclpy.
+The full story: docs/task.md, section mycobot_planning.task.stage.
 """
 from __future__ import annotations
 

@@ -1,25 +1,6 @@
 """Task: a robot model, a start scene and a tree of stages, planned into sorted solutions.
 
-Usage, as with MTC's Python bindings::
-
-    task = Task("pick", model, scene)
-    task.add(stages.CurrentState("current"))
-    move = stages.MoveTo("move to ready", solvers.JointInterpolationPlanner())
-    move.group = "arm"
-    move.setGoal("ready")
-    task.add(move)
-    if task.plan(max_solutions=10):
-        task.printState()
-        msg = task.to_msg()            # interfaces_py TaskSolution of the best solution
-
-``plan(max_solutions)`` runs until that many complete solutions exist (0: until nothing is left
-to compute), the task's timeout expires or ``preempt()`` is called, and returns a
-MoveItErrorCode (truthy on success). Misconfiguration is reported by ``init()`` (called by
-``plan``) as one InitStageException naming every bad stage and property.
-
-Where the start comes from: CurrentState takes the scene given to the Task (``scene``), or, in
-a node, the result of ``setSceneProvider(fetch)``, a callable ``fetch(timeout) -> PlanningScene``
-that asks the planning_server. ``seed`` makes sampling (IK restarts, OMPL) reproducible.
+The full story: docs/task.md, section mycobot_planning.task.task.
 """
 from __future__ import annotations
 

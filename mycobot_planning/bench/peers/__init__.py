@@ -1,27 +1,6 @@
 """The `peers` benchmark: the same Panda pose-goal problems solved by us, mplib and pyroboplan.
 
-The peers are benchmark-only. Each runs in its own virtual environment that
-:func:`venvs.ensure_peer_venv` creates on demand (never a dependency of the package), executing a
-standalone runner script (``mplib_runner.py`` / ``pyroboplan_runner.py``) that reads the problems
-as JSON and prints one JSON result per problem. Nothing here imports a peer library.
-
-Typical use (what the ``peers`` scenario does)::
-
-    problems = panda_pose_problems(count=20, seed=0)
-    peer_runs = run_peers(problems, time_limit=1.0)
-    ours = run_ours(problems, plan=my_plan)          # injection point for our planner
-    report = compare(ours, peer_runs)
-    for record in report_records(report): emit(record)
-
-A result (ours or a peer's) is a dict::
-
-    index, success, seconds, status, waypoints, path_length, goal_position_error,
-    goal_rotation_error, path_valid, path_problem
-
-``success`` means the planner returned a path whose last state reaches the goal pose (1 cm /
-0.02 rad); ``path_valid`` says whether that path also passes our independent check (starts at
-the start state, stays within joint limits, collision-free at 0.02 rad interpolation, using
-Pinocchio + Coal on example-robot-data's Panda and the boxes).
+The full story: docs/bench.md, section mycobot_planning.bench.peers.__init__.
 """
 from __future__ import annotations
 

@@ -1,28 +1,6 @@
 """Solve the benchmark's Panda pose-goal problems with mplib (run by the mplib peer venv's Python).
 
-Standalone on purpose: this file runs in a venv that has mplib and numpy but not
-mycobot_planning, so it imports only the standard library, numpy and mplib.
-
-Input: one JSON request on stdin, or in the file named by the first argument::
-
-    {"urdf": path, "srdf": path, "time_limit": seconds, "problems": [problem, ...]}
-
-(problems as made by ``mycobot_planning.bench.peers.problems``). Output on stdout: one JSON line
-``{"meta": true, "peer": "mplib", "version", "setup_seconds"}`` then one line per problem::
-
-    {"index", "success", "claimed_success", "seconds", "status", "waypoints", "path_length",
-     "goal_position_error", "goal_rotation_error", "path"}
-
-``path`` is the arm-joint waypoints of the returned trajectory (TOPP-RA samples at 0.1 s), so the
-parent process can check it against the problem with its own collision checker.
-
-``seconds`` is wall time around ``Planner.plan_pose`` alone: that call does mplib's IK (CLIK
-with 20 random restarts, collision-checked), OMPL RRTConnect with ``planning_time`` = the time
-limit, path simplification and TOPP-RA time parameterisation. Loading the robot and adding the
-boxes happen once before, untimed, and one untimed warm-up plan runs first.
-
-mplib and OMPL print to stdout (e.g. "Invalid start state!"), so the real stdout is kept for the
-JSON lines and file descriptor 1 is pointed at stderr while the library runs.
+The full story: docs/bench.md, section mycobot_planning.bench.peers.mplib_runner.
 """
 from __future__ import annotations
 

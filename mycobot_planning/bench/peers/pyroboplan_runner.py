@@ -1,32 +1,6 @@
 """Solve the benchmark's Panda pose-goal problems with pyroboplan (run by its peer venv's Python).
 
-Standalone on purpose: this file runs in a venv that has pyroboplan, pin (Pinocchio + Coal) and
-numpy but not mycobot_planning, so it imports only the standard library, numpy, pinocchio, coal
-and pyroboplan.
-
-Input: one JSON request on stdin, or in the file named by the first argument::
-
-    {"urdf": path, "srdf": path, "time_limit": seconds, "problems": [problem, ...]}
-
-Output on stdout: one ``{"meta": true, ...}`` line, then one JSON line per problem with the same
-keys as mplib_runner.py (index, success, claimed_success, seconds, status, waypoints, path_length,
-goal_position_error, goal_rotation_error, path).
-
-pyroboplan has no pose-goal planning call, so a pose goal is what its examples do: DifferentialIk
-(collision-checked, random restarts) for the goal configuration, seeded from the start state,
-then RRTPlanner from the start to that configuration, then shortcut_path. ``seconds`` is wall
-time around those three calls together. Settings follow pyroboplan's Panda examples
-(examples/differential_ik.py, examples/rrt_panda.py) with RRT-Connect switched on
-(``rrt_connect`` + ``bidirectional_rrt``) and ``max_planning_time`` = the benchmark time limit.
-
-The model is example-robot-data's Panda (the URDF given in the request), self-collision pairs
-from its SRDF as ``pyroboplan.models.panda.add_self_collisions`` does, and the finger joints
-locked at the problem's finger values with Pinocchio's buildReducedModel, so pyroboplan plans
-over the same 7 arm joints as the other planners (its examples instead leave the fingers in the
-model and tell IK to ignore them, which makes the RRT sample finger positions as well).
-
-pyroboplan prints progress with print(), so fd 1 is pointed at stderr while it runs and the JSON
-lines go to the original stdout.
+The full story: docs/bench.md, section mycobot_planning.bench.peers.pyroboplan_runner.
 """
 from __future__ import annotations
 

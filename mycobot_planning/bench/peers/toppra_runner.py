@@ -1,31 +1,6 @@
 """Time the benchmark's joint-space paths with toppra (run by the toppra peer venv's Python).
 
-Standalone on purpose: this file runs in a venv that has toppra and numpy but not
-mycobot_planning, so it imports only the standard library and numpy at module level; toppra is
-imported inside :func:`solve_toppra` alone. That keeps the measures (:func:`sampled_metrics`,
-:func:`polyline_distance`) importable by the parent process, which applies the very same code
-to our trajectories, and by the unit test, which runs :func:`evaluate` with a stand-in solver.
-
-Input: one JSON request on stdin, or in the file named by the first argument::
-
-    {"repeat": R, "sample_period": 0.001, "grids": ["default", "dense"], "dense_max_step": 0.001,
-     "paths": [{"name", "set", "waypoints": [[q...], ...], "vmax": [...], "amax": [...]}, ...]}
-
-Output on stdout: ``{"meta": true, "peer": "toppra", "version", "numpy", "scipy"}``, then one
-line per path and grid::
-
-    {"name", "set", "grid", "success", "status", "gridpoints", "compute_ms": [R values],
-     "duration_s", "max_vel_ratio", "max_acc_ratio", "max_deviation", "samples"}
-
-How toppra is used (its documented pipeline): ``SplineInterpolator`` through the waypoints over
-the normalised chord length s in [0, 1] (scipy CubicSpline, not-a-knot: the same curve family as
-ours), ``JointVelocityConstraint`` + ``JointAccelerationConstraint`` (toppra's default
-discretisation), ``algorithm.TOPPRA`` with gridpoints ``default`` (toppra's own proposal: >= 100
-points, error threshold 1e-3) or ``dense`` (every waypoint, intervals split to <= dense_max_step
-in s), ``compute_trajectory(0, 0)`` and its default output (a cubic spline in time through the
-grid points). ``compute_ms`` is wall time of spline + TOPPRA set-up + compute_trajectory, once
-per repeat after one untimed warm-up per path; the measures come from the last solve (the
-result is deterministic).
+The full story: docs/bench.md, section mycobot_planning.bench.peers.toppra_runner.
 """
 from __future__ import annotations
 
@@ -117,7 +92,7 @@ Solver = Callable[..., tuple[Any, int]]
 
 
 def evaluate(request: dict, solve: Solver = solve_toppra) -> Iterator[dict[str, Any]]:
-    """One record per path and grid (see the module docstring). ``solve`` is the injection
+    """One record per path and grid (see docs/bench.md (mycobot_planning.bench.peers.toppra_runner)). ``solve`` is the injection
     point: same signature as :func:`solve_toppra`, returning an object with ``duration`` and
     ``__call__(ts, order)`` (toppra's trajectory interface), or None on failure."""
     repeat = int(request.get("repeat", 1))

@@ -37,7 +37,7 @@ def set_ompl_log_level(level: str) -> None:
 
     OMPL logs at INFO by default: several lines per solve. We set WARN at import. A Python
     OutputHandler is deliberately not used: OMPL logs from planner threads too, and a Python
-    handler would need the GIL there (see the module docstring on PRM).
+    handler would need the GIL there (see docs/ompl.md on PRM).
     """
     try:
         ou.setLogLevel(_LOG_LEVELS[level.upper()])

@@ -53,7 +53,7 @@ class OmplResult:
 
 class _CallbackContext:
     """State shared by the validity bridge and plan_joint_space. Holds no OMPL object except,
-    during solve only, the termination condition (cleared in ``finally``; see module docstring)."""
+    during solve only, the termination condition (cleared in ``finally``; see docs/ompl.md)."""
 
     __slots__ = ("error", "ptc", "cancelled")
 
@@ -241,7 +241,7 @@ def plan_joint_space(
     validity-checking resolution (MoveIt's ``interpolate()``); n > 0 additionally guarantees at
     least n states (MoveIt's ``minimum_waypoint_count``). ``projection_dims`` are the state
     dimensions KPIECE-family planners project onto (default: the first two). ``seed`` (>= 1)
-    reseeds OMPL's global RNG first (see module docstring for what that makes reproducible).
+    reseeds OMPL's global RNG first (see docs/ompl.md for what that makes reproducible).
     ``cancel`` (e.g. a ``threading.Event``, set from another thread: an action server's cancel)
     stops planning or simplification within one state check; the result is then ``ABORT``.
 

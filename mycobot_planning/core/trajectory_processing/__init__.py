@@ -1,20 +1,3 @@
 """Timing of joint-space paths (MoveIt's trajectory_processing): the front door and its two methods."""
-from .time_parameterization import (
-    DEFAULT_MAX_DEVIATION,
-    DEFAULT_SAMPLE_PERIOD,
-    TimeParameterizationError,
-    TimedTrajectory,
-    path_deviation,
-    retime,
-    time_parameterize,
-)
-
-__all__ = [
-    "DEFAULT_MAX_DEVIATION",
-    "DEFAULT_SAMPLE_PERIOD",
-    "TimeParameterizationError",
-    "TimedTrajectory",
-    "path_deviation",
-    "retime",
-    "time_parameterize",
-]
+from .time_parameterization import *  # noqa: F401,F403 - the front door's names
+from .time_parameterization import __all__  # noqa: F401

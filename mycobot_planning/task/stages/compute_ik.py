@@ -1,23 +1,7 @@
 """ComputeIK: turn the target poses of a wrapped generator into arm configurations (MTC's
 stages::ComputeIK).
 
-For every solution of the wrapped generator (GenerateGraspPose, GeneratePlacePose,
-GeneratePose, or any generator such as FixedState with the target set on ComputeIK itself) it
-solves IK for ``target_pose`` (usually read from the interface state) and spawns up to
-``max_ik_solutions`` configurations at least ``min_solution_distance`` apart (sum of joint
-distances). Colliding solutions are kept as failures naming the contact (unless
-``ignore_collisions``). The default cost is the joint distance to the current state (or to
-the named ``default_pose``); set a cost term (e.g. Clearance) to rank them otherwise.
-
-``ik_frame`` is the frame placed at the target: a link, a rigid offset from one
-(``setIKFrame(pose, link)``, e.g. the TCP), or an attached object; by default the group's tip.
-
-Search: MoveIt asks its IK plugin for solutions from random seeds until the timeout (the
-group's kinematics_solver_timeout by default). We stop earlier when the search is saturated:
-SATURATION_ATTEMPTS restarts in a row without a new distinct solution end it, because a 6-joint
-arm has few IK branches and further restarts only re-find them; and a target that none of the
-first UNREACHABLE_ATTEMPTS attempts reaches counts as out of reach. This keeps "find all
-distinct solutions" to milliseconds instead of the full timeout.
+The full story: docs/task.md, section mycobot_planning.task.stages.compute_ik.
 """
 from __future__ import annotations
 
