@@ -1,6 +1,8 @@
 """Shared fixtures: the robots every core test runs on (built once per session)."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from mycobot_planning.core import RobotModel
@@ -20,17 +22,25 @@ def panda() -> RobotModel:
 
 
 #: Names whose presence in a test module means it talks ROS (nodes, processes, rclpy contexts).
-_ROS_NAMES = ("rclpy", "NodeProcess", "ros_env", "use_session_domain", "session_domain_id", "RobotProcesses")
+ROS_NAMES = ("rclpy", "NodeProcess", "ros_env", "use_session_domain", "session_domain_id", "RobotProcesses")
+#: Where the tests that start nodes or processes live: the slow part of the suite.
+ROS_TEST_DIR = Path(__file__).resolve().parent / "ros"
 
 
 def pytest_configure(config: pytest.Config) -> None:
-    config.addinivalue_line("markers", "ros: starts ROS nodes or processes, or uses rclpy "
-                                       "(`./scripts/test.sh -m 'not ros'` runs the fast rest)")
+    config.addinivalue_line("markers", "ros: starts ROS nodes or processes, or uses rclpy; every test "
+                                       "under test/ros/ (`./scripts/test.sh -m 'not ros'` runs the fast rest)")
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Mark every test of a module that uses ROS, so the fast unit set is one option away."""
+    """Mark every test under test/ros/, so the fast unit set is one option away; a module elsewhere
+    that uses ROS is a collection error, so the fast set never starts a node."""
     for item in items:
-        module = getattr(item, "module", None)
-        if module is not None and any(name in vars(module) for name in _ROS_NAMES):
+        path = Path(str(item.path)).resolve()
+        if ROS_TEST_DIR in path.parents:
             item.add_marker(pytest.mark.ros)
+            continue
+        module = getattr(item, "module", None)
+        used = [name for name in ROS_NAMES if module is not None and name in vars(module)]
+        if used:
+            raise pytest.UsageError(f"{path} uses {used}: tests that talk ROS belong in test/ros/")

@@ -6,13 +6,25 @@ in its own process group and killed with it at the end, even when a test fails.
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import subprocess
+import threading
 import sys
 import time
 from pathlib import Path
-from typing import Callable, Iterable
+from typing import Any, Callable, Iterable, Iterator
+
+import rclpy
+from rcl_interfaces.srv import SetParameters
+from rclpy.context import Context
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from std_srvs.srv import Trigger
+
+from mycobot_planning.paths import config_file
 
 REPO = Path(__file__).resolve().parent.parent
 PYTHON = sys.executable
@@ -99,3 +111,97 @@ def wait_until(predicate: Callable[[], bool], timeout: float, period: float = 0.
             return True
         time.sleep(period)
     return predicate()
+
+
+class ProbeNode:
+    """An in-test rclpy node on a private context (so several can live in one pytest process),
+    spun on a background thread once ``spin_in_background`` is called; what every ROS test's
+    probe shares: service clients by name, Trigger calls, parameter sets, and a clean close."""
+
+    def __init__(self, name: str, executor: Any = None) -> None:
+        self.context = Context()
+        rclpy.init(context=self.context)
+        self.node = Node(name, context=self.context)
+        self.executor = executor(self.context) if executor else SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self.lock = threading.Lock()
+        self.clients: dict[str, Any] = {}
+        self.thread: threading.Thread | None = None
+
+    def collect(self, msg_type: Any, topic: str, qos: Any = 10) -> list[Any]:
+        """Subscribe to ``topic``; the returned list receives every message (under ``lock``)."""
+        received: list[Any] = []
+
+        def on_message(msg: Any) -> None:
+            with self.lock:
+                received.append(msg)
+
+        self.node.create_subscription(msg_type, topic, on_message, qos)
+        return received
+
+    def listen_to_joint_states(self) -> None:
+        """Keep the latest /joint_states message for :meth:`joints`."""
+        self._joint_states = self.collect(JointState, "/joint_states")
+
+    def joints(self) -> dict[str, float]:
+        """The latest /joint_states as {name: position} (empty before the first one)."""
+        with self.lock:
+            msg = self._joint_states[-1] if self._joint_states else None
+            del self._joint_states[:-1]
+        return dict(zip(msg.name, msg.position)) if msg is not None else {}
+
+    def spin_in_background(self) -> None:
+        self.thread = threading.Thread(target=self.executor.spin, daemon=True)
+        self.thread.start()
+
+    def client(self, srv_type: Any, name: str) -> Any:
+        with self.lock:
+            if name not in self.clients:
+                self.clients[name] = self.node.create_client(srv_type, name)
+            return self.clients[name]
+
+    def call(self, srv_type: Any, name: str, request: Any, timeout: float = 15.0) -> Any:
+        """Call a service (the background spin answers the future); asserts it answered."""
+        client = self.client(srv_type, name)
+        assert client.wait_for_service(timeout_sec=15.0), f"service {name} not available"
+        future = client.call_async(request)
+        assert wait_until(future.done, timeout), f"{name} did not answer"
+        return future.result()
+
+    def trigger(self, service: str, timeout: float = 90.0) -> Any:
+        return self.call(Trigger, service, Trigger.Request(), timeout)
+
+    def set_parameters(self, node: str, params: Iterable[Any]) -> list[Any]:
+        """Set rclpy Parameters on ``node`` as `ros2 param set` does; the SetParametersResults."""
+        request = SetParameters.Request(parameters=[p.to_parameter_msg() for p in params])
+        return list(self.call(SetParameters, f"/{node}/set_parameters", request).results)
+
+    def set_param(self, node: str, param: Any) -> Any:
+        return self.set_parameters(node, [param])[0]
+
+    def close(self) -> None:
+        self.executor.shutdown(timeout_sec=1.0)
+        self.node.destroy_node()
+        rclpy.try_shutdown(context=self.context)
+
+
+@contextlib.contextmanager
+def robot_processes(*server_params: str, params_file: bool = False) -> Iterator[tuple[NodeProcess, NodeProcess]]:
+    """mock_controllers and planning_server on this session's domain, both ready, stopped at exit.
+
+    ``server_params`` are ``name:=value`` overrides; ``params_file`` adds config/planning_server.yaml."""
+    use_session_domain()
+    args = ["--ros-args"] if server_params or params_file else []
+    if params_file:
+        args += ["--params-file", str(config_file("planning_server.yaml"))]
+    for param in server_params:
+        args += ["-p", param]
+    controllers = NodeProcess("mycobot_planning.nodes.mock_controllers")
+    server = NodeProcess("mycobot_planning.nodes.planning_server", args)
+    try:
+        assert controllers.wait_for_output("controller_manager ready", 30), controllers.output()
+        assert server.wait_for_output("planning_server ready", 60), server.output()
+        yield controllers, server
+    finally:
+        server.stop()
+        controllers.stop()

@@ -191,7 +191,7 @@ def numpy_fk(positions: dict[str, float]) -> dict[str, np.ndarray]:
 
 @pytest.fixture(scope="module")
 def config_dir() -> Path:
-    path = Path(__file__).resolve().parent.parent / "config"
+    path = Path(__file__).resolve().parents[2] / "config"
     assert path.is_dir(), f"config directory not found at {path}"
     return path
 

@@ -11,9 +11,6 @@ import yaml
 
 from interfaces_py.msgs import MoveItErrorCode, SolidPrimitive, TaskSolution
 from mycobot_planning.core import PlanningScene, RobotModel
-from mycobot_planning.core.execution import joint_trajectory_to_timed
-from mycobot_planning.core.time_parameterization import TimedTrajectory
-from mycobot_planning.core.trajectory_validator import validate_trajectory
 from mycobot_planning.paths import config_file
 from mycobot_planning.demos.pick_place import (
     MTC_NODE_PARAMETER_NAMES,
@@ -28,6 +25,7 @@ from mycobot_planning.demos.pick_place import (
     seed_scene_objects,
     vector_to_pose,
 )
+from task_helpers import replay_task_solution
 
 #: The seed's mtc_node parameters and defaults (mtc_node.cpp / mtc_node_params.yaml), in order.
 SEED_DEFAULTS = {
@@ -76,27 +74,12 @@ def model() -> RobotModel:
 
 
 # ---------------------------------------------------------------------------- helpers
-def _timed(jt) -> TimedTrajectory:
-    """The trajectory a controller follows for this message (execution's own conversion)."""
-    return joint_trajectory_to_timed(jt)
+
+
 
 
 def replay(model: RobotModel, msg: TaskSolution) -> PlanningScene:
-    """Replay the solution as the planning_server executes it (run each step's trajectory, then
-    apply its scene diff); every trajectory must pass the validator in the scene it runs in and
-    start where the robot is. Returns the final scene."""
-    scene = PlanningScene.from_msg(model, msg.start_scene)
-    moved = 0
-    for k, sub in enumerate(msg.sub_trajectory):
-        jt = sub.trajectory.joint_trajectory
-        if jt.points:
-            report = validate_trajectory(scene, _timed(jt), sub.trajectory.group_name, scene.current_state)
-            assert report.valid, f"step {k} ({sub.info.stage_name}): {report.problems}"
-            state = scene.current_state.copy()
-            state.set_joint_positions(dict(zip(jt.joint_names, jt.points[-1].positions)))
-            scene.set_current_state(state)
-            moved += 1
-        scene.apply_planning_scene_msg(sub.scene_diff)
+    scene, moved = replay_task_solution(model, msg)
     assert moved >= 10  # open, move to pick, approach, close, lift, move to place, lower, open, retreat, home
     return scene
 

@@ -13,7 +13,7 @@ from pathlib import Path
 
 
 
-REFERENCE = json.loads((Path(__file__).parent / "data" / "moveit_type_hashes.json").read_text())
+REFERENCE = json.loads((Path(__file__).resolve().parents[1] / "data" / "moveit_type_hashes.json").read_text())
 PACKAGES = sorted({name.split("/")[0] for name in REFERENCE})
 
 

@@ -29,24 +29,13 @@ from interfaces_py.msgs import (
     RobotTrajectory,
     SolidPrimitive,
 )
+from task_helpers import float_bits
 
 AWKWARD = [0.1, 1e-300, -0.0, 1 / 3, 5e-324, 1.7976931348623157e308, -2.5e-17, 123456789.123456789]
 
 
-def _floats(value):
-    """All floats in a to_dict() tree, in order (for bit-exact comparison)."""
-    if isinstance(value, float):
-        yield value
-    elif isinstance(value, dict):
-        for v in value.values():
-            yield from _floats(v)
-    elif isinstance(value, list):
-        for v in value:
-            yield from _floats(v)
-
-
 def _bits(value) -> list[str]:
-    return [f.hex() for f in _floats(value)]
+    return float_bits(value)
 
 
 def _awkward_pose() -> Pose:
@@ -513,7 +502,7 @@ def test_moveit_error_code():
 
 
 def test_import_pulls_no_ros():
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     code = (
         "import sys, interfaces_py, interfaces_py.msgs\n"
         "bad = sorted(m for m in sys.modules if m.split('.')[0] in "

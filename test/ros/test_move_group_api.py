@@ -7,7 +7,6 @@ import time
 
 import numpy as np
 import pytest
-import rclpy
 from action_msgs.msg import GoalStatus
 from geometry_msgs.msg import Pose
 from moveit_msgs.action import ExecuteTrajectory, MoveGroup
@@ -35,15 +34,13 @@ from moveit_msgs.srv import (
 from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
 from rcl_interfaces.srv import SetParameters
 from rclpy.action import ActionClient
-from rclpy.executors import SingleThreadedExecutor
-from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from shape_msgs.msg import SolidPrimitive
 from std_msgs.msg import String
 
 from mycobot_planning.core.robot_model import RobotModel
 from mycobot_planning.core.robot_state import RobotState
-from ros_testing import NodeProcess, use_session_domain, wait_until
+from ros_testing import ProbeNode, wait_until, robot_processes
 
 ARM = ["link1_to_link2", "link2_to_link3", "link3_to_link4", "link4_to_link5", "link5_to_link6",
        "link6_to_link6_flange"]
@@ -53,15 +50,11 @@ FAR = [1.0, -1.0, -0.8, 0.3, 0.5, 0.8]
 C = MoveItErrorCodes
 
 
-class Client:
+class Client(ProbeNode):
     """A plain rclpy node with one client per service and action of move_group."""
 
     def __init__(self) -> None:
-        self.context = rclpy.Context()
-        rclpy.init(context=self.context)
-        self.node = Node("move_group_api_test", context=self.context)
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
+        super().__init__("move_group_api_test")  # spun by spin_until, not in the background
         self.joint_state: JointState | None = None
         self.node.create_subscription(JointState, "/joint_states", self._on_js, 10)
         self.move = ActionClient(self.node, MoveGroup, "/move_action")
@@ -105,29 +98,16 @@ class Client:
         result = self.call(SetParameters, "/controller_manager/set_parameters", request)
         assert result.results[0].successful, result.results[0].reason
 
-    def close(self) -> None:
-        self.executor.shutdown()
-        self.node.destroy_node()
-        rclpy.try_shutdown(context=self.context)
-
 
 @pytest.fixture(scope="module")
 def client():
-    use_session_domain()
-    mock = NodeProcess("mycobot_planning.nodes.mock_controllers")
-    server = NodeProcess("mycobot_planning.nodes.planning_server")
-    user = None
-    try:
-        assert mock.wait_for_output("controller_manager ready", 30), mock.output()
-        assert server.wait_for_output("planning_server ready", 60), server.output()
+    with robot_processes() as (_, server):
         user = Client()
         user.server = server
-        yield user
-    finally:
-        if user is not None:
+        try:
+            yield user
+        finally:
             user.close()
-        server.stop()
-        mock.stop()
 
 
 @pytest.fixture(scope="module")

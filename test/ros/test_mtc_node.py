@@ -11,53 +11,37 @@ with changed parameters.
 from __future__ import annotations
 
 import subprocess
-import threading
 
 import numpy as np
 import pytest
-import rclpy
-from rclpy.context import Context
-from rclpy.executors import SingleThreadedExecutor
-from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rcl_interfaces.srv import SetParameters
 from std_msgs.msg import String
-from std_srvs.srv import Trigger
 
 from interfaces_py.clients import PlanningSceneInterface
 from interfaces_py.msgs import TaskSolution, TaskStatistics
-from mycobot_planning.core import PlanningScene, RobotModel
-from mycobot_planning.core.execution import joint_trajectory_to_timed
-from mycobot_planning.core.time_parameterization import TimedTrajectory
-from mycobot_planning.core.trajectory_validator import validate_trajectory
+from mycobot_planning.core import RobotModel
 from mycobot_planning.nodes.task_node import EXIT_PLANNING_FAILED
 from mycobot_planning.nodes.task_topics import SOLUTION_QOS, STATISTICS_QOS, task_topics
 from mycobot_planning.paths import config_file
 from mycobot_planning.demos.pick_place import PickPlaceParameters, expected_place_pose
-from ros_testing import PYTHON, REPO, NodeProcess, ros_env, use_session_domain, wait_until
+from ros_testing import PYTHON, REPO, NodeProcess, ProbeNode, ros_env, wait_until, robot_processes
+from task_helpers import replay_task_solution
 
 PARAMS_FILE = str(config_file("mtc_node_params.yaml"))
 
 
-class Probe:
+class Probe(ProbeNode):
     """In-test node (private context): mtc_node's task topics, services and parameters."""
 
     def __init__(self) -> None:
-        self.context = Context()
-        rclpy.init(context=self.context)
-        self.node = Node("mtc_node_test_probe", context=self.context)
-        self.lock = threading.Lock()
+        super().__init__("mtc_node_test_probe")
         self.received: dict[str, list[str]] = {}
         for node in ("mtc_node", "pick_place_demo"):
             topics = task_topics(node)
             for topic, qos in ((topics.statistics, STATISTICS_QOS), (topics.solution, SOLUTION_QOS)):
                 self.received[topic] = []
                 self.node.create_subscription(String, topic, lambda m, t=topic: self._on(t, m.data), qos)
-        self.clients: dict[str, object] = {}
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        self.thread = threading.Thread(target=self.executor.spin, daemon=True)
-        self.thread.start()
+        self.spin_in_background()
 
     def _on(self, topic: str, data: str) -> None:
         with self.lock:
@@ -71,30 +55,6 @@ class Probe:
         with self.lock:
             return self.received[topic][-1]
 
-    def _client(self, srv_type, name: str):
-        if name not in self.clients:
-            self.clients[name] = self.node.create_client(srv_type, name)
-        return self.clients[name]
-
-    def set_param(self, node: str, param: Parameter):
-        client = self._client(SetParameters, f"/{node}/set_parameters")
-        assert client.wait_for_service(timeout_sec=15.0)
-        future = client.call_async(SetParameters.Request(parameters=[param.to_parameter_msg()]))
-        assert wait_until(future.done, 15.0)
-        return future.result().results[0]
-
-    def trigger(self, service: str, timeout: float = 90.0) -> Trigger.Response:
-        client = self._client(Trigger, service)
-        assert client.wait_for_service(timeout_sec=15.0), f"service {service} not available"
-        future = client.call_async(Trigger.Request())
-        assert wait_until(future.done, timeout), f"{service} did not answer"
-        return future.result()
-
-    def close(self) -> None:
-        self.executor.shutdown(timeout_sec=1.0)
-        self.node.destroy_node()
-        rclpy.try_shutdown(context=self.context)
-
 
 @pytest.fixture(scope="module")
 def model() -> RobotModel:
@@ -103,15 +63,13 @@ def model() -> RobotModel:
 
 @pytest.fixture(scope="module")
 def system():
-    use_session_domain()
-    controllers = NodeProcess("mycobot_planning.nodes.mock_controllers")
-    server = NodeProcess("mycobot_planning.nodes.planning_server",
-                         ["--ros-args", "--params-file", str(config_file("planning_server.yaml")),
-                          "-p", "trajectory_execution.allowed_goal_duration_margin:=3.0"])
+    with robot_processes("trajectory_execution.allowed_goal_duration_margin:=3.0", params_file=True):
+        yield from _clients()
+
+
+def _clients():
     probe = scene = None
     try:
-        assert controllers.wait_for_output("controller_manager ready", 30), controllers.output()
-        assert server.wait_for_output("planning_server ready", 30), server.output()
         probe = Probe()
         scene = PlanningSceneInterface(timeout=10.0)
         assert scene.wait_for_server(20.0)
@@ -122,8 +80,6 @@ def system():
             scene.close()
         if probe is not None:
             probe.close()
-        server.stop()
-        controllers.stop()
 
 
 def _mtc_node(*params: str, module: str = "mtc_node", params_file: str = PARAMS_FILE) -> NodeProcess:
@@ -131,28 +87,8 @@ def _mtc_node(*params: str, module: str = "mtc_node", params_file: str = PARAMS_
                        ["--ros-args", "--params-file", params_file, *[a for p in params for a in ("-p", p)]])
 
 
-def _timed(jt) -> TimedTrajectory:
-    """The trajectory a controller follows for this message (execution's own conversion)."""
-    return joint_trajectory_to_timed(jt)
 
 
-def _replay_and_validate(model: RobotModel, msg: TaskSolution) -> PlanningScene:
-    """Every sub-trajectory valid (core validator) in the scene replayed from the start scene and
-    the diffs, starting where the previous one ended; returns the final scene."""
-    scene = PlanningScene.from_msg(model, msg.start_scene)
-    moved = 0
-    for k, sub in enumerate(msg.sub_trajectory):
-        jt = sub.trajectory.joint_trajectory
-        if jt.points:
-            report = validate_trajectory(scene, _timed(jt), sub.trajectory.group_name, scene.current_state)
-            assert report.valid, f"step {k} ({sub.info.stage_name}): {report.problems}"
-            state = scene.current_state.copy()
-            state.set_joint_positions(dict(zip(jt.joint_names, jt.points[-1].positions)))
-            scene.set_current_state(state)
-            moved += 1
-        scene.apply_planning_scene_msg(sub.scene_diff)
-    assert moved >= 10
-    return scene
 
 
 def _object_at(scene: PlanningSceneInterface, name: str, target: np.ndarray, tolerance: float = 0.01) -> bool:
@@ -194,7 +130,8 @@ def test_mtc_node_plans_executes_and_places_the_object(system, model):
         assert len(root.solved) == 10 and len(root.cost) == 10 and root.cost == sorted(root.cost)
         solution = TaskSolution.from_json(probe.latest(topics.solution))
         assert solution.cost == pytest.approx(root.cost[0])
-        planned_end = _replay_and_validate(model, solution)
+        planned_end, moved = replay_task_solution(model, solution)
+        assert moved >= 10
         assert np.linalg.norm(planned_end.frame_pose("object")[:3, 3] - expected_place_pose(params)[:3, 3]) < 1e-3
 
         # what execution did to the planning_server's monitored scene
@@ -272,7 +209,8 @@ def test_pick_place_demo_plans_with_example_1_parameters(system):
     probe = system["probe"]
     topic = task_topics("pick_place_demo").solution
     before = probe.count(topic)
-    node = _mtc_node("exit_when_done:=true", "max_solutions:=2", module="pick_place_demo",
+    # A loaded machine may deliver the latched solution late: the demo lingers 10 s after start.
+    node = _mtc_node("exit_when_done:=true", "exit_linger:=10.0", "max_solutions:=2", module="pick_place_demo",
                      params_file=str(config_file("pick_place_demo_params.yaml")))
     try:
         assert wait_until(lambda: not node.alive(), 90), node.output()

@@ -18,20 +18,15 @@ from __future__ import annotations
 import json
 import math
 import subprocess
-import threading
 
 import numpy as np
 import pytest
-import rclpy
-from rclpy.context import Context
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from rcl_interfaces.srv import SetParameters, SetParametersAtomically
+from rcl_interfaces.srv import SetParametersAtomically
 from sensor_msgs.msg import PointCloud2, PointField
 from std_msgs.msg import String
-from std_srvs.srv import Trigger
 
 from interfaces_py.clients import PlanningSceneInterface
 from interfaces_py.msgs import CollisionObject, PlanningSceneWorld
@@ -62,7 +57,7 @@ from mycobot_planning.perception import (
     pack_xyzrgb,
 )
 from mycobot_planning.demos.pick_place import PickPlaceParameters, expected_place_pose, load_parameters
-from ros_testing import PYTHON, REPO, NodeProcess, ros_env, use_session_domain, wait_until
+from ros_testing import PYTHON, REPO, NodeProcess, ProbeNode, ros_env, use_session_domain, wait_until
 
 TOPIC = "/camera_head/depth/color/points"
 GARBAGE_TOPIC = "/garbage/points"
@@ -138,65 +133,33 @@ def test_perception_result_parses_a_failure_and_a_success():
 
 
 # ---------------------------------------------------------------------------- processes
-class Probe:
+class Probe(ProbeNode):
     """In-test node (private context): publishes clouds, sets parameters, calls Trigger services."""
 
     def __init__(self) -> None:
-        self.context = Context()
-        rclpy.init(context=self.context)
-        self.node = Node("perception_test_probe", context=self.context)
+        super().__init__("perception_test_probe")
         qos = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
         self.cloud_pub = self.node.create_publisher(PointCloud2, GARBAGE_TOPIC, qos)
-        self.lock = threading.Lock()
         self.truth: list[str] = []
         latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                              durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.node.create_subscription(String, "/camera_simulator/ground_truth", self._on_truth, latched)
-        self.clients: dict[str, object] = {}
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        self.thread = threading.Thread(target=self.executor.spin, daemon=True)
-        self.thread.start()
+        self.spin_in_background()
 
     def _on_truth(self, msg: String) -> None:
         with self.lock:
             self.truth.append(msg.data)
 
-    def _client(self, srv_type, name: str):
-        if name not in self.clients:
-            self.clients[name] = self.node.create_client(srv_type, name)
-        return self.clients[name]
-
     def set_params(self, node: str, **values):
-        client = self._client(SetParameters, f"/{node}/set_parameters")
-        assert client.wait_for_service(timeout_sec=15.0)
-        params = [Parameter(k, value=v).to_parameter_msg() for k, v in values.items()]
-        future = client.call_async(SetParameters.Request(parameters=params))
-        assert wait_until(future.done, 15.0)
-        return future.result().results
+        return self.set_parameters(node, [Parameter(k, value=v) for k, v in values.items()])
 
     def set_params_atomically(self, node: str, **values):
-        client = self._client(SetParametersAtomically, f"/{node}/set_parameters_atomically")
-        assert client.wait_for_service(timeout_sec=15.0)
         params = [Parameter(k, value=v).to_parameter_msg() for k, v in values.items()]
-        future = client.call_async(SetParametersAtomically.Request(parameters=params))
-        assert wait_until(future.done, 15.0)
-        return future.result().result
-
-    def trigger(self, service: str, timeout: float = 30.0) -> Trigger.Response:
-        client = self._client(Trigger, service)
-        assert client.wait_for_service(timeout_sec=15.0), f"service {service} not available"
-        future = client.call_async(Trigger.Request())
-        assert wait_until(future.done, timeout), f"{service} did not answer"
-        return future.result()
+        return self.call(SetParametersAtomically, f"/{node}/set_parameters_atomically",
+                         SetParametersAtomically.Request(parameters=params)).result
 
     def publish(self, msg: PointCloud2) -> None:
         self.cloud_pub.publish(msg)
-
-    def close(self) -> None:
-        self.executor.shutdown(timeout_sec=1.0)
-        self.node.destroy_node()
-        rclpy.try_shutdown(context=self.context)
 
 
 @pytest.fixture(scope="module")

@@ -18,17 +18,10 @@ from typing import Any
 
 import numpy as np
 import pytest
-import rclpy
 from scipy.spatial.transform import Rotation
-from rclpy.context import Context
-from rclpy.executors import SingleThreadedExecutor
-from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from rcl_interfaces.srv import SetParameters
-from sensor_msgs.msg import JointState
 from std_msgs.msg import String
-from std_srvs.srv import Trigger
 from builtin_interfaces.msg import Duration
 from trajectory_msgs.msg import JointTrajectory as JointTrajectoryMsg
 from trajectory_msgs.msg import JointTrajectoryPoint as JointTrajectoryPointMsg
@@ -46,8 +39,7 @@ from interfaces_py.msgs import (
 )
 from mycobot_planning.core import RobotModel, RobotState
 from mycobot_planning.core.transforms import make_pose
-from mycobot_planning.paths import config_file
-from ros_testing import NodeProcess, use_session_domain, wait_until
+from ros_testing import NodeProcess, ProbeNode, use_session_domain, wait_until, robot_processes
 
 ARM = ["link1_to_link2", "link2_to_link3", "link3_to_link4", "link4_to_link5", "link5_to_link6", "link6_to_link6_flange"]
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -55,69 +47,28 @@ MARGIN = 3.0  # s: the server's trajectory_execution.allowed_goal_duration_margi
 STARTUP_SLACK = 5.0  # s: generous allowance for process and discovery latency in timing checks
 
 
-class Probe:
+class Probe(ProbeNode):
     """An in-test ROS node (private context) that records topics and calls services."""
 
     def __init__(self) -> None:
-        self.context = Context()
-        rclpy.init(context=self.context)
-        self.node = Node("planning_server_test_probe", context=self.context)
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        self.lock = threading.Lock()
-        self.clients: dict[str, Any] = {}
+        super().__init__("planning_server_test_probe")
         self.late_joiners: list[Any] = []
-        self.joint_states: JointState | None = None
-        self.display: list[JointTrajectoryMsg] = []
+        self.listen_to_joint_states()
+        self.display = self.collect(JointTrajectoryMsg, "/planned_path", LATCHED)
         self.markers: list[tuple[float, MarkerArray]] = []
-        self.node.create_subscription(JointState, "/joint_states", self._on_js, 10)
-        self.node.create_subscription(JointTrajectoryMsg, "/planned_path", self._on_display, LATCHED)
         self.node.create_subscription(MarkerArray, "/planning_scene_markers", self._on_markers, LATCHED)
         self.pubs = {topic: self.node.create_publisher(String, topic, 100)
                      for topic in ("/planning_server/collision_object", "/planning_server/planning_scene", "/planning_server/attached_collision_object",
                                    "/planning_server/requests")}
-        self.thread = threading.Thread(target=self.executor.spin, daemon=True)
-        self.thread.start()
-
-    def _on_js(self, msg: JointState) -> None:
-        with self.lock:
-            self.joint_states = msg
-
-    def _on_display(self, msg: JointTrajectoryMsg) -> None:
-        with self.lock:
-            self.display.append(msg)
+        self.spin_in_background()
 
     def _on_markers(self, msg: MarkerArray) -> None:
         with self.lock:
             self.markers.append((time.monotonic(), msg))
 
-    def joints(self) -> dict[str, float]:
-        with self.lock:
-            msg = self.joint_states
-        return dict(zip(msg.name, msg.position)) if msg is not None else {}
-
-    def _client(self, srv_type: Any, name: str) -> Any:
-        with self.lock:
-            if name not in self.clients:
-                self.clients[name] = self.node.create_client(srv_type, name)
-            return self.clients[name]
-
-    def trigger(self, service: str, timeout: float = 30.0) -> Trigger.Response:
-        client = self._client(Trigger, service)
-        assert client.wait_for_service(timeout_sec=10.0), f"service {service} not available"
-        future = client.call_async(Trigger.Request())
-        assert wait_until(future.done, timeout), f"{service} did not answer"
-        return future.result()
-
     def set_params(self, node: str, values: dict[str, Any]) -> list[Any]:
         """Set parameters as `ros2 param set` does; returns the SetParametersResults."""
-        client = self._client(SetParameters, f"/{node}/set_parameters")
-        assert client.wait_for_service(timeout_sec=10.0)
-        request = SetParameters.Request(parameters=[_param(k, v).to_parameter_msg() for k, v in values.items()])
-        future = client.call_async(request)
-        assert wait_until(future.done, 10.0)
-        return list(future.result().results)
-
+        return self.set_parameters(node, [_param(k, v) for k, v in values.items()])
     def scene_where(self, predicate, timeout: float = 10.0) -> PlanningSceneMsg:
         """The first /monitored_planning_scene satisfying ``predicate`` received by a late joiner
         (a fresh subscription: it first gets the latched scene, then every publication)."""
@@ -137,11 +88,6 @@ class Probe:
         assert wait_until(lambda: match() is not None, timeout), f"no matching scene among {len(received)} received"
         return match()
 
-    def close(self) -> None:
-        self.executor.shutdown(timeout_sec=1.0)
-        self.node.destroy_node()
-        rclpy.try_shutdown(context=self.context)
-
 
 def _param(name: str, value: Any) -> Parameter:
     if isinstance(value, list) and all(isinstance(v, float) for v in value):
@@ -156,17 +102,15 @@ def model() -> RobotModel:
 
 @pytest.fixture(scope="module")
 def system():
-    use_session_domain()
-    controllers = NodeProcess("mycobot_planning.nodes.mock_controllers")
     # A wider goal-duration margin than MoveIt's 0.5 s: on a loaded test machine message latency
     # alone can exceed it. Failures are still reported when they happen (see the failure test).
-    server = NodeProcess("mycobot_planning.nodes.planning_server",
-                         ["--ros-args", "--params-file", str(config_file("planning_server.yaml")),
-                          "-p", f"trajectory_execution.allowed_goal_duration_margin:={MARGIN}"])
+    with robot_processes(f"trajectory_execution.allowed_goal_duration_margin:={MARGIN}", params_file=True) as procs:
+        yield from _clients(*procs)
+
+
+def _clients(controllers: NodeProcess, server: NodeProcess):
     probe = arm = None
     try:
-        assert controllers.wait_for_output("controller_manager ready", 30), controllers.output()
-        assert server.wait_for_output("planning_server ready", 30), server.output()
         probe = Probe()
         arm = MoveGroupClient("arm", timeout=15.0)
         assert arm.wait_for_server(20.0), server.output()
@@ -178,8 +122,6 @@ def system():
             arm.close()
         if probe is not None:
             probe.close()
-        server.stop()
-        controllers.stop()
 
 
 def _alive_and_answering(system) -> None:

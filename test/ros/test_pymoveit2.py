@@ -7,19 +7,16 @@ get_planning_scene.
 """
 from __future__ import annotations
 
-import threading
 
 import numpy as np
 import pytest
-import rclpy
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.executors import MultiThreadedExecutor
-from rclpy.node import Node
 from scipy.spatial.transform import Rotation
 
 from mycobot_planning.core.robot_model import RobotModel
 from mycobot_planning.core.robot_state import RobotState
-from ros_testing import NodeProcess, use_session_domain, wait_until
+from ros_testing import ProbeNode, wait_until, robot_processes
 
 pymoveit2 = pytest.importorskip("pymoveit2", reason="pymoveit2 is installed by scripts/setup.sh")
 
@@ -29,14 +26,12 @@ TIP = "link6_flange"
 READY = [0.0, -0.3, 0.6, 0.2, 0.0, 0.0]
 
 
-class Client:
+class Client(ProbeNode):
     """What a pymoveit2 user writes: a node, MoveIt2 (services + execute_trajectory, and a second
     one on move_action), GripperInterface, a multi-threaded executor spinning in the background."""
 
     def __init__(self) -> None:
-        self.context = rclpy.Context()
-        rclpy.init(context=self.context)
-        self.node = Node("pymoveit2_user", context=self.context)
+        super().__init__("pymoveit2_user", executor=lambda context: MultiThreadedExecutor(num_threads=4, context=context))
         group = ReentrantCallbackGroup()
         self.moveit2 = pymoveit2.MoveIt2(node=self.node, joint_names=ARM, base_link_name="base_link",
                                          end_effector_name=TIP, group_name="arm", callback_group=group)
@@ -47,10 +42,7 @@ class Client:
             node=self.node, gripper_joint_names=["gripper_controller"], open_gripper_joint_positions=0.0,
             closed_gripper_joint_positions=-0.6, gripper_group_name="gripper", callback_group=group,
             gripper_command_action_name="grip_action_controller/gripper_cmd")
-        self.executor = MultiThreadedExecutor(num_threads=4, context=self.context)
-        self.executor.add_node(self.node)
-        self.thread = threading.Thread(target=self.executor.spin, daemon=True)
-        self.thread.start()
+        self.spin_in_background()
 
     def joints(self, names: list[str]) -> np.ndarray:
         """Positions from the newest /joint_states message received after this call."""
@@ -60,29 +52,16 @@ class Client:
         index = {n: i for i, n in enumerate(state.name)}
         return np.array([state.position[index[n]] for n in names])
 
-    def close(self) -> None:
-        self.executor.shutdown(timeout_sec=2.0)
-        self.node.destroy_node()
-        rclpy.try_shutdown(context=self.context)
-
 
 @pytest.fixture(scope="module")
 def client():
-    use_session_domain()
-    mock = NodeProcess("mycobot_planning.nodes.mock_controllers")
-    server = NodeProcess("mycobot_planning.nodes.planning_server")
-    user = None
-    try:
-        assert mock.wait_for_output("controller_manager ready", 30), mock.output()
-        assert server.wait_for_output("planning_server ready", 60), server.output()
+    with robot_processes():
         user = Client()
-        assert user.moveit2.wait_for_joint_state(10.0)
-        yield user
-    finally:
-        if user is not None:
+        try:
+            assert user.moveit2.wait_for_joint_state(10.0)
+            yield user
+        finally:
             user.close()
-        server.stop()
-        mock.stop()
 
 
 @pytest.fixture(scope="module")

@@ -13,17 +13,11 @@ import math
 import os
 import re
 import signal
-import threading
 from typing import Any
 
 import numpy as np
 import pytest
-import rclpy
-from rclpy.context import Context
-from rclpy.executors import SingleThreadedExecutor
-from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from std_srvs.srv import Trigger
 from trajectory_msgs.msg import JointTrajectory as JointTrajectoryMsg
@@ -42,7 +36,7 @@ from mycobot_planning.demos.seed_scenarios import (
     tool_down_quaternion,
     zigzag_waypoints,
 )
-from ros_testing import NodeProcess, use_session_domain, wait_until
+from ros_testing import NodeProcess, ProbeNode, use_session_domain, wait_until
 
 ARM = ["link1_to_link2", "link2_to_link3", "link3_to_link4", "link4_to_link5", "link5_to_link6", "link6_to_link6_flange"]
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -138,51 +132,20 @@ def test_localize_composes_the_camera_mount_with_the_marker(model):
 
 
 # ---------------------------------------------------------------------------- processes
-class Probe:
+class Probe(ProbeNode):
     """An in-test node: joint states, planned paths, the monitored scene."""
 
     def __init__(self) -> None:
-        self.context = Context()
-        rclpy.init(context=self.context)
-        self.node = Node("seed_workflow_test_probe", context=self.context)
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        self.lock = threading.Lock()
-        self.joint_states: JointState | None = None
-        self.display: list[JointTrajectoryMsg] = []
-        self.scenes: list[str] = []
-        self.node.create_subscription(JointState, "/joint_states", self._on_js, 10)
-        self.node.create_subscription(JointTrajectoryMsg, "/planned_path", self._on_display, LATCHED)
-        self.node.create_subscription(String, "/planning_server/monitored_planning_scene", self._on_scene, LATCHED)
-        self.thread = threading.Thread(target=self.executor.spin, daemon=True)
-        self.thread.start()
-
-    def _on_js(self, msg: JointState) -> None:
-        with self.lock:
-            self.joint_states = msg
-
-    def _on_display(self, msg: JointTrajectoryMsg) -> None:
-        with self.lock:
-            self.display.append(msg)
-
-    def _on_scene(self, msg: String) -> None:
-        with self.lock:
-            self.scenes.append(msg.data)
-
-    def joints(self) -> dict[str, float]:
-        with self.lock:
-            msg = self.joint_states
-        return dict(zip(msg.name, msg.position)) if msg is not None else {}
+        super().__init__("seed_workflow_test_probe")
+        self.listen_to_joint_states()
+        self.display = self.collect(JointTrajectoryMsg, "/planned_path", LATCHED)
+        self.scenes = self.collect(String, "/planning_server/monitored_planning_scene", LATCHED)
+        self.spin_in_background()
 
     def latest_scene(self) -> PlanningSceneMsg | None:
         with self.lock:
-            data = self.scenes[-1] if self.scenes else None
+            data = self.scenes[-1].data if self.scenes else None
         return PlanningSceneMsg.from_json(data) if data else None
-
-    def close(self) -> None:
-        self.executor.shutdown(timeout_sec=1.0)
-        self.node.destroy_node()
-        rclpy.try_shutdown(context=self.context)
 
 
 @pytest.fixture(scope="module")

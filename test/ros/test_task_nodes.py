@@ -12,22 +12,14 @@ from __future__ import annotations
 
 import re
 import subprocess
-import threading
 import time
-from typing import Any
 
 import numpy as np
 import pytest
-import rclpy
-from rclpy.context import Context
-from rclpy.executors import SingleThreadedExecutor
-from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from rcl_interfaces.srv import SetParameters
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
-from std_srvs.srv import Trigger
 from trajectory_msgs.msg import JointTrajectory as JointTrajectoryMsg
 
 from interfaces_py.msgs import TaskDescription, TaskSolution, TaskStatistics
@@ -39,21 +31,18 @@ from mycobot_planning.nodes.task_node import EXIT_PLANNING_FAILED
 from mycobot_planning.core.execution import joint_trajectory_to_timed
 from mycobot_planning.nodes.task_topics import SOLUTION_QOS, STATISTICS_QOS, task_topics
 from mycobot_planning.paths import config_file
-from ros_testing import PYTHON, REPO, NodeProcess, ros_env, use_session_domain, wait_until
+from ros_testing import PYTHON, REPO, NodeProcess, ProbeNode, ros_env, use_session_domain, wait_until
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 NODES = {"modular": "modular_demo", "fallbacks_move_to": "fallbacks_move_to_demo",
          "ik_clearance_cost": "ik_clearance_cost_demo"}
 
 
-class Probe:
+class Probe(ProbeNode):
     """In-test node (private context): task topics of the three demos, display path, joint states."""
 
     def __init__(self) -> None:
-        self.context = Context()
-        rclpy.init(context=self.context)
-        self.node = Node("task_nodes_test_probe", context=self.context)
-        self.lock = threading.Lock()
+        super().__init__("task_nodes_test_probe")
         self.received: dict[str, list[str]] = {}
         self.display: list[JointTrajectoryMsg] = []
         self.joint_history: list[tuple[float, dict[str, float]]] = []
@@ -65,11 +54,7 @@ class Probe:
                 self.node.create_subscription(String, topic, lambda m, t=topic: self._on(t, m.data), qos)
         self.node.create_subscription(JointTrajectoryMsg, "/planned_path", self._on_display, LATCHED)
         self.node.create_subscription(JointState, "/joint_states", self._on_js, 10)
-        self.clients: dict[str, Any] = {}
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        self.thread = threading.Thread(target=self.executor.spin, daemon=True)
-        self.thread.start()
+        self.spin_in_background()
 
     def _on(self, topic: str, data: str) -> None:
         with self.lock:
@@ -103,30 +88,6 @@ class Probe:
     def displays(self) -> list[JointTrajectoryMsg]:
         with self.lock:
             return list(self.display)
-
-    def _client(self, srv_type: Any, name: str) -> Any:
-        if name not in self.clients:
-            self.clients[name] = self.node.create_client(srv_type, name)
-        return self.clients[name]
-
-    def trigger(self, service: str, timeout: float = 60.0) -> Trigger.Response:
-        client = self._client(Trigger, service)
-        assert client.wait_for_service(timeout_sec=15.0), f"service {service} not available"
-        future = client.call_async(Trigger.Request())
-        assert wait_until(future.done, timeout), f"{service} did not answer"
-        return future.result()
-
-    def set_param(self, node: str, param: Parameter) -> Any:
-        client = self._client(SetParameters, f"/{node}/set_parameters")
-        assert client.wait_for_service(timeout_sec=15.0)
-        future = client.call_async(SetParameters.Request(parameters=[param.to_parameter_msg()]))
-        assert wait_until(future.done, 15.0)
-        return future.result().results[0]
-
-    def close(self) -> None:
-        self.executor.shutdown(timeout_sec=1.0)
-        self.node.destroy_node()
-        rclpy.try_shutdown(context=self.context)
 
 
 @pytest.fixture(scope="module")

@@ -33,8 +33,7 @@ from interfaces_py.msgs import JointTrajectory, JointTrajectoryPoint
 from interfaces_py.ros_conversions import joint_trajectory_to_msg
 from mycobot_planning.nodes.task_topics import TaskIntrospection, parse_task_topic, task_topics
 from ros_testing import NodeProcess, use_session_domain, wait_until
-from task_helpers import table_scene
-from test_task_pick_place import build_pick_place
+from task_helpers import build_pick_place, table_scene
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 TASK_NODE = "pick_place_demo"

@@ -25,23 +25,13 @@ from interfaces_py.msgs import (
     TaskStatistics,
     TrajectoryExecutionInfo,
 )
+from task_helpers import float_bits
 
 AWKWARD = [0.1, 1e-300, -0.0, 1 / 3, 5e-324, 123456789.123456789]
 
 
-def _floats(value):
-    if isinstance(value, float):
-        yield value
-    elif isinstance(value, dict):
-        for v in value.values():
-            yield from _floats(v)
-    elif isinstance(value, list):
-        for v in value:
-            yield from _floats(v)
-
-
 def _bits(msg) -> list[str]:
-    return [f.hex() for f in _floats(msg.to_dict())]
+    return float_bits(msg.to_dict())
 
 
 def _sub(index: int) -> SubTrajectory:

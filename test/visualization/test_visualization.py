@@ -38,8 +38,7 @@ from mycobot_planning.visualization.geometry import (
 from mycobot_planning.visualization.playback import Timeline, timeline_from_json
 from mycobot_planning.visualization.plots import plot_scene, plot_trajectory, read_plot_info, snapshot_states
 from mycobot_planning.visualization.task_tree import CHECK, CROSS, PENDING, TaskRegistry, TaskTree
-from task_helpers import table_scene
-from test_task_pick_place import build_pick_place
+from task_helpers import build_pick_place, table_scene
 
 ARM = ["link1_to_link2", "link2_to_link3", "link3_to_link4", "link4_to_link5", "link5_to_link6", "link6_to_link6_flange"]
 
