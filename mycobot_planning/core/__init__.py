@@ -13,7 +13,8 @@ from .robot_trajectory import TimedTrajectory
 from .trajectory_processing import retime, time_parameterize
 from .planning_interface import JointGoal, MotionPlanRequest, MotionPlanResponse, NamedGoal, PoseGoal
 from .planning_pipeline import PlanningPipeline
-from .cartesian_path import compute_cartesian_path, plan_relative_motion
+from .cartesian_path import compute_cartesian_path
+from .relative_motion import plan_relative_motion
 from .trajectory_validator import ValidationReport, validate_trajectory
 
 __all__ = [

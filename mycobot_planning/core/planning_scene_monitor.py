@@ -90,7 +90,8 @@ class PlanningSceneMonitor:
         with self._lock:
             self._joint_values.update(zip(key, values.tolist()))
             self._joint_stamp = self._clock()
-            self._first_joint_state.set()
+            if not self._first_joint_state.is_set():  # set() takes a lock: once is enough
+                self._first_joint_state.set()
             if sel.size:
                 current = self.scene.current_state.positions
                 if not np.array_equal(current[target], values[sel]):

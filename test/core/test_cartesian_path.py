@@ -16,9 +16,8 @@ from mycobot_planning.core.cartesian_path import (
     STOP_NO_IK,
     CartesianPathResult,
     compute_cartesian_path,
-    plan_relative_motion,
-    relative_target_poses,
 )
+from mycobot_planning.core.relative_motion import plan_relative_motion, relative_target_poses
 from mycobot_planning.core.planning_interface import PlanningFailure
 from mycobot_planning.core.trajectory_validator import validate_trajectory
 from mycobot_planning.core.transforms import make_pose

@@ -1,4 +1,4 @@
-"""Execution planning and monitoring (core/execution.py) and the planning server's ROS-free logic
+"""Execution planning and monitoring (core/trajectory_execution/) and the planning server's ROS-free logic
 (capabilities/move_group_capabilities.py), on simulated controllers and a simulated clock: no ROS, no sleeps.
 
 The simulated controllers follow the mock controllers' contract (goal id = the command's
