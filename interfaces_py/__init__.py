@@ -5,36 +5,5 @@ core code and offline tools can build and parse messages. ROS message conversion
 ``interfaces_py.ros_conversions``, imported explicitly by the nodes that need them.
 """
 
-from interfaces_py.msgs import (
-    AllowedCollisionMatrix,
-    AttachedCollisionObject,
-    CollisionObject,
-    JointTrajectory,
-    JointTrajectoryPoint,
-    Mesh,
-    MessageError,
-    MoveItErrorCode,
-    PlanningScene,
-    PlanningSceneWorld,
-    Pose,
-    RobotState,
-    RobotTrajectory,
-    SolidPrimitive,
-)
-
-__all__ = [
-    "AllowedCollisionMatrix",
-    "AttachedCollisionObject",
-    "CollisionObject",
-    "JointTrajectory",
-    "JointTrajectoryPoint",
-    "Mesh",
-    "MessageError",
-    "MoveItErrorCode",
-    "PlanningScene",
-    "PlanningSceneWorld",
-    "Pose",
-    "RobotState",
-    "RobotTrajectory",
-    "SolidPrimitive",
-]
+from interfaces_py.msgs import *  # noqa: F401,F403 - the message classes
+from interfaces_py.msgs import __all__  # noqa: F401

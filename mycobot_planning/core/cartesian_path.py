@@ -24,6 +24,7 @@ from .robot_model import JointModelGroup, RobotModel
 from .robot_state import RobotState
 from .robot_trajectory import TimedTrajectory
 from .transforms import check_pose
+from .error_code_result import ErrorCodeResult
 
 __all__ = [
     "CartesianPathResult",
@@ -66,7 +67,7 @@ _DAMPING = 1e-10
 
 # ---------------------------------------------------------------------------- results
 @dataclass
-class CartesianPathResult:
+class CartesianPathResult(ErrorCodeResult):
     """Outcome of :func:`compute_cartesian_path`.
 
     ``error_code`` is SUCCESS whenever the request was well-formed, even when the path stops
@@ -85,18 +86,6 @@ class CartesianPathResult:
     link: str = ""
     start_state: RobotState | None = field(default=None, repr=False)
     planning_time: float = 0.0
-
-    @property
-    def message(self) -> str:
-        return self.error_code.message
-
-    @property
-    def success(self) -> bool:
-        """True when the request was valid (check ``fraction`` for how much was achieved)."""
-        return bool(self.error_code)
-
-    def __bool__(self) -> bool:
-        return self.success
 
     def states(self) -> list[RobotState]:
         """The path as full robot states (joints outside the group keep the start's values)."""
@@ -172,7 +161,11 @@ def _start_state(scene: PlanningScene, start_state: RobotState | None, avoid_col
 
 
 def _check_link(model: RobotModel, jmg: JointModelGroup, link: str | None) -> str:
-    link = jmg.tip_link if link is None else link
+    return check_link_name(model, jmg.tip_link if link is None else link)
+
+
+def check_link_name(model: RobotModel, link: object) -> str:
+    """``link`` if it names a link or frame of the model, else INVALID_LINK_NAME."""
     if not isinstance(link, str) or not link:
         raise failure(MoveItErrorCode.INVALID_LINK_NAME, f"invalid link name {link!r}")
     try:

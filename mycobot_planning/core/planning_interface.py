@@ -24,6 +24,7 @@ from .robot_state import RobotState
 from .robot_trajectory import TimedTrajectory
 from .trajectory_processing import DEFAULT_MAX_DEVIATION, time_parameterize
 from .transforms import check_pose
+from .error_code_result import ErrorCodeResult
 
 
 @dataclass
@@ -82,7 +83,7 @@ class MotionPlanRequest:
 
 
 @dataclass
-class MotionPlanResponse:
+class MotionPlanResponse(ErrorCodeResult):
     """The result: a trajectory on success, a MoveItErrorCode (with a message) always."""
 
     error_code: MoveItErrorCode
@@ -95,17 +96,6 @@ class MotionPlanResponse:
     #: The pipeline already ran the trajectory validator on this trajectory (start state, limits,
     #: collisions at its resolution) and it passed: callers need not check it again.
     validated: bool = False
-
-    @property
-    def success(self) -> bool:
-        return bool(self.error_code)
-
-    @property
-    def message(self) -> str:
-        return self.error_code.message
-
-    def __bool__(self) -> bool:
-        return self.success
 
 
 class PlanningFailure(PlanningError):

@@ -15,12 +15,14 @@ from interfaces_py.msgs import MoveItErrorCode
 from .cartesian_path import (
     STOP_INVALID_REQUEST,
     CartesianPathResult,
+    check_link_name,
     check_offset,
     compute_cartesian_path,
     failed_result,
     finite_number,
     pose_of_frame,
 )
+from .error_code_result import ErrorCodeResult
 from .planning_interface import PlanningFailure, check_group, failure
 from .planning_scene import PlanningScene
 from .robot_state import RobotState
@@ -56,7 +58,7 @@ class RelativeTarget:
 
 
 @dataclass
-class RelativeMotionResult:
+class RelativeMotionResult(ErrorCodeResult):
     """Outcome of :func:`plan_relative_motion` (MTC's MoveRelative).
 
     ``error_code`` is SUCCESS only when MTC would accept the motion (see min_distance); a
@@ -71,17 +73,6 @@ class RelativeMotionResult:
     fraction: float = 0.0
     target: RelativeTarget | None = field(default=None, repr=False)
     cartesian: CartesianPathResult | None = field(default=None, repr=False)
-
-    @property
-    def message(self) -> str:
-        return self.error_code.message
-
-    @property
-    def success(self) -> bool:
-        return bool(self.error_code)
-
-    def __bool__(self) -> bool:
-        return self.success
 
     @property
     def stop_reason(self) -> str:
@@ -134,12 +125,7 @@ def relative_target_poses(
         if group is None:
             raise failure(MoveItErrorCode.INVALID_LINK_NAME, "give the link to move (or the group, for its tip link)")
         link = check_group(model, group).tip_link
-    if not isinstance(link, str) or not link:
-        raise failure(MoveItErrorCode.INVALID_LINK_NAME, f"invalid link name {link!r}")
-    try:
-        model.frame_id(link)
-    except ValueError:
-        raise failure(MoveItErrorCode.INVALID_LINK_NAME, f"unknown link '{link}' of robot '{model.name}'") from None
+    link = check_link_name(model, link)
     offset = check_offset(ik_frame_offset)
     state = scene.current_state if start_state is None else start_state
     if not isinstance(state, RobotState) or state.model is not model:

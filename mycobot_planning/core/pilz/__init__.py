@@ -8,20 +8,3 @@ from .common import COLLISION_ERROR_CODE, CIRC, DEFAULT_SAMPLE_TIME, KNOWN_PLANN
 from .limits import CartesianLimits, CartesianLimitsError, load_cartesian_limits
 from .planner import IndustrialMotionPlanner, plan_industrial
 from .trapezoid_profile import TrapezoidProfile, sample_times
-
-__all__ = [
-    "CIRC",
-    "COLLISION_ERROR_CODE",
-    "CartesianLimits",
-    "CartesianLimitsError",
-    "DEFAULT_SAMPLE_TIME",
-    "IndustrialMotionPlanner",
-    "KNOWN_PLANNER_IDS",
-    "LIN",
-    "PILZ_PIPELINE_ID",
-    "PTP",
-    "TrapezoidProfile",
-    "load_cartesian_limits",
-    "plan_industrial",
-    "sample_times",
-]

@@ -1,19 +1,27 @@
 """Watching one execution: controller states and joint states until success, failure, stop or timeout."""
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any, Mapping, Sequence
 
-import math
-
 from interfaces_py.msgs import JointTrajectory, MoveItErrorCode
 
-from .controller_manager import TERMINAL_FAILURE, TERMINAL_INTERRUPTED, TERMINAL_SUCCESS, ControllerInfo, ControllerState
-from .settings import ExecutionSettings, error_code as _code
+from ..error_code_result import ErrorCodeResult
+from .controller_manager import (
+    TERMINAL_FAILURE,
+    TERMINAL_INTERRUPTED,
+    TERMINAL_SUCCESS,
+    ControllerInfo,
+    ControllerState,
+)
+from .settings import ExecutionSettings
+from .settings import error_code as _code
 from .trajectory_preparation import trajectory_duration
 
+
 @dataclass
-class ExecutionResult:
+class ExecutionResult(ErrorCodeResult):
     """The outcome of one trajectory execution."""
 
     error_code: MoveItErrorCode
@@ -21,17 +29,6 @@ class ExecutionResult:
     duration: float = 0.0  # measured, s
     expected_duration: float = 0.0
     allowed_duration: float | None = None
-
-    @property
-    def success(self) -> bool:
-        return bool(self.error_code)
-
-    @property
-    def message(self) -> str:
-        return self.error_code.message
-
-    def __bool__(self) -> bool:
-        return self.success
 
     def to_dict(self) -> dict[str, Any]:
         return {

@@ -9,13 +9,17 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any, Callable, Mapping, Sequence
 
-from interfaces_py.msgs import JointTrajectory, MessageError, MoveItErrorCode, PlanningScene as PlanningSceneMsg, RobotState as RobotStateMsg
+from interfaces_py.msgs import JointTrajectory, MessageError, MoveItErrorCode
+from interfaces_py.msgs import PlanningScene as PlanningSceneMsg
+from interfaces_py.msgs import RobotState as RobotStateMsg
 
+from ..error_code_result import ErrorCodeResult
 from ..errors import PlanningError, SceneError
 from ..planning_scene import PlanningScene
 from .controller_manager import select_controllers
 from .monitor import ExecutionResult
-from .settings import ExecutionError, error_code as _code
+from .settings import ExecutionError
+from .settings import error_code as _code
 from .trajectory_preparation import parse_trajectory, prepare_trajectory
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -131,7 +135,7 @@ def _step_controllers(entry: Mapping, where: str) -> tuple[str, ...] | None:
 
 
 @dataclass
-class SolutionResult:
+class SolutionResult(ErrorCodeResult):
     """The outcome of a task solution: which steps ran and which scene changes were applied."""
 
     error_code: MoveItErrorCode
@@ -139,13 +143,6 @@ class SolutionResult:
     failed_step: int | None = None
     applied: list[str] = field(default_factory=list)
     step_results: list[dict[str, Any]] = field(default_factory=list)
-
-    @property
-    def success(self) -> bool:
-        return bool(self.error_code)
-
-    def __bool__(self) -> bool:
-        return self.success
 
     def to_dict(self) -> dict[str, Any]:
         return {

@@ -101,16 +101,12 @@ class GenerateGraspPose(GeneratePose):
             raise errors
 
     def onNewSolution(self, solution: SolutionBase) -> None:
-        scene = solution.end.scene  # type: ignore[union-attr]
         name = self._properties["object"]
-        if not scene.has_object(name):
-            self.spawn(InterfaceState(scene), SubTrajectory.failure(f"object '{name}' not in scene"))
-            return
-        self._upstream.append(solution)
+        present = solution.end.scene.has_object(name)  # type: ignore[union-attr]
+        self._queue(solution, None if present else f"object '{name}' not in scene")
 
     def compute(self) -> None:
-        solution = self._upstream.popleft()
-        scene = solution.end.scene.diff()  # type: ignore[union-attr]
+        solution, scene = self._next()
         p = self._properties
         model = scene.robot_model
         eef = model.end_effectors[p["eef"]]

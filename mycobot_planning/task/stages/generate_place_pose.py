@@ -38,17 +38,12 @@ class GeneratePlacePose(GeneratePose):
     def onNewSolution(self, solution: SolutionBase) -> None:
         scene = solution.end.scene  # type: ignore[union-attr]
         name = self._properties["object"]
-        if not scene.has_object(name):
-            self.spawn(InterfaceState(scene), SubTrajectory.failure(f"frame '{name}' is not known"))
-            return
-        if not scene.is_attached(name):
-            self.spawn(InterfaceState(scene), SubTrajectory.failure(f"frame '{name}' is not attached to the robot"))
-            return
-        self._upstream.append(solution)
+        problem = (f"frame '{name}' is not known" if not scene.has_object(name)
+                   else f"frame '{name}' is not attached to the robot" if not scene.is_attached(name) else None)
+        self._queue(solution, problem)
 
     def compute(self) -> None:
-        solution = self._upstream.popleft()
-        scene = solution.end.scene.diff()  # type: ignore[union-attr]
+        solution, scene = self._next()
         p = self._properties
         name = p["object"]
         target = p["pose"]

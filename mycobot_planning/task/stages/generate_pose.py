@@ -11,6 +11,7 @@ from typing import Any
 
 
 
+from ...core.planning_scene import PlanningScene
 from ..cost_terms import Constant
 from ..errors import InitStageException
 from ..geometry import PoseStamped, as_pose_stamped, frame_transform
@@ -47,7 +48,19 @@ class GeneratePose(MonitoringGenerator):
             raise errors
 
     def onNewSolution(self, solution: SolutionBase) -> None:
-        self._upstream.append(solution)
+        self._queue(solution)
+
+    def _queue(self, solution: SolutionBase, problem: str | None = None) -> None:
+        """Keep ``solution`` for compute, or answer it at once with a failure saying ``problem``."""
+        if problem is None:
+            self._upstream.append(solution)
+        else:
+            self.spawn(InterfaceState(solution.end.scene), SubTrajectory.failure(problem))  # type: ignore[union-attr]
+
+    def _next(self) -> tuple[SolutionBase, PlanningScene]:
+        """The oldest kept solution and a scene diff of its end to build targets in."""
+        solution = self._upstream.popleft()
+        return solution, solution.end.scene.diff()  # type: ignore[union-attr]
 
     def canCompute(self) -> bool:
         return bool(self._upstream)
@@ -59,8 +72,7 @@ class GeneratePose(MonitoringGenerator):
         return min(solution.end.schedule_key() for solution in self._upstream)  # type: ignore[union-attr]
 
     def compute(self) -> None:
-        solution = self._upstream.popleft()
-        scene = solution.end.scene.diff()  # type: ignore[union-attr]
+        solution, scene = self._next()
         target = self._properties["pose"]
         if target is None:
             self.spawn(InterfaceState(scene), SubTrajectory.failure("property 'pose' is undefined"))
