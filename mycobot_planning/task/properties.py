@@ -76,15 +76,17 @@ def check_value(name: str, value: Any, expected: Any, coerce: Callable[[Any], An
 
 
 class Property:
-    """One typed property: a value, a default, and how it is initialised."""
+    """One typed property: a value, a default, and how it is initialised. The methods read as
+    MTC's Python Property: ``value()``, ``defaultValue()``, ``description()``, ``defined()``,
+    ``setValue`` (current and default), ``setCurrentValue``, ``setDescription``, ``reset``."""
 
-    __slots__ = ("name", "description", "type", "coerce", "_default", "_value", "initialized_from",
+    __slots__ = ("name", "_description", "type", "coerce", "_default", "_value", "initialized_from",
                  "source_flags", "initializer")
 
-    def __init__(self, name: str, type_: Any = None, description: str = "", default: Any = None,
+    def __init__(self, name: str = "", type_: Any = None, description: str = "", default: Any = None,
                  coerce: Callable[[Any], Any] | None = None) -> None:
         self.name = name
-        self.description = description
+        self._description = description
         self.type = type_
         self.coerce = coerce
         self._default = check_value(name, default, type_, coerce)
@@ -94,21 +96,29 @@ class Property:
         self.initializer: Callable[[Any], Any] | None = None
 
     # -------------------------------------------------------------- values
-    @property
     def value(self) -> Any:
         """The current value, else the default, else None (undefined)."""
         return self._value if self._value is not None else self._default
 
-    @property
-    def default(self) -> Any:
+    def defaultValue(self) -> Any:
         return self._default
 
+    def description(self) -> str:
+        return self._description
+
+    def setDescription(self, description: str) -> None:
+        self._description = str(description)
+
     def defined(self) -> bool:
-        return self.value is not None
+        """Whether the property has a value (its own or the default)."""
+        return self.value() is not None
 
     def setValue(self, value: Any) -> None:
-        """Set by hand: survives reset() and beats inherited values (MTC's setValue)."""
-        self._value = check_value(self.name, value, self.type, self.coerce)
+        """Set by hand, as current and default value (MTC's setValue): survives reset() and beats
+        inherited values."""
+        checked = check_value(self.name, value, self.type, self.coerce)
+        self._value = checked
+        self._default = checked
         self.initialized_from = PropertyInitializerSource.MANUAL if value is not None else _UNSET
 
     def setCurrentValue(self, value: Any) -> None:
@@ -143,13 +153,13 @@ class Property:
         return self
 
     def __repr__(self) -> str:
-        return f"Property({self.name!r}, value={self.value!r})"
+        return f"Property({self.name!r}, value={self.value()!r})"
 
 
 def _lookup(other: Any, key: str) -> Any:
     """A property's value in a PropertyMap or a plain dict; LookupError when not declared."""
     if isinstance(other, PropertyMap):
-        return other.property(key).value
+        return other.property(key).value()
     if isinstance(other, Mapping):
         if key not in other:
             raise PropertyUndeclared(key, "not present")
@@ -210,12 +220,12 @@ class PropertyMap:
     # -------------------------------------------------------------- values
     def get(self, name: str, default: Any = None) -> Any:
         """The value (or default) of a declared property; ``default`` when it is undefined."""
-        value = self.property(name).value
+        value = self.property(name).value()
         return default if value is None else value
 
     def require(self, name: str) -> Any:
         """The value of a property that must be defined (PropertyUndefined otherwise)."""
-        value = self.property(name).value
+        value = self.property(name).value()
         if value is None:
             raise self._error(PropertyUndefined(name, "undefined"))
         return value
@@ -240,7 +250,7 @@ class PropertyMap:
             raise self._error(exc) from None
 
     def __getitem__(self, name: str) -> Any:
-        return self.property(name).value
+        return self.property(name).value()
 
     def __setitem__(self, name: str, value: Any) -> None:
         self.set(name, value)
@@ -248,14 +258,28 @@ class PropertyMap:
     def __iter__(self) -> Iterator[str]:
         return iter(self._props)
 
+    def update(self, values: Mapping[str, Any]) -> None:
+        """Set several properties at once (MTC's ``PropertyMap.update``): all or none, a bad value
+        is refused before anything changes."""
+        values = dict(values)
+        for name, value in values.items():
+            prop = self._props.get(name)
+            if prop is not None:
+                try:
+                    check_value(name, value, prop.type, prop.coerce)
+                except PropertyError as exc:
+                    raise self._error(exc) from None
+        for name, value in values.items():
+            self.set(name, value)
+
     def __len__(self) -> int:
         return len(self._props)
 
     def items(self) -> Iterator[tuple[str, Any]]:
-        return ((name, prop.value) for name, prop in self._props.items())
+        return ((name, prop.value()) for name, prop in self._props.items())
 
     def defined(self) -> dict[str, Any]:
-        return {name: prop.value for name, prop in self._props.items() if prop.value is not None}
+        return {name: prop.value() for name, prop in self._props.items() if prop.value() is not None}
 
     def reset(self) -> None:
         for prop in self._props.values():
@@ -267,7 +291,7 @@ class PropertyMap:
         ``source``. Names that are not declared here are ignored, as in MTC."""
         if isinstance(names, str):
             names = [names]
-        wanted = None if names is None else set(names)
+        wanted = set(names) if names else None  # MTC: an empty list means every property
         for name, prop in self._props.items():
             if wanted is None or name in wanted:
                 try:
@@ -275,15 +299,19 @@ class PropertyMap:
                 except PropertyError as exc:
                     raise self._error(exc) from None
 
-    def exposeTo(self, other: "PropertyMap", names: str | Iterable[str], other_names: Iterable[str] | None = None) -> None:
-        """Declare these properties (type, description, default) in ``other`` too."""
+    def exposeTo(self, other: "PropertyMap", names: str | Iterable[str],
+                 other_names: str | Iterable[str] | None = None) -> None:
+        """Declare these properties (type, description, default) in ``other`` too; with
+        ``other_names`` under those names there (MTC's ``exposeTo(other, name, other_name)``)."""
+        if isinstance(other_names, str):
+            other_names = [other_names]
         if isinstance(names, str):
             names = [names]
         names = list(names)
         targets = list(other_names) if other_names is not None else names
         for name, target in zip(names, targets):
             prop = self.property(name)
-            other.declare(target, prop.default, prop.description, prop.type, prop.coerce)
+            other.declare(target, prop.defaultValue(), prop.description(), prop.type, prop.coerce)
 
     def performInitFrom(self, source: int, other: "PropertyMap | Mapping[str, Any]") -> None:
         """Pull values from ``other`` into every property configured for ``source``, unless a

@@ -281,9 +281,9 @@ class Stage:
     def _require_property(self, name: str, errors: InitStageException) -> Any:
         """The property's value at init time; an error unless defined or read from the interface."""
         prop = self._properties.property(name)
-        if prop.value is None and not prop.initsFrom(self.INTERFACE) and name not in self.__dict__.get("_bad_properties", ()):
+        if prop.value() is None and not prop.initsFrom(self.INTERFACE) and name not in self.__dict__.get("_bad_properties", ()):
             errors.push_back(self, self._describe_undefined(name))
-        return prop.value
+        return prop.value()
 
     def _check_group(self, name: str, group: Any, robot_model: "RobotModel", errors: InitStageException) -> bool:
         if group is None:

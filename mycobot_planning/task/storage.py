@@ -250,7 +250,9 @@ class SolutionBase:
     def is_failure(self) -> bool:
         return not math.isfinite(self.cost)
 
+    @property
     def isFailure(self) -> bool:
+        """A property, as in MTC's bindings: ``if solution.isFailure:``."""
         return self.is_failure
 
     def markAsFailure(self, comment: str | None = None) -> "SolutionBase":

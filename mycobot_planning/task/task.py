@@ -34,6 +34,18 @@ _LOG = logging.getLogger("mycobot_planning.task")
 __all__ = ["Task", "TaskContext"]
 
 
+#: Default stream of printState / explainFailure: whatever sys.stdout is at the call (so
+#: contextlib.redirect_stdout captures them, as it does MTC's).
+STDOUT = object()
+
+
+def _write(text: str, stream: TextIO | None | object) -> str:
+    out = sys.stdout if stream is STDOUT else stream
+    if out is not None:
+        out.write(text)  # type: ignore[union-attr]
+    return text
+
+
 class TaskContext:
     """What stages share while a task plans: the model, the random source, solution ids,
     IK solvers (built once per group/link/offset) and the planning pipeline."""
@@ -313,22 +325,16 @@ class Task:
     def numSolutions(self) -> int:
         return self._root.numSolutions()
 
-    def printState(self, stream: TextIO | None = sys.stdout) -> str:
+    def printState(self, stream: TextIO | None | object = STDOUT) -> str:
         """MTC's printState: per stage the interface counts and the solutions, indented by depth
         (see introspection.print_state). Written to ``stream`` (None: only returned)."""
 
-        text = print_state(self)
-        if stream is not None:
-            stream.write(text)
-        return text
+        return _write(print_state(self), stream)
 
-    def explainFailure(self, stream: TextIO | None = sys.stdout) -> str:
+    def explainFailure(self, stream: TextIO | None | object = STDOUT) -> str:
         """MTC's explainFailure: the first failing stage along the task and its first comment."""
 
-        text = explain_failure(self)
-        if stream is not None:
-            stream.write(text)
-        return text
+        return _write(explain_failure(self), stream)
 
     def stage_summary(self) -> list[dict[str, Any]]:
         """Per stage (pre-order): name, path, depth, type, interface, solutions, failures,

@@ -17,7 +17,7 @@ class CurrentState(Generator):
     def __init__(self, name: str = "current state", scene: PlanningScene | None = None) -> None:
         super().__init__(name)
         self._properties.property("timeout").setValue(3.0)
-        self._properties.property("timeout").description = "max time to wait for the current scene (s)"
+        self._properties.property("timeout").setDescription("max time to wait for the current scene (s)")
         self._scene = None
         self._ran = False
         if scene is not None:
