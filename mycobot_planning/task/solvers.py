@@ -35,6 +35,7 @@ from ..core.planning_interface import JointGoal, MotionPlanRequest, PlanningFail
 from ..core.planning_pipeline import PlanningPipeline
 from ..core.planning_scene import PlanningScene
 from ..core.robot_trajectory import TimedTrajectory
+from ..core.trajectory_processing.cartesian_speed_limit import limit_cartesian_link_speed
 from ..core.transforms import inverse
 from .errors import PropertyError, TaskError
 from .geometry import PoseStamped, as_pose_stamped, robot_tip_for_frame
@@ -197,9 +198,18 @@ class PipelinePlanner(PlannerInterface):
     pipelines in the map they are tried in order and the first success is used.
     """
 
-    def __init__(self, pipeline_id_planner_id_map: str | Mapping[str, str] = "ompl", planner_id: str = "", *,
+    def __init__(self, pipeline_id_planner_id_map: Any = "ompl", planner_id: str = "", *args: str,
                  pipeline: PlanningPipeline | None = None) -> None:
         super().__init__()
+        if not isinstance(pipeline_id_planner_id_map, (str, Mapping)):
+            # MTC's ros2 form PipelinePlanner(node, "ompl", "RRTConnectkConfigDefault"): MTC reads the
+            # robot through the node; here the task brings the robot, so the node is not needed.
+            if len(args) > 1:
+                raise TaskError("PipelinePlanner(node, pipeline, planner_id) takes at most three arguments")
+            pipeline_id_planner_id_map, planner_id = planner_id or "ompl", (args[0] if args else "")
+        elif args:
+            raise TaskError("PipelinePlanner: too many arguments; expected (pipeline, planner_id), "
+                            "(node, pipeline, planner_id) or ({pipeline: planner_id})")
         if isinstance(pipeline_id_planner_id_map, str):
             mapping = {pipeline_id_planner_id_map: planner_id}
         elif isinstance(pipeline_id_planner_id_map, Mapping):
@@ -231,6 +241,26 @@ class PipelinePlanner(PlannerInterface):
         mapping[pipeline_id] = planner_id
         self._properties.set("pipeline_id_planner_id_map", mapping)
         return True
+
+    @property
+    def pipeline(self) -> str:
+        """The (first) planning pipeline's id, MTC's ``pipeline`` property."""
+        return next(iter(self._properties["pipeline_id_planner_id_map"]))
+
+    @pipeline.setter
+    def pipeline(self, pipeline_id: str) -> None:
+        self._properties.set("pipeline_id_planner_id_map", {str(pipeline_id): self.planner})
+
+    @property
+    def planner(self) -> str:
+        """The (first) pipeline's planner id, MTC's ``planner`` property ("" means its default)."""
+        return next(iter(self._properties["pipeline_id_planner_id_map"].values()))
+
+    @planner.setter
+    def planner(self, planner_id: str) -> None:
+        mapping = dict(self._properties["pipeline_id_planner_id_map"])
+        mapping[next(iter(mapping))] = str(planner_id)
+        self._properties.set("pipeline_id_planner_id_map", mapping)
 
     @property
     def planner_id(self) -> str:
@@ -310,6 +340,10 @@ class CartesianPath(PlannerInterface):
         p.declare("step_size", step_size, "step size between consecutive waypoints (m)", type=float)
         p.declare("jump_threshold", jump_threshold, "acceptable fraction of mean joint motion per step", type=float)
         p.declare("min_fraction", min_fraction, "fraction of motion required for success", type=float)
+        p.declare("max_cartesian_speed", 0.0, "max Cartesian speed of cartesian_speed_limited_link (m/s; 0: "
+                  "no limit): the trajectory is slowed down uniformly", type=float)
+        p.declare("cartesian_speed_limited_link", "", "link whose speed max_cartesian_speed limits (empty: the "
+                  "link the ik_frame is on)", type=str)
 
     def setStepSize(self, step_size: float) -> None:
         self._properties.set("step_size", step_size)
@@ -336,6 +370,11 @@ class CartesianPath(PlannerInterface):
             raise ValueError(f"jump_threshold must be >= 0, got {p['jump_threshold']}")
         if not 0.0 <= p["min_fraction"] <= 1.0:
             raise ValueError(f"min_fraction must be in [0, 1], got {p['min_fraction']}")
+        if not p["max_cartesian_speed"] >= 0.0:
+            raise ValueError(f"max_cartesian_speed must be >= 0 m/s (0: no limit), got {p['max_cartesian_speed']}")
+        limited = p["cartesian_speed_limited_link"]
+        if limited and not robot_model.has_link(limited):
+            raise ValueError(f"cartesian_speed_limited_link '{limited}' is not a link of robot '{robot_model.name}'")
 
     def plan(self, from_scene, to_scene, group, timeout, context=None):
         link, ik_pose = robot_tip_for_frame(self._properties["ik_frame"], from_scene, group)
@@ -363,7 +402,12 @@ class CartesianPath(PlannerInterface):
         if fraction < float(p["min_fraction"]) - 1e-12:
             return PlanResult(False, result.trajectory, f"min_fraction not met. Achieved: {fraction:.6f} "
                                                         f"({result.message})", self.planner_id)
-        return PlanResult(True, result.trajectory, f"achieved fraction: {fraction:.6f}", self.planner_id)
+        trajectory = result.trajectory
+        if p["max_cartesian_speed"] > 0.0 and trajectory is not None:
+            limited = p["cartesian_speed_limited_link"] or link
+            trajectory = limit_cartesian_link_speed(trajectory, from_scene.current_state, limited,
+                                                    float(p["max_cartesian_speed"]))
+        return PlanResult(True, trajectory, f"achieved fraction: {fraction:.6f}", self.planner_id)
 
 
 class JointInterpolationPlanner(PlannerInterface):
