@@ -6,7 +6,7 @@ from .cost_terms import (Clearance, Constant, CostTerm, DistanceToReference, Lam
 from .errors import InitStageException, TaskError
 from .geometry import PointStamped, PoseStamped, TwistStamped, Vector3Stamped
 from .properties import Property, PropertyInitializerSource, PropertyMap
-from .solvers import CartesianPath, JointInterpolationPlanner, PipelinePlanner, PlannerInterface
+from .solvers import CartesianPath, JointInterpolationPlanner, MultiPlanner, PipelinePlanner, PlannerInterface
 from .stage import Connecting, Generator, MonitoringGenerator, PropagatingEitherWay, Stage
 from .storage import InterfaceState, SolutionBase, SolutionSequence, SubTrajectory, WrappedSolution
 from .task import Task
@@ -14,7 +14,7 @@ from .task import Task
 __all__ = [
     "Alternatives", "CartesianPath", "Clearance", "Connecting", "Constant", "ContainerBase", "CostTerm",
     "DistanceToReference", "Fallbacks", "Generator", "InitStageException", "InterfaceState", "JointInterpolationPlanner",
-    "LambdaCostTerm", "LinkMotion", "Merger", "MonitoringGenerator", "ParallelContainerBase", "PathLength",
+    "LambdaCostTerm", "LinkMotion", "Merger", "MultiPlanner", "MonitoringGenerator", "ParallelContainerBase", "PathLength",
     "PipelinePlanner", "PlannerInterface", "PointStamped", "PoseStamped", "PropagatingEitherWay", "Property",
     "PropertyInitializerSource", "PropertyMap", "SerialContainer", "SolutionBase", "SolutionSequence", "Stage",
     "SubTrajectory", "Task", "TaskError", "TrajectoryCostTerm", "TrajectoryDuration", "TwistStamped", "Vector3Stamped",

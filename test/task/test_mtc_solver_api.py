@@ -75,3 +75,31 @@ def test_cartesian_speed_limited_link_must_exist(mycobot):
     task.add(move)
     with pytest.raises(Exception, match="no_such_link"):
         task.init()
+
+
+def test_multi_planner_answers_with_the_first_planner_that_succeeds(mycobot):
+    # Cartesian first: a joint goal far from a straight line makes it fail, so the joint
+    # interpolation planner behind it answers (MTC's multi_planner demo has this order).
+    cartesian = core.CartesianPath()
+    cartesian.min_fraction = 1.0
+    multi = core.MultiPlanner()
+    multi.add(cartesian, core.JointInterpolationPlanner())
+    assert len(multi) == 2 and multi[1].planner_id == "JointInterpolation"
+    task = core.Task("multi", mycobot, scene_at(mycobot, "ready"))
+    task.add(stages.CurrentState("current"))
+    move = stages.MoveTo("home", multi)
+    move.group = "arm"
+    move.setGoal("home")
+    task.add(move)
+    assert task.plan()
+    assert_solution_valid(task.solutions[0])
+    moved = [sub for sub in task.solutions[0].sub_trajectories() if sub.trajectory is not None]
+    assert [sub.planner_id for sub in moved] == ["JointInterpolation"]  # the Cartesian attempt failed
+    with pytest.raises(Exception, match="no planners"):
+        empty = core.Task("empty", mycobot, scene_at(mycobot, "ready"))
+        empty.add(stages.CurrentState("current"))
+        idle = stages.MoveTo("home", core.MultiPlanner())
+        idle.group = "arm"
+        idle.setGoal("home")
+        empty.add(idle)
+        empty.init()

@@ -5,9 +5,11 @@ from .connect import Connect
 from .generate_grasp_pose import GenerateGraspPose
 from .generate_place_pose import GeneratePlacePose
 from .generate_pose import GeneratePose
+from .limit_solutions import LimitSolutions
 from .modify_planning_scene import ModifyPlanningScene
 from .move_relative import MoveRelative
 from .move_to import MoveTo
+from .pass_through import PassThrough
 from .predicate_filter import PredicateFilter
 from .current_state import CurrentState
 from .fixed_state import FixedState
@@ -20,8 +22,10 @@ __all__ = [
     "GenerateGraspPose",
     "GeneratePlacePose",
     "GeneratePose",
+    "LimitSolutions",
     "ModifyPlanningScene",
     "MoveRelative",
     "MoveTo",
+    "PassThrough",
     "PredicateFilter",
 ]
