@@ -5,6 +5,7 @@ The full story: docs/task.md, section mycobot_planning.task.cost_terms.
 from __future__ import annotations
 
 import math
+from enum import IntEnum
 from typing import TYPE_CHECKING, Any, Callable, Mapping, Sequence
 
 import numpy as np
@@ -46,6 +47,16 @@ class CostTerm:
 
 class TrajectoryCostTerm(CostTerm):
     """Terms defined on sub-trajectories; sequences sum their children, wrappers delegate."""
+
+    class Mode(IntEnum):
+        """Which states a term looks at (MTC's ``TrajectoryCostTerm.Mode``)."""
+
+        AUTO = 0  #: the trajectory if there is one, else the start state
+        START_INTERFACE = 1
+        END_INTERFACE = 2
+        TRAJECTORY = 3
+
+    AUTO, START_INTERFACE, END_INTERFACE, TRAJECTORY = Mode
 
     def subtrajectory_cost(self, s: "SubTrajectory") -> tuple[float, str]:
         raise NotImplementedError
@@ -146,10 +157,6 @@ class Clearance(TrajectoryCostTerm):
     property ``group_property`` if present, else from the creating stage's property.
     """
 
-    AUTO = 0
-    START_INTERFACE = 1
-    END_INTERFACE = 2
-    TRAJECTORY = 3
     PREFIX = "Clearance: "
 
     def __init__(self, with_world: bool = True, cumulative: bool = False, group_property: str = "group",
@@ -216,10 +223,6 @@ class Clearance(TrajectoryCostTerm):
 class DistanceToReference(TrajectoryCostTerm):
     """Joint-space distance to a reference state (a joint map), at the start/end state or
     averaged over the trajectory (AUTO: trajectory if any, else the start state)."""
-
-    AUTO = 0
-    START_INTERFACE = 1
-    END_INTERFACE = 2
 
     def __init__(self, reference: Mapping[str, float], mode: int = 0, weights: Mapping[str, float] | None = None) -> None:
         self.reference = {str(k): float(v) for k, v in reference.items()}

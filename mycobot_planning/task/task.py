@@ -325,6 +325,10 @@ class Task:
     def numSolutions(self) -> int:
         return self._root.numSolutions()
 
+    def setCostTerm(self, term: Any) -> None:
+        """The cost term of the task's solutions (MTC's Task.setCostTerm: the root container's)."""
+        self._root.setCostTerm(term)
+
     def printState(self, stream: TextIO | None | object = STDOUT) -> str:
         """MTC's printState: per stage the interface counts and the solutions, indented by depth
         (see introspection.print_state). Written to ``stream`` (None: only returned)."""

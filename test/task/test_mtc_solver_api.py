@@ -103,3 +103,20 @@ def test_multi_planner_answers_with_the_first_planner_that_succeeds(mycobot):
         idle.setGoal("home")
         empty.add(idle)
         empty.init()
+
+
+def test_task_set_cost_term_and_trajectory_cost_term_mode(mycobot):
+    task = core.Task("duration", mycobot, scene_at(mycobot, "ready"))
+    task.add(stages.CurrentState("current"))
+    move = stages.MoveTo("home", core.JointInterpolationPlanner())
+    move.group = "arm"
+    move.setGoal("home")
+    task.add(move)
+    task.setCostTerm(core.TrajectoryDuration())  # MTC: the task's solutions cost their duration
+    assert task.plan()
+    (moved,) = [s for s in task.solutions[0].sub_trajectories() if s.trajectory is not None]
+    assert task.solutions[0].cost == pytest.approx(moved.trajectory.duration)
+
+    Mode = core.TrajectoryCostTerm.Mode
+    assert [m.name for m in Mode] == ["AUTO", "START_INTERFACE", "END_INTERFACE", "TRAJECTORY"]
+    assert core.Clearance(mode=Mode.END_INTERFACE).mode == core.Clearance.END_INTERFACE == 2
