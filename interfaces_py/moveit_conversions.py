@@ -28,23 +28,13 @@ from moveit_msgs.msg import (
 from shape_msgs.msg import Mesh, MeshTriangle, SolidPrimitive
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
+from .ros_message_reading import ConversionError, collision_object_from_msg, pose_from_msg
+
 #: rad: an orientation constraint this loose on every axis leaves the orientation free
 FREE_ORIENTATION = math.pi
 
 
-class ConversionError(ValueError):
-    """A moveit_msgs message that has no meaning for the planner (says which field and why)."""
-
-    def __init__(self, code: int, message: str) -> None:
-        super().__init__(message)
-        self.code = code
-        self.message = message
-
-
 # ----------------------------------------------------------------------------- small types
-def pose_from_msg(msg: PoseMsg) -> dict[str, list[float]]:
-    p, q = msg.position, msg.orientation
-    return {"position": [p.x, p.y, p.z], "orientation": [q.x, q.y, q.z, q.w]}
 
 
 def pose_to_msg(pose: Mapping[str, Sequence[float]]) -> PoseMsg:
@@ -53,11 +43,6 @@ def pose_to_msg(pose: Mapping[str, Sequence[float]]) -> PoseMsg:
     (msg.orientation.x, msg.orientation.y, msg.orientation.z, msg.orientation.w) = (
         float(v) for v in pose["orientation"])
     return msg
-
-
-def _byte(value: Any) -> int:
-    """A ROS ``byte`` field (bytes of length 1 in rclpy) as an int."""
-    return value[0] if isinstance(value, (bytes, bytearray)) else int(value)
 
 
 def duration_to_msg(seconds: float) -> Duration:
@@ -79,17 +64,10 @@ def error_code_to_msg(code: Mapping[str, Any] | None) -> MoveItErrorCodes:
 
 
 # ----------------------------------------------------------------------------- scene objects
-def _primitive_from_msg(msg: SolidPrimitive) -> dict[str, Any]:
-    return {"type": int(msg.type), "dimensions": [float(d) for d in msg.dimensions]}
 
 
 def _primitive_to_msg(data: Mapping[str, Any]) -> SolidPrimitive:
     return SolidPrimitive(type=int(data["type"]), dimensions=[float(d) for d in data["dimensions"]])
-
-
-def _mesh_from_msg(msg: Mesh) -> dict[str, Any]:
-    return {"vertices": [[v.x, v.y, v.z] for v in msg.vertices],
-            "triangles": [[int(i) for i in t.vertex_indices] for t in msg.triangles]}
 
 
 def _mesh_to_msg(data: Mapping[str, Any]) -> Mesh:
@@ -97,32 +75,6 @@ def _mesh_to_msg(data: Mapping[str, Any]) -> Mesh:
     msg.vertices = [Point(x=float(v[0]), y=float(v[1]), z=float(v[2])) for v in data.get("vertices", [])]
     msg.triangles = [MeshTriangle(vertex_indices=[int(i) for i in t]) for t in data.get("triangles", [])]
     return msg
-
-
-def collision_object_from_msg(msg: CollisionObject) -> dict[str, Any]:
-    if len(msg.planes):
-        raise ConversionError(MoveItErrorCodes.FAILURE,
-                              f"collision object '{msg.id}': planes are not supported; use a thin box")
-    data: dict[str, Any] = {
-        "id": msg.id,
-        "frame_id": msg.header.frame_id or "world",
-        "pose": pose_from_msg(msg.pose),
-        "primitives": [_primitive_from_msg(p) for p in msg.primitives],
-        "primitive_poses": [pose_from_msg(p) for p in msg.primitive_poses],
-        "meshes": [_mesh_from_msg(m) for m in msg.meshes],
-        "mesh_poses": [pose_from_msg(p) for p in msg.mesh_poses],
-        "operation": _byte(msg.operation),
-    }
-    if data["pose"]["orientation"] == [0.0, 0.0, 0.0, 0.0]:
-        data["pose"]["orientation"] = [0.0, 0.0, 0.0, 1.0]  # an unset quaternion, as MoveIt reads it
-    for shapes, poses in (("primitives", "primitive_poses"), ("meshes", "mesh_poses")):
-        for pose in data[poses]:
-            if pose["orientation"] == [0.0, 0.0, 0.0, 0.0]:
-                pose["orientation"] = [0.0, 0.0, 0.0, 1.0]
-        # MoveIt places a shape without a pose of its own at the object's pose
-        while len(data[poses]) < len(data[shapes]):
-            data[poses].append({"position": [0.0, 0.0, 0.0], "orientation": [0.0, 0.0, 0.0, 1.0]})
-    return data
 
 
 def collision_object_to_msg(data: Mapping[str, Any], stamp: Any = None) -> CollisionObject:

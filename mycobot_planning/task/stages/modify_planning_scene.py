@@ -11,9 +11,10 @@ that stands on its support succeeds, as it does with MoveIt (the following "allo
 """
 from __future__ import annotations
 
-from typing import Any, Callable, Iterable
+from typing import Any, Callable, Iterable, Mapping
 
-from interfaces_py.msgs import CollisionObject
+from interfaces_py.msgs import CollisionObject, MessageError
+from interfaces_py.ros_message_reading import ConversionError, collision_object_from_msg
 
 from ...core.errors import PlanningError
 from ...core.robot_model import JointModelGroup
@@ -78,7 +79,16 @@ class ModifyPlanningScene(PropagatingEitherWay):
     def forbidCollisions(self, first: Names, second: Names | None = None) -> None:
         self.allowCollisions(first, second, False)
 
-    def addObject(self, obj: CollisionObject) -> None:
+    def addObject(self, obj: Any) -> None:
+        """Add a collision object: a moveit_msgs/CollisionObject (as MTC's scripts build them,
+        field by field), its dict form, or an interfaces_py CollisionObject; operation ADD."""
+        try:
+            if isinstance(obj, Mapping):
+                obj = CollisionObject.from_dict(obj)
+            elif not isinstance(obj, CollisionObject) and hasattr(obj, "header") and hasattr(obj, "primitives"):
+                obj = CollisionObject.from_dict(collision_object_from_msg(obj))
+        except (MessageError, ConversionError) as exc:
+            raise TaskError(f"stage '{self._name}': addObject: {exc}") from None
         if not isinstance(obj, CollisionObject) or obj.operation != CollisionObject.ADD:
             raise TaskError(f"stage '{self._name}': addObject needs a CollisionObject with operation ADD")
         self._objects.append(obj)
