@@ -53,3 +53,23 @@ def test_an_object_that_is_not_an_add_is_refused(mycobot):
         stage.addObject(obj)
     with pytest.raises(Exception, match="addObject"):
         stage.addObject({"id": "x", "primitives": [{"type": 1, "dimensions": [-1, 0, 0]}]})
+
+
+def test_fixed_state_takes_a_planning_scene_message(mycobot):
+    msg = scene_at(mycobot, "home").get_planning_scene_msg()
+    for form in (msg, msg.to_json()):
+        task = core.Task("fixed", mycobot)
+        fixed = stages.FixedState("start")
+        fixed.setState(form)
+        task.add(fixed)
+        assert task.plan()
+        assert task.solutions[0].end.scene.current_state.positions == pytest.approx(
+            scene_at(mycobot, "home").current_state.positions)
+    bad = stages.FixedState("bad")
+    bad.setState({"robot_state": {"joint_state": {"name": ["no_such_joint"], "position": [0.0]}}})
+    task = core.Task("bad", mycobot)
+    task.add(bad)
+    with pytest.raises(Exception, match="cannot be applied"):
+        task.init()
+    with pytest.raises(Exception, match="expected a PlanningScene"):
+        stages.FixedState("x").setState(42)
