@@ -5,6 +5,7 @@ from .connect import Connect
 from .generate_grasp_pose import GenerateGraspPose
 from .generate_place_pose import GeneratePlacePose
 from .generate_pose import GeneratePose
+from .generate_random_pose import GenerateRandomPose
 from .limit_solutions import LimitSolutions
 from .modify_planning_scene import ModifyPlanningScene
 from .move_relative import MoveRelative
@@ -22,6 +23,7 @@ __all__ = [
     "GenerateGraspPose",
     "GeneratePlacePose",
     "GeneratePose",
+    "GenerateRandomPose",
     "LimitSolutions",
     "ModifyPlanningScene",
     "MoveRelative",

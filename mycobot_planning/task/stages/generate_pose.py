@@ -7,7 +7,7 @@ build on it.
 from __future__ import annotations
 
 from collections import deque
-from typing import Any
+from typing import Any, Iterator
 
 
 
@@ -82,8 +82,13 @@ class GeneratePose(MonitoringGenerator):
         except ValueError as exc:
             self.spawn(InterfaceState(scene), SubTrajectory.failure(f"unknown frame '{target.frame_id}': {exc}"))
             return
-        state = InterfaceState(scene, lineage_depth=solution.end.schedule_depth)  # type: ignore[union-attr]
-        self.forwardProperties(solution.end, state)  # type: ignore[arg-type]
-        state.properties["target_pose"] = target
-        self.spawn(state, SubTrajectory(cost=0.0))
+        for pose in self._targets(target):
+            state = InterfaceState(scene, lineage_depth=solution.end.schedule_depth)  # type: ignore[union-attr]
+            self.forwardProperties(solution.end, state)  # type: ignore[arg-type]
+            state.properties["target_pose"] = pose
+            self.spawn(state, SubTrajectory(cost=0.0))
+
+    def _targets(self, seed: PoseStamped) -> Iterator[PoseStamped]:
+        """The target poses spawned for one monitored solution: the ``pose`` property itself."""
+        yield seed
 
