@@ -15,6 +15,17 @@ from task_helpers import assert_solution_valid, scene_at
 FLANGE = "link6_flange"
 
 
+def _move_home(model, planner, name="move"):
+    """current state -> MoveTo 'home' of the arm with ``planner``."""
+    task = core.Task(name, model, scene_at(model, "ready"))
+    task.add(stages.CurrentState("current"))
+    move = stages.MoveTo("home", planner)
+    move.group = "arm"
+    move.setGoal("home")
+    task.add(move)
+    return task
+
+
 def test_pipeline_planner_takes_mtc_ros2_constructor_and_attributes(mycobot):
     node = SimpleNamespace(get_name=lambda: "mtc_tutorial")  # what rclpy.create_node would give
     planner = core.PipelinePlanner(node, "ompl", "RRTConnectkConfigDefault")
@@ -26,25 +37,26 @@ def test_pipeline_planner_takes_mtc_ros2_constructor_and_attributes(mycobot):
     planner.planner = "PTP"
     assert planner.properties["pipeline_id_planner_id_map"] == {"pilz_industrial_motion_planner": "PTP"}
 
-    task = core.Task("ptp", mycobot, scene_at(mycobot, "ready"))
-    task.add(stages.CurrentState("current"))
-    move = stages.MoveTo("home", planner)
-    move.group = "arm"
-    move.setGoal("home")
-    task.add(move)
+    task = _move_home(mycobot, planner, "ptp")
     assert task.plan()
     assert_solution_valid(task.solutions[0])
     with pytest.raises(Exception, match="too many arguments"):
         core.PipelinePlanner("ompl", "RRTConnectkConfigDefault", "extra")
 
 
-def _relative(model, solver):
+def _down(model, solver):
+    """current state -> MoveRelative 5 cm down with ``solver``."""
     task = core.Task("down", model, scene_at(model, "ready"))
     task.add(stages.CurrentState("current"))
     move = stages.MoveRelative("down 5 cm", solver)
     move.group = "arm"
     move.setDirection(core.Vector3Stamped("base_link", [0.0, 0.0, -0.05]))
     task.add(move)
+    return task
+
+
+def _relative(model, solver):
+    task = _down(model, solver)
     assert task.plan()
     assert_solution_valid(task.solutions[0])
     (sub,) = [s for s in task.solutions[0].sub_trajectories() if s.trajectory is not None]
@@ -67,14 +79,8 @@ def test_cartesian_speed_limited_link_must_exist(mycobot):
     solver = core.CartesianPath()
     solver.max_cartesian_speed = 0.05
     solver.cartesian_speed_limited_link = "no_such_link"
-    task = core.Task("bad", mycobot, scene_at(mycobot, "ready"))
-    task.add(stages.CurrentState("current"))
-    move = stages.MoveRelative("down", solver)
-    move.group = "arm"
-    move.setDirection(core.Vector3Stamped("base_link", [0.0, 0.0, -0.05]))
-    task.add(move)
     with pytest.raises(Exception, match="no_such_link"):
-        task.init()
+        _down(mycobot, solver).init()
 
 
 def test_multi_planner_answers_with_the_first_planner_that_succeeds(mycobot):
@@ -85,33 +91,17 @@ def test_multi_planner_answers_with_the_first_planner_that_succeeds(mycobot):
     multi = core.MultiPlanner()
     multi.add(cartesian, core.JointInterpolationPlanner())
     assert len(multi) == 2 and multi[1].planner_id == "JointInterpolation"
-    task = core.Task("multi", mycobot, scene_at(mycobot, "ready"))
-    task.add(stages.CurrentState("current"))
-    move = stages.MoveTo("home", multi)
-    move.group = "arm"
-    move.setGoal("home")
-    task.add(move)
+    task = _move_home(mycobot, multi, "multi")
     assert task.plan()
     assert_solution_valid(task.solutions[0])
     moved = [sub for sub in task.solutions[0].sub_trajectories() if sub.trajectory is not None]
     assert [sub.planner_id for sub in moved] == ["JointInterpolation"]  # the Cartesian attempt failed
     with pytest.raises(Exception, match="no planners"):
-        empty = core.Task("empty", mycobot, scene_at(mycobot, "ready"))
-        empty.add(stages.CurrentState("current"))
-        idle = stages.MoveTo("home", core.MultiPlanner())
-        idle.group = "arm"
-        idle.setGoal("home")
-        empty.add(idle)
-        empty.init()
+        _move_home(mycobot, core.MultiPlanner(), "empty").init()
 
 
 def test_task_set_cost_term_and_trajectory_cost_term_mode(mycobot):
-    task = core.Task("duration", mycobot, scene_at(mycobot, "ready"))
-    task.add(stages.CurrentState("current"))
-    move = stages.MoveTo("home", core.JointInterpolationPlanner())
-    move.group = "arm"
-    move.setGoal("home")
-    task.add(move)
+    task = _move_home(mycobot, core.JointInterpolationPlanner(), "duration")
     task.setCostTerm(core.TrajectoryDuration())  # MTC: the task's solutions cost their duration
     assert task.plan()
     (moved,) = [s for s in task.solutions[0].sub_trajectories() if s.trajectory is not None]
