@@ -140,14 +140,19 @@ class ProbeNode:
         return received
 
     def listen_to_joint_states(self) -> None:
-        """Keep the latest /joint_states message for :meth:`joints`."""
-        self._joint_states = self.collect(JointState, "/joint_states")
+        """Keep the latest /joint_states message (only that one) for :meth:`joints`."""
+        self._joint_state: Any = None
+
+        def keep(msg: Any) -> None:
+            with self.lock:
+                self._joint_state = msg
+
+        self.node.create_subscription(JointState, "/joint_states", keep, 10)
 
     def joints(self) -> dict[str, float]:
         """The latest /joint_states as {name: position} (empty before the first one)."""
         with self.lock:
-            msg = self._joint_states[-1] if self._joint_states else None
-            del self._joint_states[:-1]
+            msg = self._joint_state
         return dict(zip(msg.name, msg.position)) if msg is not None else {}
 
     def spin_in_background(self) -> None:
