@@ -137,6 +137,14 @@ def _pose_json(pose: Any, what: str = "pose") -> Any:
     return pose_message(pose, what).to_dict()
 
 
+def _stamped(pose: Any, frame_id: str) -> tuple[Any, str]:
+    """(pose, frame) of a geometry_msgs/PoseStamped (or our dict form), else ``pose`` in ``frame_id``."""
+    header = getattr(pose, "header", None)
+    if header is not None and hasattr(pose, "pose"):
+        return pose.pose, getattr(header, "frame_id", "") or frame_id
+    return pose, frame_id
+
+
 def _trajectory_json(trajectory: Any) -> dict[str, Any]:
     if isinstance(trajectory, PlanResult):
         trajectory = trajectory.trajectory
@@ -187,15 +195,31 @@ class PlanningSceneInterface(_Client):
     add_object = apply_collision_object
     add_objects = apply_collision_objects
 
-    def add_box(self, object_id: str, size: Sequence[float], pose: Any = None, frame_id: str = "world") -> None:
-        """Box of ``size`` (x, y, z) centred at ``pose`` (Pose, 4x4, 7 numbers; default origin)."""
-        self.add_object(self._shape("box", object_id, pose, frame_id, size=size))
+    def __init__(self, ns: str = "", synchronous: bool = True, service_timeout: float = 10.0, *,
+                 node: Node | None = None, server: str = DEFAULT_SERVER, timeout: float | None = None,
+                 _handle: _RosHandle | None = None) -> None:
+        """moveit_commander's constructor (``ns``, ``synchronous``, ``service_timeout``) plus ours.
+        Every change is a request the planning_server answers, so calls are always synchronous;
+        ``ns`` prefixes the server's name."""
+        if not isinstance(ns, str):
+            raise ValueError(f"ns must be a string, got {type(ns).__name__}")
+        name = f"{ns.rstrip('/')}/{server.lstrip('/')}" if ns else server
+        super().__init__(node, name, service_timeout if timeout is None else timeout, _handle=_handle)
 
-    def add_cylinder(self, object_id: str, height: float, radius: float, pose: Any = None, frame_id: str = "world") -> None:
-        self.add_object(self._shape("cylinder", object_id, pose, frame_id, height=height, radius=radius))
+    # moveit_commander's shape calls: name, pose (PoseStamped, Pose, 4x4, 7 numbers), dimensions
+    def add_box(self, name: str, pose: Any = None, size: Sequence[float] = (1, 1, 1), frame_id: str = "world") -> None:
+        """Box of ``size`` (x, y, z) centred at ``pose`` (a PoseStamped's frame wins over ``frame_id``)."""
+        pose, frame_id = _stamped(pose, frame_id)
+        self.add_object(self._shape("box", name, pose, frame_id, size=size))
 
-    def add_sphere(self, object_id: str, radius: float, pose: Any = None, frame_id: str = "world") -> None:
-        self.add_object(self._shape("sphere", object_id, pose, frame_id, radius=radius))
+    def add_cylinder(self, name: str, pose: Any = None, height: float = 1.0, radius: float = 1.0,
+                     frame_id: str = "world") -> None:
+        pose, frame_id = _stamped(pose, frame_id)
+        self.add_object(self._shape("cylinder", name, pose, frame_id, height=height, radius=radius))
+
+    def add_sphere(self, name: str, pose: Any = None, radius: float = 1.0, frame_id: str = "world") -> None:
+        pose, frame_id = _stamped(pose, frame_id)
+        self.add_object(self._shape("sphere", name, pose, frame_id, radius=radius))
 
     @staticmethod
     def _shape(kind: str, object_id: str, pose: Any, frame_id: str, **dims: Any) -> CollisionObject:

@@ -7,6 +7,8 @@ own subset with its own error; now they all call :func:`pose_matrix` and turn th
 """
 from __future__ import annotations
 
+import logging
+import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -15,6 +17,10 @@ import numpy as np
 from .msgs import MessageError, Pose
 
 __all__ = ["PoseError", "pose_matrix", "pose_message"]
+
+_LOG = logging.getLogger("mycobot_planning.pose_conversion")
+#: a quaternion whose norm is further than this from 1 is normalized with a warning
+QUATERNION_NORM_TOLERANCE = 1e-3
 
 _FORMS = ("a Pose (message, dict or geometry_msgs/Pose), 7 numbers [x, y, z, qx, qy, qz, qw], "
           "six finite numbers [x, y, z, roll, pitch, yaw] or a 4x4 matrix")
@@ -79,4 +85,9 @@ def _checked(values: list[float], what: str) -> np.ndarray:
         raise PoseError(f"{what}: a pose needs 3 position and 4 orientation values")
     if not all(np.isfinite(values)):
         raise PoseError(f"{what}: contains NaN or infinite values")
+    norm = math.sqrt(sum(v * v for v in values[3:]))
+    if abs(norm - 1.0) > QUATERNION_NORM_TOLERANCE and norm > 0.0:
+        # e.g. a ROS 1 habit in ROS 2: setting x = 1 on a fresh quaternion, whose w is already 1
+        _LOG.warning("%s: the orientation (x, y, z, w) = (%g, %g, %g, %g) is not a unit quaternion (norm %.4g); "
+                     "it is normalized", what, *values[3:], norm)
     return Pose(position=values[:3], orientation=values[3:]).to_matrix()

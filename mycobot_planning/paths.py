@@ -52,6 +52,19 @@ def config_file(name: str) -> Path:
     return path
 
 
+def package_share_dirs() -> list[Path]:
+    """Where ``package://NAME/...`` resolves, in order: the share/ folder of every
+    AMENT_PREFIX_PATH entry, of the Python prefix (the ROS wheels install there) and of every
+    cmeel prefix on sys.path (pip's example-robot-data and other cmeel robot packages)."""
+    prefixes = [Path(p) for p in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p] + [Path(sys.prefix)]
+    prefixes += [Path(p) / "cmeel.prefix" for p in sys.path if p and (Path(p) / "cmeel.prefix").is_dir()]
+    out: list[Path] = []
+    for prefix in prefixes:
+        if prefix / "share" not in out:
+            out.append(prefix / "share")
+    return out
+
+
 def example_robot_data_dir() -> Path:
     """The robots/ folder of the example-robot-data wheel (test and benchmark robots)."""
     for base in [Path(p) for p in sys.path if p] + [Path(sys.prefix)]:

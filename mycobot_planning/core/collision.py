@@ -6,8 +6,6 @@ from __future__ import annotations
 
 import logging
 import math
-import os
-import sys
 import threading
 import weakref
 from dataclasses import dataclass, field
@@ -19,6 +17,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 
+from ..paths import package_share_dirs
 from .errors import SceneError
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -206,11 +205,7 @@ def _resource_candidates(resource: str, package_dirs: Iterable[Path]) -> list[Pa
     if resource.startswith("package://"):
         rest = resource[len("package://"):]
         package, _, relative = rest.partition("/")
-        roots: list[Path] = list(package_dirs)
-        for prefix in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep):
-            if prefix:
-                roots.append(Path(prefix) / "share")
-        roots.append(Path(sys.prefix) / "share")
+        roots: list[Path] = list(package_dirs) + package_share_dirs()
         out = []
         for root in roots:
             out.append(root / package / relative)

@@ -246,6 +246,22 @@ class RobotModel:
             config_file("kinematics.yaml"),
         )
 
+    @classmethod
+    def panda(cls) -> "RobotModel":
+        """The Franka Panda with its hand, named as MoveIt's panda_moveit_config names it (groups
+        panda_arm, hand, panda_arm_hand; end effector hand): example-robot-data's URDF and
+        meshes with the package's config/panda/ files. MTC's demo scripts run on it."""
+        from ..paths import config_file, example_robot_data_dir
+
+        robots = example_robot_data_dir()
+        return cls.from_files(
+            robots / "panda_description" / "urdf" / "panda.urdf",
+            config_file("panda/panda.srdf"),
+            config_file("panda/joint_limits.yaml"),
+            config_file("panda/kinematics.yaml"),
+            package_dirs=[str(robots.parent.parent)],
+        )
+
     def _build_joints(self, urdf: _UrdfInfo, joint_limits: dict) -> None:
         limits_cfg = joint_limits.get("joint_limits", {}) or {}
         if not isinstance(limits_cfg, dict):

@@ -6,10 +6,8 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import sys
 import threading
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -22,9 +20,9 @@ from std_srvs.srv import Trigger
 from trajectory_msgs.msg import JointTrajectory
 
 from interfaces_py.ros_conversions import duration_to_seconds
+from mycobot_planning.core.controllers_config import ControllerConfig, load_controllers_config
 from mycobot_planning.core.robot_model import RobotModel
 from mycobot_planning.core.trajectory_limits import DEFAULT_LIMIT_TOLERANCE
-from mycobot_planning.core.controllers_config import ControllerConfig, load_controllers_config
 from mycobot_planning.mock_control.joint_trajectory_follower import (
     ControllerStatus,
     FollowerState,
@@ -33,8 +31,8 @@ from mycobot_planning.mock_control.joint_trajectory_follower import (
     TrajectoryCommand,
 )
 from mycobot_planning.nodes.controller_actions import ControllerActions
-from mycobot_planning.nodes.node_runtime import Parameters, ParameterSpec, run_node
-from mycobot_planning.paths import config_file
+from mycobot_planning.nodes.node_runtime import Parameters, ParameterSpec, load_yaml_file, run_node
+from mycobot_planning.paths import config_file, package_share_dirs
 
 NODE_NAME = "controller_manager"
 JOINT_STATES_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
@@ -91,6 +89,10 @@ class MockControllerManager(Node):
                           read_only=True),
             ParameterSpec("controllers_file", "", "controllers YAML (ros2_control layout); empty: config/controllers.yaml",
                           read_only=True),
+            ParameterSpec("joint_limits_file", "",
+                          "joint_limits.yaml (MoveIt format) for a custom robot_description: the velocity and "
+                          "acceleration limits trajectories are checked against; empty: the URDF's (myCobot: "
+                          "config/joint_limits.yaml)", read_only=True),
             ParameterSpec("publish_rate", 100.0, "rate of /joint_states in Hz", range=(1.0, 1000.0),
                           validator=_number("publish_rate"), dynamic_typing=True),
             ParameterSpec("limit_tolerance", DEFAULT_LIMIT_TOLERANCE,
@@ -164,9 +166,8 @@ class MockControllerManager(Node):
             return RobotModel.mycobot()
         if not urdf:
             raise ValueError("robot_description_semantic is set but robot_description (the URDF) is empty")
-        prefixes = [p for p in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p] + [sys.prefix]
-        package_dirs = [str(Path(p) / "share") for p in prefixes]
-        return RobotModel.from_strings(urdf, srdf or '<robot name=""/>', package_dirs=package_dirs)
+        limits = load_yaml_file(self._params.get("joint_limits_file"), "joint limits file")
+        return RobotModel.from_strings(urdf, srdf or '<robot name=""/>', limits, package_dirs=package_share_dirs())
 
     def _make_endpoints(self, c: _Controller) -> _Controller:
         name = c.config.name

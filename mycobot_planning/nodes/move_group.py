@@ -85,6 +85,22 @@ CANCEL_POLL = 0.02
 _MOVEIT_CODES = {v for k, v in vars(MoveItErrorCodes).items() if k.isupper() and isinstance(v, int)}
 
 
+def flatten_parameters(tree: dict[str, Any], prefix: str) -> list[tuple[str, Any]]:
+    """A YAML tree as ROS 2 parameters ("prefix.a.b", value), as a params file declares it.
+    Values ROS cannot hold (None, mixed lists) are left out."""
+    out: list[tuple[str, Any]] = []
+    for key, value in tree.items():
+        name = f"{prefix}.{key}"
+        if isinstance(value, dict):
+            out += flatten_parameters(value, name)
+        elif isinstance(value, (bool, int, float, str)):
+            out.append((name, value))
+        elif isinstance(value, list) and value and len({type(v) for v in value}) == 1 \
+                and isinstance(value[0], (bool, int, float, str)):
+            out.append((name, value))
+    return out
+
+
 def _code(code: dict[str, Any] | None) -> MoveItErrorCodes:
     msg = error_code_to_msg(code)
     if msg.val not in _MOVEIT_CODES:
@@ -100,13 +116,17 @@ def _failure(val: int, message: str, source: str = "move_group") -> MoveItErrorC
 class MoveGroupFace(Node):
     """The ``move_group`` node of the planning_server process (see module docstring)."""
 
-    def __init__(self, core: MoveGroupCapabilities, urdf: str, srdf: str, context: Any,
-                 log: Callable[[str, str], None]) -> None:
+    def __init__(self, core: MoveGroupCapabilities, urdf: str, srdf: str, joint_limits: dict | None,
+                 kinematics: dict | None, context: Any, log: Callable[[str, str], None]) -> None:
         super().__init__(names.MOVE_GROUP_NODE, context=context)
         self.core = core
         self._log = log
         self.declare_parameter("robot_description", urdf)
         self.declare_parameter("robot_description_semantic", srdf)
+        # as move_group carries them: what loads the same robot model elsewhere (MTC's loadRobotModel)
+        for prefix, tree in (("robot_description_planning", joint_limits), ("robot_description_kinematics", kinematics)):
+            for name, value in flatten_parameters(tree or {}, prefix):
+                self.declare_parameter(name, value)
         self._request_group = ReentrantCallbackGroup()
         self._inputs = MutuallyExclusiveCallbackGroup()
         self._scene_lock = threading.Lock()

@@ -9,11 +9,13 @@ from __future__ import annotations
 
 import math
 import sys
+from pathlib import Path
 import traceback
 from dataclasses import dataclass
 from typing import Any, Callable, Sequence
 
 import rclpy
+import yaml
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 from rclpy.node import Node
@@ -160,6 +162,19 @@ class Parameters:
                     listener(changed)
                 except Exception as exc:  # a listener's failure is logged, the node keeps running
                     self._node.get_logger().error(f"applying {sorted(changed)} failed: {exc}")
+
+
+def load_yaml_file(path: str, what: str) -> dict | None:
+    """A YAML mapping file named by a parameter (None for an empty name); ValueError names it."""
+    if not path:
+        return None
+    try:
+        data = yaml.safe_load(Path(path).read_text())
+    except (OSError, yaml.YAMLError) as exc:
+        raise ValueError(f"cannot read {what} '{path}': {exc}") from None
+    if not isinstance(data, dict):
+        raise ValueError(f"{what} '{path}' must hold a mapping")
+    return data
 
 
 def run_node(factory: Callable[[], Node], args: list[str] | None = None, threads: int = 4) -> int:

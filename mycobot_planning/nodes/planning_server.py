@@ -5,16 +5,13 @@ The full story: docs/nodes.md, section mycobot_planning.nodes.planning_server.
 from __future__ import annotations
 
 import math
-import os
 import sys
 import threading
 import time
 import traceback
-from pathlib import Path
 from typing import Any, Callable, Mapping
 
 import numpy as np
-import yaml
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
 from rclpy.exceptions import ParameterException
 from rclpy.executors import SingleThreadedExecutor
@@ -29,20 +26,20 @@ from visualization_msgs.msg import Marker, MarkerArray
 from interfaces_py.json_rpc import BAD_REQUEST, JsonRpcServer, RpcError, decode_request, log_safe
 from interfaces_py.msgs import CollisionObject, JointTrajectory, MoveItErrorCode
 from interfaces_py.ros_conversions import collision_object_to_markers, joint_trajectory_to_msg
-from mycobot_planning.core.trajectory_execution import ExecutionSettings, load_controllers
-from mycobot_planning.core.trajectory_limits import DEFAULT_LIMIT_TOLERANCE
-from mycobot_planning.core.planning_pipeline import PlanningPipeline
 from mycobot_planning.capabilities.move_group_capabilities import (
-    PlanningDefaults,
     MoveGroupCapabilities,
+    PlanningDefaults,
     RequestError,
     goal_from_parameters,
 )
+from mycobot_planning.core.planning_pipeline import PlanningPipeline
 from mycobot_planning.core.robot_model import RobotModel
+from mycobot_planning.core.trajectory_execution import ExecutionSettings, load_controllers
+from mycobot_planning.core.trajectory_limits import DEFAULT_LIMIT_TOLERANCE
 from mycobot_planning.nodes.controller_bus import ActionControllerBus
 from mycobot_planning.nodes.move_group import MoveGroupFace
-from mycobot_planning.nodes.node_runtime import Parameters, ParameterSpec, run_node
-from mycobot_planning.paths import config_file
+from mycobot_planning.nodes.node_runtime import Parameters, ParameterSpec, load_yaml_file, run_node
+from mycobot_planning.paths import config_file, package_share_dirs
 
 NODE_NAME = "planning_server"
 LATCHED_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -79,18 +76,6 @@ def _numbers(name: str, size: int | None = None) -> Callable[[Any], str | None]:
         return None
 
     return check
-
-
-def _load_yaml_file(path: str, what: str) -> dict | None:
-    if not path:
-        return None
-    try:
-        data = yaml.safe_load(Path(path).read_text())
-    except (OSError, yaml.YAMLError) as exc:
-        raise ValueError(f"cannot read {what} '{path}': {exc}") from None
-    if not isinstance(data, dict):
-        raise ValueError(f"{what} '{path}' must hold a mapping")
-    return data
 
 
 def _declare(node: Node, specs: list[ParameterSpec]) -> Parameters:
@@ -207,10 +192,7 @@ class PlanningServer(Node):
         self._change_timer = self.create_timer(PUBLISH_CHECK_PERIOD, self._publish_changes,
                                                callback_group=self._timer_group)
         self._publish_scene()
-        urdf = self._config.get("robot_description") or config_file("mycobot_280.urdf").read_text()
-        srdf = self._config.get("robot_description_semantic") or (
-            config_file("mycobot_280.srdf").read_text() if not self._config.get("robot_description") else "")
-        self.move_group = MoveGroupFace(self.core, urdf, srdf, self.context, self._log)
+        self.move_group = MoveGroupFace(self.core, *self._model_sources(), self.context, self._log)
         self.extra_nodes = [self.move_group]
         self.move_group.publish_scene()
         self._monitor_thread = threading.Thread(target=self._spin_monitor, name="state monitor", daemon=True)
@@ -227,26 +209,29 @@ class PlanningServer(Node):
         return self._load_model(), PlanningPipeline(self._config.get("ompl_planning_file") or None,
                                                     self._config.get("pilz_cartesian_limits_file") or None)
 
-    def _load_model(self) -> RobotModel:
+    def _model_sources(self) -> tuple[str, str, dict | None, dict | None]:
+        """URDF, SRDF, joint limits and kinematics as the parameters give them (the package's
+        myCobot 280 files where none is given)."""
         urdf = self._config.get("robot_description")
         srdf = self._config.get("robot_description_semantic")
-        limits_file = self._config.get("joint_limits_file")
-        kinematics_file = self._config.get("kinematics_file")
-        if not urdf and not srdf and not limits_file and not kinematics_file:
-            return RobotModel.mycobot()
         if srdf and not urdf:
             raise ValueError("robot_description_semantic is set but robot_description (the URDF) is empty")
-        limits = _load_yaml_file(limits_file, "joint limits file")
-        kinematics = _load_yaml_file(kinematics_file, "kinematics file")
+        limits = load_yaml_file(self._config.get("joint_limits_file"), "joint limits file")
+        kinematics = load_yaml_file(self._config.get("kinematics_file"), "kinematics file")
         if not urdf:
             urdf = config_file("mycobot_280.urdf").read_text()
             srdf = config_file("mycobot_280.srdf").read_text()
-            limits = limits if limits is not None else _load_yaml_file(str(config_file("joint_limits.yaml")), "joint limits")
-            kinematics = kinematics if kinematics is not None else _load_yaml_file(
+            limits = limits if limits is not None else load_yaml_file(str(config_file("joint_limits.yaml")), "joint limits")
+            kinematics = kinematics if kinematics is not None else load_yaml_file(
                 str(config_file("kinematics.yaml")), "kinematics")
-        prefixes = [p for p in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p] + [sys.prefix]
-        return RobotModel.from_strings(urdf, srdf or '<robot name=""/>', limits, kinematics,
-                                       package_dirs=[str(Path(p) / "share") for p in prefixes])
+        return urdf, srdf or '<robot name=""/>', limits, kinematics
+
+    def _load_model(self) -> RobotModel:
+        if not any(self._config.get(name) for name in ("robot_description", "robot_description_semantic",
+                                                         "joint_limits_file", "kinematics_file")):
+            return RobotModel.mycobot()
+        urdf, srdf, limits, kinematics = self._model_sources()
+        return RobotModel.from_strings(urdf, srdf, limits, kinematics, package_dirs=package_share_dirs())
 
     def _goal_group(self) -> str:
         params = getattr(self, "_params", None)  # None while the parameters are being declared

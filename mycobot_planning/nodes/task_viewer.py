@@ -4,10 +4,8 @@ The full story: docs/nodes.md, section mycobot_planning.nodes.task_viewer.
 """
 from __future__ import annotations
 
-import os
 import sys
 import threading
-from pathlib import Path
 from typing import Any
 
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
@@ -25,6 +23,7 @@ from interfaces_py.ros_conversions import joint_trajectory_from_msg
 from mycobot_planning.core.robot_model import RobotModel
 from mycobot_planning.nodes.node_runtime import Parameters, ParameterSpec, run_node
 from mycobot_planning.nodes.task_topics import SOLUTION_QOS, STATISTICS_QOS, TASK_SUFFIXES, parse_task_topic
+from mycobot_planning.paths import package_share_dirs
 from mycobot_planning.visualization.viewer import TaskViewer
 
 NODE_NAME = "task_viewer"
@@ -68,13 +67,12 @@ class TaskViewerNode(Node):
             raise ValueError(f"invalid parameters: {exc}") from None
         log = self.get_logger()
         model = self._load_model()
-        prefixes = [p for p in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p] + [sys.prefix]
         try:
             self.viewer = TaskViewer(
                 model, self._params.get("host"), self._params.get("port"),
                 max_update_rate=self._params.get("max_update_rate"), speed=self._params.get("playback_speed"),
                 loop=self._params.get("loop"), auto_play_planned_path=self._params.get("auto_play_planned_path"),
-                package_dirs=[Path(p) / "share" for p in prefixes], log=lambda text: log.warning(text))
+                package_dirs=package_share_dirs(), log=lambda text: log.warning(text))
         except OSError as exc:
             raise ValueError(f"cannot serve the page on {self._params.get('host')}:{self._params.get('port')}: {exc}") \
                 from None
@@ -125,10 +123,8 @@ class TaskViewerNode(Node):
             return RobotModel.mycobot()
         if not urdf:
             raise ValueError("robot_description_semantic is set but robot_description (the URDF) is empty")
-        prefixes = [p for p in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p] + [sys.prefix]
         try:
-            return RobotModel.from_strings(urdf, srdf or '<robot name=""/>',
-                                           package_dirs=[str(Path(p) / "share") for p in prefixes])
+            return RobotModel.from_strings(urdf, srdf or '<robot name=""/>', package_dirs=package_share_dirs())
         except Exception as exc:
             raise ValueError(f"cannot build the robot model: {exc}") from None
 

@@ -63,3 +63,15 @@ def test_a_message_changed_after_construction_is_checked_again():
     msg.position[0] = math.nan
     with pytest.raises(PoseError, match="NaN"):
         pose_matrix(msg, "object pose")
+
+
+def test_a_non_unit_quaternion_is_normalized_with_a_warning(caplog):
+    """ROS 2's quaternion starts with w = 1: setting x = 1 on it (ROS 1's flip) gives (1, 0, 0, 1)."""
+    with caplog.at_level("WARNING", logger="mycobot_planning.pose_conversion"):
+        matrix = pose_matrix([0, 0, 0, 1, 0, 0, 1], "ik_frame")
+    assert np.allclose(matrix[:3, :3], [[1, 0, 0], [0, 0, -1], [0, 1, 0]])  # 90 degrees about x
+    assert "ik_frame" in caplog.text and "not a unit quaternion" in caplog.text
+    caplog.clear()
+    with caplog.at_level("WARNING", logger="mycobot_planning.pose_conversion"):
+        pose_matrix([0, 0, 0, 0, 0, 0.7071068, 0.7071068])
+    assert caplog.text == ""

@@ -394,8 +394,8 @@ def test_perception_object_source_replaces_the_seed_objects(system):
     assert source.enabled and source.timeout == 30.0
     try:
         # an earlier seed run left its table and object where perception sees the cylinder
-        scene.add_box("table", [0.1, 0.2, 0.03], [0.22, 0.12, -0.015, 0, 0, 0, 1], frame_id="base_link")
-        scene.add_cylinder("object", 0.35, 0.0125, [0.22, 0.12, 0.175, 0, 0, 0, 1], frame_id="base_link")
+        scene.add_box("table", [0.22, 0.12, -0.015, 0, 0, 0, 1], size=[0.1, 0.2, 0.03], frame_id="base_link")
+        scene.add_cylinder("object", [0.22, 0.12, 0.175, 0, 0, 0, 1], height=0.35, radius=0.0125, frame_id="base_link")
         params = PickPlaceParameters().with_changes(world_frame="world")
         out = source.setup_planning_scene(params)
         assert out.object_name == "cylinder_0" and out.table_name == "support_surface"

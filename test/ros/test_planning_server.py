@@ -316,7 +316,7 @@ def test_scene_updates_from_topic_and_client_with_errors_leaving_it_unchanged(sy
     box = CollisionObject.box("topic_box", [0.05, 0.05, 0.05], make_pose([0.25, -0.15, 0.05]))
     probe.pubs["/planning_server/collision_object"].publish(String(data=box.to_json()))
     assert wait_until(lambda: "topic_box" in scene.get_objects(), 10.0)
-    scene.add_cylinder("client_cylinder", 0.2, 0.02, [0.25, 0.15, 0.1, 0, 0, 0, 1])
+    scene.add_cylinder("client_cylinder", [0.25, 0.15, 0.1, 0, 0, 0, 1], height=0.2, radius=0.02)
     objects = scene.get_objects()
     assert sorted(objects) == ["client_cylinder", "topic_box"]
     assert objects["topic_box"].pose.position == pytest.approx([0.25, -0.15, 0.05])
@@ -354,7 +354,7 @@ def test_attached_object_follows_the_flange_during_execution(system, model):
     _go_home(system)
     flange = _flange_pose(model, probe.joints())
     cube_pose = flange @ make_pose([0.0, 0.0, 0.03])
-    scene.add_box("cube", [0.02, 0.02, 0.02], cube_pose)
+    scene.add_box("cube", cube_pose, size=[0.02, 0.02, 0.02])
     attached = scene.attach_object("cube")
     assert attached["link_name"] == "link6_flange"
     assert "cube" in scene.get_attached_objects() and "cube" not in scene.get_objects()
@@ -493,7 +493,7 @@ def test_bad_input_battery_is_answered_and_the_node_survives(system):
     with pytest.raises(RpcError, match="unknown collision object 'ghost'"):
         scene.detach_object("ghost")
     with pytest.raises(RpcError, match="unknown link 'nolink'"):
-        scene.add_box("b", [0.1, 0.1, 0.1], [0.3, 0.3, 0.3, 0, 0, 0, 1])
+        scene.add_box("b", [0.3, 0.3, 0.3, 0, 0, 0, 1], size=[0.1, 0.1, 0.1])
         scene.attach_object("b", "nolink")
     scene.remove_object("b")
     with pytest.raises(RpcError, match="unknown parameters"):
