@@ -51,6 +51,19 @@ def collision_object_from_msg(msg: Any) -> dict[str, Any]:
         "mesh_poses": [pose_from_msg(p) for p in msg.mesh_poses],
         "operation": _byte(msg.operation),
     }
+    unset = data["pose"]["position"] == [0.0, 0.0, 0.0] and \
+        data["pose"]["orientation"] in ([0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0])
+    if unset and len(data["primitives"]) + len(data["meshes"]) == 1:
+        # MoveIt (PlanningScene::shapesAndPosesFromCollisionObjectMessage): an object of one shape
+        # whose pose is unset lies at the shape's pose, the shape at the object's origin, so the
+        # object's frame (for frames, grasps, constraints on the object) is the shape's. MoveIt
+        # calls a pose unset when it is all zeros, as ROS 1 builds it; a ROS 2 Pose() has w = 1,
+        # so the identity at the origin counts as unset too (MTC's ROS 1 demo scripts, ported
+        # unchanged to ROS 2, rely on it: constrained.py constrains such an object's orientation).
+        shapes, poses = ("primitives", "primitive_poses") if data["primitives"] else ("meshes", "mesh_poses")
+        if data[poses]:
+            data["pose"] = data[poses][0]
+            data[poses][0] = {"position": [0.0, 0.0, 0.0], "orientation": [0.0, 0.0, 0.0, 1.0]}
     if data["pose"]["orientation"] == [0.0, 0.0, 0.0, 0.0]:
         data["pose"]["orientation"] = [0.0, 0.0, 0.0, 1.0]  # an unset quaternion, as MoveIt reads it
     for shapes, poses in (("primitives", "primitive_poses"), ("meshes", "mesh_poses")):

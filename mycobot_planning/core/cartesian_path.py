@@ -17,6 +17,7 @@ from scipy.spatial.transform import Rotation
 from interfaces_py.msgs import MoveItErrorCode
 
 from .errors import PlanningError
+from .kinematic_constraints import CONSTRAINT_CHECK_STEP
 from .kinematics import IKSolver
 from .planning_interface import MotionPlanResponse, PlanningFailure, check_group, failure, time_group_path
 from .planning_scene import PlanningScene
@@ -527,8 +528,15 @@ def _compute(
                 detail = f"{where} of step {s + 1} invalid: {what}"
                 break
         if path_constraints:
-            check_buffer[idx] = x
-            problem = path_constraints.violation(RobotState(model, check_buffer.copy()))
+            # the state, and the joint-space motion to it, every CONSTRAINT_CHECK_STEP
+            largest = float(np.abs(delta).max())
+            between = max(1, int(math.ceil(largest / CONSTRAINT_CHECK_STEP)))
+            problem = None
+            for j in range(between, 0, -1):
+                check_buffer[idx] = x if j == between else previous + (j / between) * delta
+                problem = path_constraints.violation(RobotState(model, check_buffer.copy()))
+                if problem:
+                    break
             if problem:
                 solver.update(previous)
                 stop_reason = STOP_PATH_CONSTRAINTS

@@ -10,10 +10,12 @@ import time
 from pathlib import Path
 from typing import Mapping, Sequence
 
+import numpy as np
+
 from interfaces_py.msgs import MoveItErrorCode
 
 from .joint_interpolation import plan_joint_interpolation
-from .kinematic_constraints import first_violation
+from .kinematic_constraints import dense_violation
 from .ompl_interface import OmplPlanner
 from .pilz import KNOWN_PLANNER_IDS as PILZ_PLANNER_IDS
 from .pilz import PILZ_PIPELINE_ID, IndustrialMotionPlanner
@@ -64,16 +66,19 @@ class PlanningPipeline:
             return response
         start = response.start_state if response.start_state is not None else request.start_state
         trajectory = response.trajectory
-        found = first_violation(constraints, start, trajectory.joint_names, trajectory.positions)
+        # every sample, and the straight joint-space segments between them
+        found = dense_violation(constraints, start, trajectory.joint_names, trajectory.positions)
         if found is None:
             return response
-        index, problem = found
-        if index == 0:
+        index, fraction, problem = found
+        times = np.asarray(trajectory.times, dtype=float)
+        if index == 0 and fraction == 0.0:
             code, what = MoveItErrorCode.START_STATE_VIOLATES_PATH_CONSTRAINTS, "the start state"
         elif index == len(trajectory.positions) - 1:
             code, what = MoveItErrorCode.GOAL_VIOLATES_PATH_CONSTRAINTS, "the goal state"
         else:
-            code, what = MoveItErrorCode.PLANNING_FAILED, f"the path at t = {trajectory.times[index]:.3f} s"
+            t = times[index] + fraction * (times[index + 1] - times[index]) if fraction else times[index]
+            code, what = MoveItErrorCode.PLANNING_FAILED, f"the path at t = {t:.3f} s"
         return failure(code, f"{what} violates the path constraints: {problem}").to_response(
             time.perf_counter() - response.planning_time, request)
 

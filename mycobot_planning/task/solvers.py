@@ -17,6 +17,15 @@ planning failed (MoveRelative measures how far a partial Cartesian path got).
 
 Planner properties are MTC's: set them as attributes (``cartesian.step_size = 0.005``), through
 ``properties``, or with MTC's setters (``setStepSize``).
+
+Both questions take MTC's ``path_constraints`` (the stage's property: a moveit_msgs/Constraints,
+its dict or JSON form, or a core PathConstraints; see task/path_constraints.py), resolved in the
+scene planned from, so a constraint may name an object attached there. PipelinePlanner hands them
+to the planning pipeline (OMPL plans on the constraint manifold; the industrial planner's paths
+are checked); CartesianPath stops where its line would leave them (its fraction then falls short);
+JointInterpolationPlanner checks its straight line densely and fails naming the broken
+constraint (MTC's ignores them on joint-space goals; it only keeps them at IK for pose goals,
+which it does here too).
 """
 from __future__ import annotations
 
@@ -31,6 +40,7 @@ import numpy as np
 from ..core.cartesian_path import compute_cartesian_path
 from ..core.errors import PlanningError
 from ..core.joint_interpolation import DEFAULT_MAX_STEP, interpolate_joint_path
+from ..core.kinematic_constraints import ConstraintError, PathConstraints, dense_violation
 from ..core.trajectory_validator import validate_trajectory
 from ..core.planning_interface import JointGoal, MotionPlanRequest, PlanningFailure, PoseGoal, goal_states
 from ..core.planning_pipeline import PlanningPipeline
@@ -40,6 +50,7 @@ from ..core.trajectory_processing.cartesian_speed_limit import limit_cartesian_l
 from ..core.transforms import inverse
 from .errors import PropertyError, TaskError
 from .geometry import PoseStamped, as_pose_stamped, robot_tip_for_frame
+from .path_constraints import PathConstraintsSpec, as_path_constraints
 from .properties import PropertyMap
 from .trajectories import time_path
 
@@ -169,11 +180,11 @@ class PlannerInterface:
         return self.planner_id
 
     def plan(self, from_scene: PlanningScene, to_scene: PlanningScene, group: str, timeout: float,
-             context: "TaskContext | None" = None) -> PlanResult:
+             context: "TaskContext | None" = None, path_constraints: Any = None) -> PlanResult:
         raise NotImplementedError
 
     def plan_pose(self, from_scene: PlanningScene, link: str, offset: np.ndarray, target: np.ndarray, group: str,
-                  timeout: float, context: "TaskContext | None" = None) -> PlanResult:
+                  timeout: float, context: "TaskContext | None" = None, path_constraints: Any = None) -> PlanResult:
         raise NotImplementedError
 
     def __repr__(self) -> str:
@@ -191,6 +202,64 @@ def _seed(context: "TaskContext | None") -> int | None:
     return None if context is None else context.next_seed()
 
 
+class _ConstraintProblem(Exception):
+    """Path constraints that cannot be used in the scene planned from (the message says why)."""
+
+
+def _spec(path_constraints: Any) -> PathConstraintsSpec | None:
+    """The path constraints a planner was given, as a PathConstraintsSpec (None: none)."""
+    if path_constraints is None:
+        return None
+    try:
+        spec = as_path_constraints(path_constraints)
+    except (TypeError, ValueError) as exc:
+        raise _ConstraintProblem(f"invalid path constraints: {exc}") from None
+    return spec or None
+
+
+def _resolve(path_constraints: Any, scene: PlanningScene) -> PathConstraints | None:
+    """The core constraints in ``scene`` (frames and attached objects at its current state)."""
+    spec = _spec(path_constraints)
+    if spec is None:
+        return None
+    try:
+        return spec.resolve(scene)
+    except (ConstraintError, ValueError, KeyError) as exc:
+        raise _ConstraintProblem(f"path constraints: {exc}") from None
+
+
+def _constraints_key(path_constraints: Any) -> str:
+    spec = _spec(path_constraints)
+    return "" if spec is None else spec.key()
+
+
+def _constraint_failure(planner: "PlannerInterface", path_constraints: Any, scene: PlanningScene
+                        ) -> tuple[PathConstraints | None, PlanResult | None]:
+    """(resolved constraints, None), or (None, the failure to answer with)."""
+    try:
+        return _resolve(path_constraints, scene), None
+    except _ConstraintProblem as exc:
+        return None, PlanResult(False, None, str(exc), planner.planner_id)
+
+
+def _check_path(constraints: PathConstraints | None, start, joint_names, path: np.ndarray,
+                what: str) -> str | None:
+    """Why ``path`` (checked densely along its straight segments) leaves the constraints, or None."""
+    if not constraints:
+        return None
+    found = dense_violation(constraints, start, joint_names, path)
+    if found is None:
+        return None
+    index, fraction, problem = found
+    if index == 0 and fraction == 0.0:
+        where = "the start state"
+    elif index == len(path) - 1:
+        where = "the goal state"
+    else:
+        where = f"the {what}, {100.0 * (index + fraction) / max(1, len(path) - 1):.0f}% of the way,"
+    return f"{where} violates the path constraints: {problem}"
+
+
 class PipelinePlanner(PlannerInterface):
     """Plans with the planning pipelines (OMPL, industrial), as MTC's PipelinePlanner.
 
@@ -202,9 +271,10 @@ class PipelinePlanner(PlannerInterface):
     def __init__(self, pipeline_id_planner_id_map: Any = "ompl", planner_id: str = "", *args: str,
                  pipeline: PlanningPipeline | None = None) -> None:
         super().__init__()
+        node = None if isinstance(pipeline_id_planner_id_map, (str, Mapping)) else pipeline_id_planner_id_map
         if not isinstance(pipeline_id_planner_id_map, (str, Mapping)):
-            # MTC's ros2 form PipelinePlanner(node, "ompl", "RRTConnectkConfigDefault"): MTC reads the
-            # robot through the node; here the task brings the robot, so the node is not needed.
+            # MTC's ros2 form PipelinePlanner(node, "ompl", "RRTConnectkConfigDefault"): planning
+            # runs here, on the task's robot; the node only lets a task load that robot.
             if len(args) > 1:
                 raise TaskError("PipelinePlanner(node, pipeline, planner_id) takes at most three arguments")
             pipeline_id_planner_id_map, planner_id = planner_id or "ompl", (args[0] if args else "")
@@ -234,6 +304,9 @@ class PipelinePlanner(PlannerInterface):
         p.declare("max_validation_retries", 2, "re-plans after a trajectory failed validation", type=int)
         object.__setattr__(self, "_pipeline", pipeline)
         object.__setattr__(self, "_last_planner", "")
+        #: the ROS node of MTC's PipelinePlanner(node, ...) form: a Task without a robot model
+        #: loads its model through it (see Task.init)
+        object.__setattr__(self, "node", node)
 
     def setPlannerId(self, pipeline_id: str, planner_id: str) -> bool:
         mapping = dict(self._properties["pipeline_id_planner_id_map"])
@@ -279,7 +352,11 @@ class PipelinePlanner(PlannerInterface):
         if attempts < 1:
             raise ValueError(f"num_planning_attempts must be >= 1, got {attempts}")
 
-    def _plan(self, scene: PlanningScene, group: str, goal, timeout: float, context) -> PlanResult:
+    def _plan(self, scene: PlanningScene, group: str, goal, timeout: float, context,
+              path_constraints: Any = None) -> PlanResult:
+        constraints, failed = _constraint_failure(self, path_constraints, scene)
+        if failed is not None:
+            return failed
         pipeline = self._pipeline
         if pipeline is None:
             pipeline = context.pipeline if context is not None else default_pipeline()
@@ -298,6 +375,7 @@ class PipelinePlanner(PlannerInterface):
                 max_velocity_scaling_factor=velocity,
                 max_acceleration_scaling_factor=acceleration,
                 seed=_seed(context),
+                path_constraints=constraints,
             )
             retries = int(self._properties["max_validation_retries"]) if self._properties["validate_solution"] else 0
             for attempt in range(retries + 1):
@@ -318,16 +396,16 @@ class PipelinePlanner(PlannerInterface):
                 return PlanResult(True, response.trajectory, response.message, response.planner_id or planner_id)
         return PlanResult(False, None, "; ".join(messages), planner_id)
 
-    def plan(self, from_scene, to_scene, group, timeout, context=None):
+    def plan(self, from_scene, to_scene, group, timeout, context=None, path_constraints=None):
         values = to_scene.current_state.group_positions(group)
         goal = JointGoal(values, tolerance=float(self._properties["goal_joint_tolerance"]))
-        return self._plan(from_scene, group, goal, timeout, context)
+        return self._plan(from_scene, group, goal, timeout, context, path_constraints)
 
-    def plan_pose(self, from_scene, link, offset, target, group, timeout, context=None):
+    def plan_pose(self, from_scene, link, offset, target, group, timeout, context=None, path_constraints=None):
         goal = PoseGoal(np.asarray(target, dtype=float), link=link, ik_frame_offset=np.asarray(offset, dtype=float),
                         position_tolerance=float(self._properties["goal_position_tolerance"]),
                         orientation_tolerance=float(self._properties["goal_orientation_tolerance"]))
-        return self._plan(from_scene, group, goal, timeout, context)
+        return self._plan(from_scene, group, goal, timeout, context, path_constraints)
 
 
 class CartesianPath(PlannerInterface):
@@ -377,25 +455,29 @@ class CartesianPath(PlannerInterface):
         if limited and not robot_model.has_link(limited):
             raise ValueError(f"cartesian_speed_limited_link '{limited}' is not a link of robot '{robot_model.name}'")
 
-    def plan(self, from_scene, to_scene, group, timeout, context=None):
+    def plan(self, from_scene, to_scene, group, timeout, context=None, path_constraints=None):
         link, ik_pose = robot_tip_for_frame(self._properties["ik_frame"], from_scene, group)
         offset = inverse(from_scene.current_state.frame_pose(link)) @ ik_pose
         target = to_scene.current_state.frame_pose(link) @ offset
-        return self.plan_pose(from_scene, link, offset, target, group, timeout, context)
+        return self.plan_pose(from_scene, link, offset, target, group, timeout, context, path_constraints)
 
-    def plan_pose(self, from_scene, link, offset, target, group, timeout, context=None):
-        parts = ("pose", group, link, np.asarray(offset, dtype=float).tobytes(), np.asarray(target, dtype=float).tobytes())
+    def plan_pose(self, from_scene, link, offset, target, group, timeout, context=None, path_constraints=None):
+        parts = ("pose", group, link, np.asarray(offset, dtype=float).tobytes(), np.asarray(target, dtype=float).tobytes(),
+                 _constraints_key(path_constraints))
         return self._memoized(context, from_scene, parts,
-                              lambda: self._plan_pose(from_scene, link, offset, target, group))
+                              lambda: self._plan_pose(from_scene, link, offset, target, group, path_constraints))
 
-    def _plan_pose(self, from_scene, link, offset, target, group):
+    def _plan_pose(self, from_scene, link, offset, target, group, path_constraints=None):
+        constraints, failed = _constraint_failure(self, path_constraints, from_scene)
+        if failed is not None:
+            return failed
         velocity, acceleration = self._scaling()
         p = self._properties
         result = compute_cartesian_path(
             from_scene, group, from_scene.current_state, [np.asarray(target, dtype=float)], link=link,
             ik_frame_offset=np.asarray(offset, dtype=float), eef_step=float(p["step_size"]),
             jump_threshold=float(p["jump_threshold"]), avoid_collisions=True, velocity_scaling=velocity,
-            acceleration_scaling=acceleration,
+            acceleration_scaling=acceleration, path_constraints=constraints,
         )
         if not result.success:
             return PlanResult(False, None, result.message, self.planner_id)
@@ -431,12 +513,15 @@ class JointInterpolationPlanner(PlannerInterface):
         if not self._properties["max_step"] > 0:
             raise ValueError(f"max_step must be > 0, got {self._properties['max_step']}")
 
-    def plan(self, from_scene, to_scene, group, timeout, context=None):
+    def plan(self, from_scene, to_scene, group, timeout, context=None, path_constraints=None):
         goal = to_scene.current_state.group_positions(group)
-        return self._memoized(context, from_scene, ("state", group, goal.tobytes()),
-                              lambda: self._plan_line(from_scene, group, goal))
+        return self._memoized(context, from_scene, ("state", group, goal.tobytes(), _constraints_key(path_constraints)),
+                              lambda: self._plan_line(from_scene, group, goal, path_constraints))
 
-    def _plan_line(self, from_scene, group, goal):
+    def _plan_line(self, from_scene, group, goal, path_constraints=None):
+        constraints, failed = _constraint_failure(self, path_constraints, from_scene)
+        if failed is not None:
+            return failed
         model = from_scene.robot_model
         jmg = model.group(group)
         start = from_scene.current_state
@@ -446,25 +531,37 @@ class JointInterpolationPlanner(PlannerInterface):
             return PlanResult(False, None, str(exc), self.planner_id)
         if path is None:
             return PlanResult(False, None, message, self.planner_id)
+        broken = _check_path(constraints, start, jmg.joint_names, path, "line")
+        if broken is not None:
+            return PlanResult(False, None, f"joint interpolation: {broken}", self.planner_id)
         velocity, acceleration = self._scaling()
         # The line is collision-checked above; timing its two ends gives the same straight
         # motion (the timing never leaves the path) at a fraction of the cost.
         trajectory = time_path(model, jmg, path[[0, -1]], velocity, acceleration)
         return PlanResult(True, trajectory, message, self.planner_id)
 
-    def plan_pose(self, from_scene, link, offset, target, group, timeout, context=None):
+    def plan_pose(self, from_scene, link, offset, target, group, timeout, context=None, path_constraints=None):
         model = from_scene.robot_model
         jmg = model.group(group)
         timeout = self._timeout(timeout)
+        constraints, failed = _constraint_failure(self, path_constraints, from_scene)
+        if failed is not None:
+            return failed
         rng = np.random.default_rng(_seed(context))
         goal = PoseGoal(np.asarray(target, dtype=float), link=link, ik_frame_offset=np.asarray(offset, dtype=float))
         try:
             states = goal_states(from_scene, jmg, from_scene.current_state, goal, 8, max(timeout, 1e-3), rng)
         except PlanningFailure as exc:
             return PlanResult(False, None, f"IK failed for pose target: {exc.message}", self.planner_id)
+        if constraints:  # as MTC: the IK solution must satisfy the path constraints
+            kept = [state for state in states if constraints.satisfied(state)]
+            if not kept:
+                return PlanResult(False, None, "IK failed for pose target: no solution satisfies the path "
+                                               f"constraints ({constraints.violation(states[0])})", self.planner_id)
+            states = kept
         to_scene = from_scene.diff()
         to_scene.set_current_state(states[0])
-        return self.plan(from_scene, to_scene, group, timeout, context)
+        return self.plan(from_scene, to_scene, group, timeout, context, path_constraints)
 
 
 class MultiPlanner(PlannerInterface):
@@ -516,8 +613,11 @@ class MultiPlanner(PlannerInterface):
             failures.append(f"{planner.planner_id}: {last.message}")
         return PlanResult(False, last.trajectory if last else None, "; ".join(failures), self.planner_id)
 
-    def plan(self, from_scene, to_scene, group, timeout, context=None):
-        return self._first_success(timeout, lambda p, t: p.plan(from_scene, to_scene, group, t, context))
+    def plan(self, from_scene, to_scene, group, timeout, context=None, path_constraints=None):
+        extra = {"path_constraints": path_constraints} if path_constraints is not None else {}
+        return self._first_success(timeout, lambda p, t: p.plan(from_scene, to_scene, group, t, context, **extra))
 
-    def plan_pose(self, from_scene, link, offset, target, group, timeout, context=None):
-        return self._first_success(timeout, lambda p, t: p.plan_pose(from_scene, link, offset, target, group, t, context))
+    def plan_pose(self, from_scene, link, offset, target, group, timeout, context=None, path_constraints=None):
+        extra = {"path_constraints": path_constraints} if path_constraints is not None else {}
+        return self._first_success(timeout, lambda p, t: p.plan_pose(from_scene, link, offset, target, group, t,
+                                                                      context, **extra))

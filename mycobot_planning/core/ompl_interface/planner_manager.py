@@ -21,7 +21,7 @@ from ...paths import config_file
 from .config import GroupConfig, OmplConfig, ResolvedPlanner, load_ompl_config, parse_projection_evaluator, resolve_planner_id
 from .planners import OmplConfigError
 from .solve import plan_joint_space
-from ..kinematic_constraints import first_violation
+from ..kinematic_constraints import CONSTRAINT_CHECK_STEP, ConstraintManifold, dense_violation
 from ..robot_state import RobotState
 from ..planning_interface import (
     MotionPlanRequest,
@@ -30,6 +30,7 @@ from ..planning_interface import (
     PoseGoal,
     check_group,
     check_path_constraints_at_ends,
+    check_pose_goal,
     check_request_numbers,
     check_scaling,
     failure,
@@ -38,6 +39,8 @@ from ..planning_interface import (
     success,
     time_group_path,
 )
+from ..errors import TimeParameterizationError
+from ..kinematics import IKSolver
 from ..planning_scene import PlanningScene
 from ..robot_model import JointModelGroup
 from ..trajectory_validator import validate_trajectory
@@ -121,7 +124,16 @@ class OmplPlanner:
         rng = np.random.default_rng(request.seed)
         budget = float(request.allowed_planning_time)
         ik_time = budget * IK_TIME_SHARE if isinstance(request.goal, PoseGoal) else 0.0
-        goals = goal_states(scene, jmg, start, request.goal, max(1, request.num_ik_goals), max(ik_time, 1e-3), rng)
+        if request.path_constraints:  # the start first, before sampling goals (as check_path_constraints_at_ends)
+            problem = request.path_constraints.violation(start)
+            if problem:
+                raise failure(MoveItErrorCode.START_STATE_VIOLATES_PATH_CONSTRAINTS,
+                              f"the start state violates the path constraints: {problem}")
+        if request.path_constraints and isinstance(request.goal, PoseGoal):
+            goals = _constrained_pose_goals(scene, jmg, start, request.goal, max(1, request.num_ik_goals),
+                                            max(ik_time, 1e-3), rng, request.path_constraints)
+        else:
+            goals = goal_states(scene, jmg, start, request.goal, max(1, request.num_ik_goals), max(ik_time, 1e-3), rng)
         goals = check_path_constraints_at_ends(request, start, goals)
         start_vector = start.group_positions(jmg.name)
         goal_vectors = [g.group_positions(jmg.name) for g in goals]
@@ -129,10 +141,17 @@ class OmplPlanner:
         upper = model.upper_limits[jmg.variable_indices]
         lower = np.where(np.isfinite(lower), lower, -math.pi)
         upper = np.where(np.isfinite(upper), upper, math.pi)
-        validity = scene.validity_checker(jmg.name, start, check_bounds=False)  # OMPL stays in bounds
         constraints = request.path_constraints
+        manifold = None
         if constraints:
-            validity = _constrained(validity, constraints, start, jmg)
+            manifold = ConstraintManifold(constraints, start, jmg.name, [start, *goals])
+            if not manifold or manifold.codim >= jmg.variable_count:
+                manifold = None  # nothing to project onto (or no freedom left): rejection only
+        # OMPL samples and interpolates inside its bounds; projecting onto a constraint manifold
+        # does not, so constrained states are checked against the joint limits too
+        validity = scene.validity_checker(jmg.name, start, check_bounds=manifold is not None)
+        if constraints:
+            validity = _constrained(validity, constraints.for_planning([start, *goals]), start, jmg)
 
         best = None
         last = None
@@ -161,31 +180,46 @@ class OmplPlanner:
                 projection_dims=self._projection_dims(jmg, resolved),
                 stop_on_first_solution=True,
                 cancel=request.cancel,
+                manifold=manifold,
+                manifold_delta=_manifold_delta(lower, upper, fraction) if manifold is not None else None,
             )
             last = result
             if result.status == "ABORT":
                 break
             trajectory = None
+            if result.success and manifold is not None:
+                try:  # a path walked along a manifold can have corners the timing cannot take
+                    trajectory = time_group_path(model, jmg, result.path, velocity_scaling, acceleration_scaling)
+                except TimeParameterizationError as exc:
+                    result.success, result.status = False, "INVALID_PATH"
+                    result.message = f"the path found cannot be timed: {exc}"
+                    if replans < MAX_REPLANS:
+                        replans += 1
+                        continue
             if result.success:
-                trajectory = time_group_path(model, jmg, result.path, velocity_scaling, acceleration_scaling)
+                if trajectory is None:
+                    trajectory = time_group_path(model, jmg, result.path, velocity_scaling, acceleration_scaling)
                 report = validate_trajectory(scene, trajectory, jmg.name, start)
-                broken = _path_violation(constraints, start, jmg, result.path) if constraints and report.valid else None
+                broken = None
+                if constraints and report.valid:  # the path, and the timed trajectory that follows it
+                    broken = _path_violation(constraints, start, jmg, result.path) or \
+                        _path_violation(constraints, start, jmg, trajectory.positions)
                 if broken is not None:
+                    result.success, result.status = False, "INVALID_PATH"
+                    result.message = f"every path found left the path constraints between checks: {broken}"
                     if replans < MAX_REPLANS:  # a segment leaves the constraints between checks: finer
                         replans += 1
                         fraction /= 4.0
                         continue
-                    result.success, result.status = False, "INVALID_PATH"
-                    result.message = f"every path found left the path constraints between checks: {broken}"
                 elif not report.valid:
+                    result.success, result.status = False, "INVALID_PATH"
+                    result.message = ("every path found crossed an obstacle between collision checks"
+                                      if report.contacts else "; ".join(report.problems[:2]))
                     if report.contacts and replans < MAX_REPLANS:
                         # An edge passes through an obstacle between OMPL's checks: plan again, finer.
                         replans += 1
                         fraction /= 4.0
                         continue
-                    result.success, result.status = False, "INVALID_PATH"
-                    result.message = ("every path found crossed an obstacle between collision checks"
-                                      if report.contacts else "; ".join(report.problems[:2]))
             if result.success and (best is None or _length(result.path) < _length(best[0].path)):
                 best = (result, trajectory)
             attempt += 1
@@ -214,8 +248,38 @@ class OmplPlanner:
         return response
 
 
-#: rad: largest joint step between two states checked against path constraints on a planned path
-CONSTRAINT_CHECK_STEP = 0.005
+def _constrained_pose_goals(scene: PlanningScene, jmg: JointModelGroup, start: RobotState, goal: PoseGoal,
+                           max_states: int, timeout: float, rng: np.random.Generator, constraints: Any
+                           ) -> list[RobotState]:
+    """IK goal states for a pose goal that also satisfy the path constraints (MoveIt's goal
+    sampler rejects the IK solutions its path-constrained validity check refuses, and samples
+    again), nearest to the start first."""
+    model = scene.robot_model
+    link, pose = check_pose_goal(model, jmg, goal)
+    solver = IKSolver(model, jmg.name, link, goal.ik_frame_offset)
+    attempts = solver.options.seed_neighbours + 8 * max_states + 16
+    solutions = solver.solve(pose, seed=start, timeout=timeout, max_solutions=max_states, min_solution_distance=0.1,
+                             rng=rng, attempts=attempts,
+                             validity=lambda state: scene.is_state_valid(state) and constraints.satisfied(state))
+    if not solutions:
+        # say why: no IK at all, only colliding ones, or only ones breaking the constraints
+        goal_states(scene, jmg, start, goal, max_states, timeout, rng)  # raises NO_IK_SOLUTION / GOAL_IN_COLLISION
+        raise failure(MoveItErrorCode.GOAL_VIOLATES_PATH_CONSTRAINTS,
+                      f"no IK solution for the pose goal of '{link}' satisfies the path constraints "
+                      f"({constraints.describe()})")
+    start_group = start.group_positions(jmg.name)
+    solutions.sort(key=lambda s: float(np.sum(np.abs(s.group_positions(jmg.name) - start_group))))
+    return solutions
+
+
+#: rad: OMPL's ProjectedStateSpace default step along the constraint manifold (its delta)
+MANIFOLD_DELTA = 0.05
+
+
+def _manifold_delta(lower: np.ndarray, upper: np.ndarray, fraction: float) -> float:
+    """The step along the constraint manifold: OMPL's default, or finer when the edge
+    resolution (longest_valid_segment_fraction x the box diagonal) is, as after a re-plan."""
+    return min(MANIFOLD_DELTA, fraction * float(np.linalg.norm(upper - lower)))
 
 
 def _constrained(validity: Any, constraints: Any, start: RobotState, jmg: Any) -> Any:
@@ -238,12 +302,8 @@ def _constrained(validity: Any, constraints: Any, start: RobotState, jmg: Any) -
 def _path_violation(constraints: Any, start: RobotState, jmg: Any, path: np.ndarray) -> str | None:
     """Why the straight segments of ``path`` leave the constraints somewhere (checked every
     CONSTRAINT_CHECK_STEP), or None."""
-    dense = [path[:1]]
-    for a, b in zip(path[:-1], path[1:]):
-        steps = max(1, int(np.ceil(np.max(np.abs(b - a)) / CONSTRAINT_CHECK_STEP)))
-        dense.append(a + (b - a) * (np.arange(1, steps + 1)[:, None] / steps))
-    found = first_violation(constraints, start, jmg.joint_names, np.vstack(dense))
-    return None if found is None else found[1]
+    found = dense_violation(constraints, start, jmg.joint_names, path, CONSTRAINT_CHECK_STEP)
+    return None if found is None else found[2]
 
 
 def _length(path: np.ndarray) -> float:

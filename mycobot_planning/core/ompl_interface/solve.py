@@ -23,6 +23,11 @@ from .planners import PLANNERS, OmplConfigError, apply_params, PlannerSpec, vali
 # Planning
 # --------------------------------------------------------------------------------------------
 
+#: |f| at which OMPL's projection onto a constraint manifold stops (OMPL's default)
+MANIFOLD_TOLERANCE = 1e-4
+#: _solve_once's message for a constrained path still to be reversed (it runs goal -> start)
+_REVERSE_LATER = "reverse later"
+
 
 @dataclass
 class OmplResult:
@@ -63,6 +68,10 @@ class _CallbackContext:
         self.cancelled = False
 
 
+#: what a detached _ManifoldBridge points to instead of a planning call's context
+_DETACHED = _CallbackContext()
+
+
 def _guarded_validity(
     fn: Callable[[np.ndarray], bool],
     ctx: _CallbackContext,
@@ -99,14 +108,71 @@ def _guarded_validity(
     return valid
 
 
-def _make_validity_bridge(valid: Callable[[np.ndarray], bool], dim: int) -> Callable[[Any], bool]:
-    """The callable OMPL calls per state: state -> fresh numpy array -> guarded user function."""
+def _make_validity_bridge(valid: Callable[[np.ndarray], bool], dim: int,
+                          indexed: bool = False) -> Callable[[Any], bool]:
+    """The callable OMPL calls per state: state -> fresh numpy array -> guarded user function.
+    ``indexed``: the states are a constrained space's, which can only be read one value at a time."""
     array = np.array
+    if indexed:
+        dims = range(dim)
+
+        def is_valid_indexed(state: Any) -> bool:
+            return valid(array([state[i] for i in dims]))
+
+        return is_valid_indexed
 
     def is_valid(state: Any) -> bool:
         return valid(array(state[0:dim]))
 
     return is_valid
+
+
+class _ManifoldBridge(ob.Constraint):
+    """OMPL's view of a constraint manifold ``f(x) = 0`` (a Python object with ``codim``,
+    ``value(x)`` and ``jacobian(x)``): OMPL's ProjectedStateSpace calls ``function`` and
+    ``jacobian`` to project states (Newton steps) and to walk along the manifold. Like the
+    validity bridge, it never lets an exception unwind through OMPL: it is stored in the
+    context, the planner is told to stop, and plan_joint_space re-raises it. Holds no OMPL
+    object (see docs/ompl.md on reference cycles)."""
+
+    def __init__(self, dim: int, manifold: Any, tolerance: float, ctx: "_CallbackContext") -> None:
+        super().__init__(dim, int(manifold.codim), float(tolerance))
+        self._value = manifold.value
+        self._jacobian = manifold.jacobian
+        self._ctx = ctx
+
+    def detach(self) -> None:
+        """Drop every reference to Python objects: the C++ space keeps this object alive, and a
+        stored exception's traceback can lead back to that space (a cycle the GC cannot see)."""
+        self._value = self._jacobian = None
+        self._ctx = _DETACHED
+
+    def _fail(self, error: BaseException) -> None:
+        ctx = self._ctx
+        if ctx.error is None:
+            ctx.error = error
+        if ctx.ptc is not None:
+            ctx.ptc.terminate()
+
+    def function(self, x: Any, out: Any) -> None:  # noqa: D401 - OMPL's name
+        if self._ctx.error is not None or self._value is None:
+            out[:] = 0.0
+            return
+        try:
+            out[:] = self._value(np.array(x, dtype=float))
+        except BaseException as e:  # noqa: BLE001 - re-raised by plan_joint_space
+            self._fail(e)
+            out[:] = 0.0
+
+    def jacobian(self, x: Any, out: Any) -> None:
+        if self._ctx.error is not None or self._jacobian is None:
+            out[:, :] = 0.0
+            return
+        try:
+            out[:, :] = self._jacobian(np.array(x, dtype=float))
+        except BaseException as e:  # noqa: BLE001
+            self._fail(e)
+            out[:, :] = 0.0
 
 
 class _EdgeValidator(ob.MotionValidator):
@@ -193,12 +259,18 @@ def _status_name(status: Any) -> str:
 
 def _fill(si: Any, values: np.ndarray) -> Any:
     s = si.allocState()  # uninitialised memory: every coordinate is written below
-    s[0 : len(values)] = [float(x) for x in values]
+    if isinstance(s, ob.ConstrainedStateSpaceStateType):
+        s.copy([float(x) for x in values])
+    else:
+        s[0 : len(values)] = [float(x) for x in values]
     return s
 
 
 def _path_array(path: Any, dim: int) -> np.ndarray:
-    return np.array([s[0:dim] for s in path.getStates()], dtype=float).reshape(-1, dim)
+    states = path.getStates()
+    if states and isinstance(states[0], ob.ConstrainedStateSpaceStateType):
+        return np.array([[s[i] for i in range(dim)] for s in states], dtype=float).reshape(-1, dim)
+    return np.array([s[0:dim] for s in states], dtype=float).reshape(-1, dim)
 
 
 def plan_joint_space(
@@ -219,6 +291,8 @@ def plan_joint_space(
     stop_on_first_solution: bool = False,
     simplify_max_time: float | None = None,
     cancel: Any = None,
+    manifold: Any = None,
+    manifold_delta: float | None = None,
 ) -> OmplResult:
     """Plan a collision-free joint-space path from ``start`` to any of ``goals`` with OMPL.
 
@@ -245,8 +319,22 @@ def plan_joint_space(
     ``cancel`` (e.g. a ``threading.Event``, set from another thread: an action server's cancel)
     stops planning or simplification within one state check; the result is then ``ABORT``.
 
+    ``manifold`` (an object with ``codim`` > 0, ``value(x)`` -> ``f`` of length codim and
+    ``jacobian(x)`` -> codim x d) plans on the constraint manifold ``f(x) = 0`` with OMPL's
+    ProjectedStateSpace (MoveIt's ``enforce_constrained_state_space``): samples are projected
+    onto it by Newton steps, and edges are walked along it in steps of ``manifold_delta``
+    (joint-space distance; default OMPL's 0.05), each state projected and checked, so
+    ``longest_valid_segment_fraction`` no longer sets the edge resolution; interpolation
+    (``interpolate_states``) follows the manifold the same way. The start and the goals must
+    satisfy ``f = 0`` (within OMPL's projection tolerance, 1e-4 on ``|f|``). ``is_state_valid``
+    still decides validity. Bidirectional planners given several goals plan from the goals
+    (see docs/ompl.md); their path is simplified and interpolated in the direction it was
+    planned, then reversed, because a walk along the manifold depends on its direction. Every
+    configured planner runs on it; some only slowly (on the Panda demo of
+    test/task/test_mtc_path_constraints.py, SORRTstar and BFMT time out).
+
     Raises OmplConfigError for malformed input (naming it) and re-raises any exception from
-    ``is_state_valid`` after stopping the planner.
+    ``is_state_valid`` (or the manifold's functions) after stopping the planner.
     """
     ptype = canonical_planner_type(planner_type)
     spec = PLANNERS[ptype]
@@ -295,11 +383,22 @@ def plan_joint_space(
 
     if cancel is not None and not callable(getattr(cancel, "is_set", None)):
         raise OmplConfigError("cancel must be None or an object with is_set() (e.g. threading.Event)")
+    constrained = manifold is not None
+    if constrained:
+        codim = getattr(manifold, "codim", None)
+        if isinstance(codim, bool) or not isinstance(codim, (int, np.integer)) or not 0 < codim < dim:
+            raise OmplConfigError(f"manifold.codim must be an integer in [1, {dim}), got {codim!r}")
+        if not (callable(getattr(manifold, "value", None)) and callable(getattr(manifold, "jacobian", None))):
+            raise OmplConfigError("manifold needs value(x) and jacobian(x)")
+    if manifold_delta is not None and not (
+        isinstance(manifold_delta, (int, float)) and math.isfinite(manifold_delta) and manifold_delta > 0
+    ):
+        raise OmplConfigError(f"manifold_delta must be None or > 0, got {manifold_delta!r}")
 
     counter = [0]
     ctx = _CallbackContext()
     guarded = _guarded_validity(is_state_valid, ctx, counter, cancel)
-    bridge = _make_validity_bridge(guarded, dim)
+    bridge = _make_validity_bridge(guarded, dim, indexed=constrained)
 
     def result(status: str, path: np.ndarray | None = None, **kw: Any) -> OmplResult:
         return OmplResult(
@@ -360,10 +459,19 @@ def plan_joint_space(
         bounds.setHigh(i, float(hi[i]))
     space.setBounds(bounds)
     space.registerDefaultProjection(ob.RealVectorOrthogonalProjectionEvaluator(space, proj))
-    si = ob.SpaceInformation(space)
+    edge_validator = spec.plain_motion_checks and not constrained
+    manifold_bridge = None
+    if constrained:
+        manifold_bridge = _ManifoldBridge(dim, manifold, MANIFOLD_TOLERANCE, ctx)
+        projected = ob.ProjectedStateSpace(space, manifold_bridge)
+        if manifold_delta is not None:
+            projected.setDelta(float(manifold_delta))
+        si = ob.ConstrainedSpaceInformation(projected)
+    else:
+        si = ob.SpaceInformation(space)
     si.setStateValidityChecker(bridge)
     si.setStateValidityCheckingResolution(float(longest_valid_segment_fraction))
-    if spec.plain_motion_checks:
+    if edge_validator:
         si.setMotionValidator(_EdgeValidator(si, guarded, dim))
     si.setup()
 
@@ -375,6 +483,9 @@ def plan_joint_space(
         if ctx.error is not None:
             raise ctx.error
         status, path, approximate, message = outcome
+        reverse_later = message == _REVERSE_LATER
+        if reverse_later:
+            message = ""
         if ctx.cancelled:
             return result("ABORT", planning_time=planning_time, message="cancelled during planning")
         if path is None:
@@ -382,7 +493,7 @@ def plan_joint_space(
 
         t1 = time.perf_counter()
         goal_region = ob.GoalStates(si)
-        for _, g in valid_goals:
+        for g in ([q_start] if reverse_later else [g for _, g in valid_goals]):  # where the path ends
             goal_region.addState(_fill(si, g))
         if simplify:
             simplifier = og.PathSimplifier(si, goal_region)
@@ -397,11 +508,17 @@ def plan_joint_space(
         if ctx.cancelled:
             return result("ABORT", planning_time=planning_time, message="cancelled during simplification")
         waypoints = _path_array(path, dim)
+        if reverse_later:
+            waypoints = waypoints[::-1].copy()
+        if constrained:
+            waypoints = _tidy_manifold_path(waypoints)
         simplify_time = time.perf_counter() - t1
     finally:
         ctx.ptc = None
         si.setStateValidityChecker(ob.AllValidStateValidityChecker(si))
-        if spec.plain_motion_checks:
+        if manifold_bridge is not None:
+            manifold_bridge.detach()
+        if edge_validator:
             # The validator keeps its SpaceInformation alive and the SpaceInformation keeps the
             # validator: a C++ cycle Python's collector cannot see. Swap in an idle one.
             si.setMotionValidator(_idle_motion_validator())
@@ -415,6 +532,25 @@ def plan_joint_space(
         goal_index=goal_index,
         message=message,
     )
+
+
+def _tidy_manifold_path(waypoints: np.ndarray) -> np.ndarray:
+    """A path interpolated along a constraint manifold, without its walk's artefacts: repeated
+    states (where a walk stops short, interpolation repeats its first state) and back-steps (a
+    walk ends within one step of its target, possibly beyond it, so the path turns back there).
+    Dropping them shortens a chord by at most a step; the caller checks the path densely anyway.
+    The ends are kept."""
+    if len(waypoints) < 3:
+        return waypoints
+    rows = [waypoints[0]]
+    for i in range(1, len(waypoints) - 1):  # one pass: a state is left out only for its own step
+        before, after = waypoints[i] - rows[-1], waypoints[i + 1] - waypoints[i]
+        if np.linalg.norm(before) > 1e-12 and float(np.dot(before, after)) >= 0.0:
+            rows.append(waypoints[i])
+    if len(rows) > 1 and np.linalg.norm(waypoints[-1] - rows[-1]) <= 1e-12:
+        rows.pop()  # the goal repeated: keep the goal itself
+    rows.append(waypoints[-1])
+    return np.array(rows)
 
 
 def _interpolate(si: Any, path: Any, minimum: int) -> None:
@@ -512,6 +648,11 @@ def _solve_once(
     if status == "EXACT_SOLUTION":
         path = og.PathGeometric(setup.getSolutionPath())  # own copy, independent of setup
         if swapped:
+            if isinstance(si, ob.ConstrainedSpaceInformation):
+                # A walk along a constraint manifold depends on its direction: the path is kept as
+                # planned (goal -> start) through simplification and interpolation, and reversed
+                # as an array at the end (see plan_joint_space).
+                return status, path, False, _REVERSE_LATER
             path.reverse()
         return status, path, False, ""
     if status == "APPROXIMATE_SOLUTION":

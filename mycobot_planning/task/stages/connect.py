@@ -7,15 +7,19 @@ planning group covers exactly their joints (e.g. arm + gripper = 'arm_with_gripp
 merged path is collision-free (merge_mode WAYPOINTS, MTC's default); otherwise they stay a
 sequence of sub-trajectories. Joints no planner moves must already agree (within 1e-4) between
 the two states, and the states must hold the same objects, or the pair is not attempted.
+``path_constraints`` (a moveit_msgs/Constraints, see task/path_constraints.py) go to every
+planner, as in MTC (e.g. keep a held object upright).
 """
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
 
+from ...core.kinematic_constraints import dense_violation
 from ..cost_terms import PathLength
 from ..errors import InitStageException
+from ..path_constraints import check_path_constraints, declare_path_constraints
 from ..solvers import PlannerInterface
 from ..stage import Connecting
 from ..storage import InterfaceState, SolutionSequence, SubTrajectory
@@ -35,10 +39,14 @@ class Connect(Connecting):
         p = self._properties
         p.declare("merge_mode", self.WAYPOINTS, "merge mode: SEQUENTIAL (0) or WAYPOINTS (1)", type=int)
         p.declare("max_distance", 1e-2, "maximally accepted distance between the reached and the goal state", type=float)
+        declare_path_constraints(p)
 
     @property
     def planners(self) -> list[tuple[str, PlannerInterface]]:
         return list(self._planners)
+
+    def setPathConstraints(self, path_constraints: Any) -> None:
+        self._properties.set("path_constraints", path_constraints)
 
     def reset(self) -> None:
         super().reset()
@@ -68,6 +76,7 @@ class Connect(Connecting):
             joints = [j for g in groups for j in robot_model.group(g).joint_names]
             if len(set(joints)) == len(joints):
                 self._merged_group = find_group(robot_model, set(joints))
+        check_path_constraints(self, robot_model, errors)
         if errors:
             raise errors
 
@@ -90,6 +99,8 @@ class Connect(Connecting):
         timeout = self.timeout_or(1.0)
         mode = self._properties["merge_mode"]
         max_distance = float(self._properties["max_distance"])
+        constraints = self._properties["path_constraints"]
+        extra = {"path_constraints": constraints} if constraints else {}
         goal = to_state.scene.current_state
         start_scene = from_state.scene
         scenes = [start_scene]
@@ -101,7 +112,7 @@ class Connect(Connecting):
             target = end_scene.current_state.copy()
             target.set_group_positions(group, goal.group_positions(group))
             end_scene.set_current_state(target)
-            result = planner.plan(start_scene, end_scene, group, timeout, self._context)
+            result = planner.plan(start_scene, end_scene, group, timeout, self._context, **extra)
             parts.append((group, planner, result))
             scenes.append(end_scene)
             if not result.success or result.trajectory is None:
@@ -134,6 +145,8 @@ class Connect(Connecting):
             from_state.scene, from_state.scene.current_state, [(g, r.trajectory) for g, _, r in parts])
         if trajectory is None:
             return None
+        if not _within_path_constraints(self._properties["path_constraints"], from_state.scene, trajectory):
+            return None  # as MTC: the merged path must keep the constraints too, else stay sequential
         planner_ids = ", ".join(r.planner_id or p.planner_id for _, p, r in parts)
         return SubTrajectory(trajectory, group, planner_id=planner_ids)
 
@@ -157,6 +170,19 @@ class Connect(Connecting):
             children.append(sub)
             start = end
         return SolutionSequence(self, children)
+
+
+def _within_path_constraints(spec: Any, scene, trajectory) -> bool:
+    """Whether a (merged) trajectory keeps the stage's path constraints, densely (MTC's merge
+    checks isPathValid with them)."""
+    if not spec:
+        return True
+    try:
+        constraints = spec.resolve(scene)
+    except ValueError:
+        return False
+    return not constraints or dense_violation(constraints, scene.current_state, trajectory.joint_names,
+                                              trajectory.positions) is None
 
 
 def _with_group(state, group: str, values):

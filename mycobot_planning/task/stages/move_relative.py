@@ -7,7 +7,8 @@ plus rotation about the ik frame's origin, in a frame's axes) or a joint map of 
 ``min_distance`` decides success as in MTC: > 0, at least that far; 0, any distance; < 0
 (default -1), the full motion. When min and max are equal the full motion is required.
 Backward propagation plans from the end state along the inverted motion and reverses the
-trajectory. Cost: joint-space path length.
+trajectory. Cost: joint-space path length. ``path_constraints`` (a moveit_msgs/Constraints, see
+task/path_constraints.py) go to the planner.
 """
 from __future__ import annotations
 
@@ -20,6 +21,7 @@ from ...core.transforms import inverse
 from ..cost_terms import PathLength
 from ..errors import InitStageException
 from ..geometry import PoseStamped, TwistStamped, Vector3Stamped, as_pose_stamped, as_twist_stamped, as_vector3_stamped, frame_transform
+from ..path_constraints import check_path_constraints, declare_path_constraints
 from ..solvers import PlannerInterface
 from ..stage import PropagatingEitherWay
 from ..storage import BACKWARD, InterfaceState, SubTrajectory
@@ -59,6 +61,7 @@ class MoveRelative(PropagatingEitherWay):
         p.declare("direction", description="motion specification", coerce=_as_direction)
         p.declare("min_distance", -1.0, "minimum distance to move", type=float)
         p.declare("max_distance", 0.0, "maximum distance to move", type=float)
+        declare_path_constraints(p)
 
     @property
     def planner(self) -> PlannerInterface | None:
@@ -82,6 +85,9 @@ class MoveRelative(PropagatingEitherWay):
     def setMinMaxDistance(self, min_distance: float, max_distance: float) -> None:
         self.setMinDistance(min_distance)
         self.setMaxDistance(max_distance)
+
+    def setPathConstraints(self, path_constraints: Any) -> None:
+        self._properties.set("path_constraints", path_constraints)
 
     def init(self, robot_model) -> None:
         errors = InitStageException()
@@ -108,6 +114,7 @@ class MoveRelative(PropagatingEitherWay):
                 and p["min_distance"] > p["max_distance"]:
             errors.push_back(self, f"property 'min_distance' ({p['min_distance']:g}) exceeds 'max_distance' "
                                    f"({p['max_distance']:g}): the motion can never succeed")
+        check_path_constraints(self, robot_model, errors)
         if errors:
             raise errors
 
@@ -129,6 +136,8 @@ class MoveRelative(PropagatingEitherWay):
             min_distance = -1.0  # equal bounds: move the full distance
         sign = 1.0 if direction != BACKWARD else -1.0
         context = self._context
+        constraints = props["path_constraints"]
+        extra = {"path_constraints": constraints} if constraints else {}
         solution = SubTrajectory(None, group, planner_id=self._planner.planner_id)
         if isinstance(motion, dict):
             target = scene.current_state.copy()
@@ -138,7 +147,7 @@ class MoveRelative(PropagatingEitherWay):
                 values[index] = np.clip(values[index] + sign * offset, model.lower_limits[index], model.upper_limits[index])
             target.set_positions(values)
             scene.set_current_state(target)
-            result = self._planner.plan(state.scene, scene, group, timeout, context)
+            result = self._planner.plan(state.scene, scene, group, timeout, context, **extra)
             success = result.success
             comment = "" if success else result.message
         else:
@@ -172,7 +181,7 @@ class MoveRelative(PropagatingEitherWay):
                 target = ik_pose.copy()
                 target[:3, 3] += linear
             offset = inverse(scene.current_state.frame_pose(link)) @ ik_pose
-            result = self._planner.plan_pose(state.scene, link, offset, target, group, timeout, context)
+            result = self._planner.plan_pose(state.scene, link, offset, target, group, timeout, context, **extra)
             success = result.success
             comment = "" if success else result.message
             trajectory = result.trajectory

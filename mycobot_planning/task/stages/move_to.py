@@ -4,7 +4,8 @@ Goals: a named state of the group ("ready", "open"), a joint map ``{joint: value
 the group), a RobotState (the group's joints are taken), a PoseStamped for the ik frame, or a
 PointStamped (the ik frame keeps its orientation). Propagates forward (plan from the incoming
 state to the goal) or backward (plan from the incoming end state to the goal and reverse), as
-the neighbours require. Cost: joint-space path length.
+the neighbours require. Cost: joint-space path length. ``path_constraints`` (a
+moveit_msgs/Constraints, see task/path_constraints.py) go to the planner.
 """
 from __future__ import annotations
 
@@ -19,6 +20,7 @@ from ...core.transforms import inverse
 from ..cost_terms import PathLength
 from ..errors import InitStageException
 from ..geometry import PointStamped, PoseStamped, as_point_stamped, as_pose_stamped, frame_transform
+from ..path_constraints import check_path_constraints, declare_path_constraints
 from ..solvers import PlannerInterface
 from ..stage import PropagatingEitherWay
 from ..storage import BACKWARD, InterfaceState, SubTrajectory
@@ -51,6 +53,7 @@ class MoveTo(PropagatingEitherWay):
         p.declare("group", type=str, description="name of planning group")
         p.declare("ik_frame", type=PoseStamped, coerce=as_pose_stamped, description="frame to be moved towards the goal pose")
         p.declare("goal", description="goal specification", coerce=_as_goal)
+        declare_path_constraints(p)
 
     @property
     def planner(self) -> PlannerInterface | None:
@@ -64,6 +67,9 @@ class MoveTo(PropagatingEitherWay):
 
     def setIKFrame(self, pose_or_link: Any, link: str | None = None) -> None:
         self._properties.set("ik_frame", pose_or_link if link is None else PoseStamped(link, pose_or_link))
+
+    def setPathConstraints(self, path_constraints: Any) -> None:
+        self._properties.set("path_constraints", path_constraints)
 
     def init(self, robot_model) -> None:
         errors = InitStageException()
@@ -85,6 +91,7 @@ class MoveTo(PropagatingEitherWay):
                 joint_goal_values(robot_model, group, goal)
             except ValueError as exc:
                 errors.push_back(self, f"property 'goal': {exc}")
+        check_path_constraints(self, robot_model, errors)
         if errors:
             raise errors
 
@@ -100,6 +107,8 @@ class MoveTo(PropagatingEitherWay):
             return False, scene, SubTrajectory.failure("undefined goal")
         timeout = self.timeout_or(1.0)
         context = self._context
+        constraints = props["path_constraints"]
+        extra = {"path_constraints": constraints} if constraints else {}
         jmg = model.group(group)
         values = joint_goal_values(model, group, goal) if not isinstance(goal, RobotState) else None
         if isinstance(goal, RobotState) or values is not None:
@@ -109,7 +118,7 @@ class MoveTo(PropagatingEitherWay):
             else:
                 target.set_joint_positions({k: v for k, v in values.items() if k in model.variable_names})
             scene.set_current_state(target)
-            result = self._planner.plan(state.scene, scene, group, timeout, context)
+            result = self._planner.plan(state.scene, scene, group, timeout, context, **extra)
         else:
             link, ik_pose = robot_tip_for_frame(props["ik_frame"], scene, group)
             if isinstance(goal, PoseStamped):
@@ -119,7 +128,7 @@ class MoveTo(PropagatingEitherWay):
                 point = frame_transform(scene, goal.frame_id) @ np.append(goal.point, 1.0)
                 target_pose[:3, 3] = point[:3]
             offset = inverse(scene.current_state.frame_pose(link)) @ ik_pose
-            result = self._planner.plan_pose(state.scene, link, offset, target_pose, group, timeout, context)
+            result = self._planner.plan_pose(state.scene, link, offset, target_pose, group, timeout, context, **extra)
         trajectory = result.trajectory
         solution = SubTrajectory(None, group, planner_id=result.planner_id or self._planner.planner_id)
         if trajectory is None or len(trajectory) == 0:
