@@ -89,7 +89,8 @@ def check_path(scene: PlanningScene, start: RobotState, indices: np.ndarray, pat
         b = path[k]
         steps = max(1, int(math.ceil(float(np.max(np.abs(b - a))) / resolution))) if k else 1
         for j in range(1, steps + 1):
-            full[indices] = a + (j / steps) * (b - a)
+            # the waypoint itself exactly (a + 1.0 * (b - a) can round past a bound it sits on)
+            full[indices] = b if j == steps else a + (j / steps) * (b - a)
             if not is_valid(full):
                 state = RobotState(start.model, full)
                 report = scene.check_collision(state, max_contacts=1)

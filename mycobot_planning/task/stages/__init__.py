@@ -2,6 +2,7 @@
 stages``; ``stages.CurrentState("current")``)."""
 from .compute_ik import ComputeIK
 from .connect import Connect
+from .fix_collision_objects import FixCollisionObjects
 from .generate_grasp_pose import GenerateGraspPose
 from .generate_place_pose import GeneratePlacePose
 from .generate_pose import GeneratePose
@@ -11,14 +12,17 @@ from .modify_planning_scene import ModifyPlanningScene
 from .move_relative import MoveRelative
 from .move_to import MoveTo
 from .pass_through import PassThrough
+from .pick_place import Pick, PickPlaceBase, Place
 from .predicate_filter import PredicateFilter
 from .current_state import CurrentState
 from .fixed_state import FixedState
+from .simple_grasp import SimpleGrasp, SimpleGraspBase, SimpleUnGrasp
 
 __all__ = [
     "ComputeIK",
     "Connect",
     "CurrentState",
+    "FixCollisionObjects",
     "FixedState",
     "GenerateGraspPose",
     "GeneratePlacePose",
@@ -29,5 +33,11 @@ __all__ = [
     "MoveRelative",
     "MoveTo",
     "PassThrough",
+    "Pick",
+    "PickPlaceBase",
+    "Place",
     "PredicateFilter",
+    "SimpleGrasp",
+    "SimpleGraspBase",
+    "SimpleUnGrasp",
 ]
