@@ -53,17 +53,18 @@ def use_session_domain() -> None:
 
 
 class NodeProcess:
-    """One node started as `python -m <module> --ros-args ...`, output captured to a log file."""
+    """One node started as `python -m <module> --ros-args ...` (or `python <file.py> ...` when
+    ``module`` names a file), output captured to a log file."""
 
     def __init__(self, module: str, args: Iterable[str] = (), name: str | None = None, log_dir: Path | None = None):
         self.module = module
-        self.name = name or module.rsplit(".", 1)[-1]
+        self.name = name or Path(module).stem if module.endswith(".py") else name or module.rsplit(".", 1)[-1]
         log_dir = log_dir or Path(os.environ.get("MYCOBOT_TEST_LOG_DIR", "/tmp/mycobot_test_logs"))
         log_dir.mkdir(parents=True, exist_ok=True)
         self.log_path = log_dir / f"{self.name}-{os.getpid()}-{time.monotonic_ns()}.log"
         self._log = open(self.log_path, "w")
         self.proc = subprocess.Popen(
-            [PYTHON, "-m", module, *args],
+            [PYTHON, *([module] if module.endswith(".py") else ["-m", module]), *args],
             cwd=REPO,
             env=ros_env(),
             stdout=self._log,
@@ -191,17 +192,20 @@ class ProbeNode:
 
 
 @contextlib.contextmanager
-def robot_processes(*server_params: str, params_file: bool = False) -> Iterator[tuple[NodeProcess, NodeProcess]]:
+def robot_processes(*server_params: str, params_file: bool | Path = False,
+                    controllers_file: Path | None = None) -> Iterator[tuple[NodeProcess, NodeProcess]]:
     """mock_controllers and planning_server on this session's domain, both ready, stopped at exit.
 
-    ``server_params`` are ``name:=value`` overrides; ``params_file`` adds config/planning_server.yaml."""
+    ``server_params`` are ``name:=value`` overrides; ``params_file`` adds config/planning_server.yaml
+    (True) or the given file; ``controllers_file``: a params file for mock_controllers."""
     use_session_domain()
     args = ["--ros-args"] if server_params or params_file else []
     if params_file:
-        args += ["--params-file", str(config_file("planning_server.yaml"))]
+        args += ["--params-file", str(config_file("planning_server.yaml") if params_file is True else params_file)]
     for param in server_params:
         args += ["-p", param]
-    controllers = NodeProcess("mycobot_planning.nodes.mock_controllers")
+    controllers = NodeProcess("mycobot_planning.nodes.mock_controllers",
+                              ["--ros-args", "--params-file", str(controllers_file)] if controllers_file else [])
     server = NodeProcess("mycobot_planning.nodes.planning_server", args)
     try:
         assert controllers.wait_for_output("controller_manager ready", 30), controllers.output()

@@ -190,17 +190,21 @@ def build_pick_place(model) -> Task:
     return task
 
 
-def replay_task_solution(model: RobotModel, msg: TaskSolution) -> tuple[PlanningScene, int]:
+def replay_task_solution(model: RobotModel, msg: TaskSolution, check_limits: bool = True) -> tuple[PlanningScene, int]:
     """Replay a TaskSolution as the planning_server executes it (each step's trajectory, then its
     scene diff): every trajectory must pass the core validator in the scene it runs in, starting
-    where the robot is. Returns the final scene and how many steps moved."""
+    where the robot is. Returns the final scene and how many steps moved. ``check_limits``: also
+    the velocity and acceleration limits."""
     scene = PlanningScene.from_msg(model, msg.start_scene)
     moved = 0
     for k, sub in enumerate(msg.sub_trajectory):
         jt = sub.trajectory.joint_trajectory
         if jt.points:
             timed = joint_trajectory_to_timed(jt)
-            report = validate_trajectory(scene, timed, sub.trajectory.group_name, scene.current_state)
+            # MTC's SubTrajectory message carries no group name: the group of exactly these joints
+            group = sub.trajectory.group_name or next(
+                g for g in model.group_names if set(model.group(g).joint_names) == set(jt.joint_names))
+            report = validate_trajectory(scene, timed, group, scene.current_state, check_limits=check_limits)
             assert report.valid, f"step {k} ({sub.info.stage_name}): {report.problems}"
             state = scene.current_state.copy()
             state.set_joint_positions(dict(zip(jt.joint_names, jt.points[-1].positions)))

@@ -93,6 +93,17 @@ class TaskSolution(_Message):
     cost: float = 0.0
     comment: str = ""
 
+    @property
+    def motion_duration(self) -> float:
+        """Seconds of motion: the steps' trajectory durations added up."""
+        return float(sum(sub.trajectory.joint_trajectory.points[-1].time_from_start
+                         for sub in self.sub_trajectory if sub.trajectory.joint_trajectory.points))
+
+    @property
+    def moves(self) -> bool:
+        """Whether any step carries a trajectory (a solution of only states moves nothing)."""
+        return any(sub.trajectory.joint_trajectory.points for sub in self.sub_trajectory)
+
     def _validate(self) -> None:
         if self.start_scene.is_diff:
             raise MessageError("TaskSolution.start_scene.is_diff", "must be false: the start scene is a full scene")

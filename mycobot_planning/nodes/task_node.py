@@ -25,7 +25,6 @@ from interfaces_py.msgs import (
     MessageError,
     MoveItErrorCode,
     PlanningScene as PlanningSceneMsg,
-    TaskSolution,
 )
 from interfaces_py.ros_conversions import joint_trajectory_to_msg
 from mycobot_planning.core.errors import PlanningError
@@ -131,19 +130,6 @@ def display_trajectory(task: Task, solution=None) -> JointTrajectory:
     return JointTrajectory(joint_names=list(state.model.variable_names), points=[
         JointTrajectoryPoint(positions=[float(v) for v in state.positions],
                              velocities=[0.0] * len(state.positions), time_from_start=0.0)])
-
-
-def _moves(msg: TaskSolution) -> bool:
-    return any(sub.trajectory.joint_trajectory.points for sub in msg.sub_trajectory)
-
-
-def _duration(msg: TaskSolution) -> float:
-    total = 0.0
-    for sub in msg.sub_trajectory:
-        points = sub.trajectory.joint_trajectory.points
-        if points:
-            total += float(points[-1].time_from_start)
-    return total
 
 
 # ---------------------------------------------------------------------------- the node
@@ -365,13 +351,13 @@ class TaskNode(Node):
             code = MoveItErrorCode(MoveItErrorCode.INVALID_MOTION_PLAN, str(exc))
             self.error(f"execution refused: {code.message}")
             return code
-        if not _moves(msg):
+        if not msg.moves:
             code = MoveItErrorCode(MoveItErrorCode.INVALID_MOTION_PLAN,
                                    f"the best solution of '{task.name}' contains no motion (its steps only reach "
                                    "states), there is nothing to execute")
             self.warning(f"execution refused: {code.message}")
             return code
-        duration = _duration(msg)
+        duration = msg.motion_duration
         self.info(f"Executing the best solution of '{task.name}' ({len(msg.sub_trajectory)} steps, "
                   f"{duration:.2f} s of motion) through {self.params.get('planning_server')}")
         code = self._execute_through_action(msg, duration * 2.0 + 30.0 + self.server_timeout)

@@ -4,6 +4,7 @@ The full story: docs/task.md, section mycobot_planning.task.task.
 """
 from __future__ import annotations
 
+import importlib
 import itertools
 import logging
 import math
@@ -32,6 +33,23 @@ from .solvers import default_pipeline
 _LOG = logging.getLogger("mycobot_planning.task")
 
 __all__ = ["Task", "TaskContext"]
+
+#: The module that gives a Task its ROS side when a script hands it a node: loaded by name, as
+#: pluginlib loads a plugin, so that this package never imports rclpy (see
+#: nodes/task_ros_interface.py).
+ROS_INTERFACE_MODULE = "mycobot_planning.nodes.task_ros_interface"
+
+
+def ros_interface(node: Any) -> Any:
+    """The ROS side (TaskRosInterface) for ``node``; TaskError when ROS is unavailable."""
+    try:
+        module = importlib.import_module(ROS_INTERFACE_MODULE)
+    except ImportError as exc:
+        raise TaskError(f"a ROS node was given, but ROS is not available here: {exc}") from None
+    try:
+        return module.TaskRosInterface(node)
+    except TypeError as exc:
+        raise TaskError(str(exc)) from None
 
 
 #: Default stream of printState / explainFailure: whatever sys.stdout is at the call (so
@@ -115,6 +133,9 @@ class Task:
         self._context: TaskContext | None = None
         self._planning_time = 0.0
         self._initialized = False
+        self._ros: Any = None  # TaskRosInterface once a node is known (loadRobotModel)
+        self._introspection_enabled = True
+        self._introspection: Any = None
         if model is not None:
             self.setRobotModel(model)
         if scene is not None:
@@ -143,6 +164,39 @@ class Task:
 
     def getRobotModel(self) -> RobotModel | None:
         return self._model
+
+    def loadRobotModel(self, node: Any, robot_description: str = "robot_description") -> None:
+        """MTC's loadRobotModel: the robot the node's ``robot_description`` parameters describe,
+        else the running planning_server's (move_group's). The node then also gives CurrentState
+        the planning_server's current scene (unless a scene was set) and publish() / execute()
+        their ROS side."""
+        if not isinstance(robot_description, str) or not robot_description:
+            raise TaskError(f"robot_description must be a parameter name, got {robot_description!r}")
+        ros = ros_interface(node)
+        try:
+            model = ros.load_robot_model(robot_description)
+        except (TimeoutError, ValueError) as exc:
+            raise TaskError(f"loading the robot model failed: {exc}") from None
+        self._ros = ros
+        self.setRobotModel(model)
+        if self._scene is None and self._scene_provider is None:
+            self._scene_provider = lambda timeout: ros.fetch_scene(model, timeout)
+        _LOG.info("task '%s': robot '%s' loaded (groups %s)", self.name, model.name, ", ".join(model.group_names))
+
+    def _node_of_planners(self) -> Any:
+        """The node of the first MTC-style ``PipelinePlanner(node, ...)`` the stages plan with."""
+        pending: list[Any] = []
+        for stage, _depth in self._root.traverseRecursively():
+            pending.append(getattr(stage, "_planner", None))
+            pending += [planner for _group, planner in getattr(stage, "_planners", ())]
+        while pending:
+            planner = pending.pop(0)
+            if planner is None:
+                continue
+            if getattr(planner, "node", None) is not None:
+                return planner.node
+            pending += list(getattr(planner, "_planners", ()))  # MultiPlanner
+        return None
 
     def setRobotModel(self, model: RobotModel) -> None:
         if not isinstance(model, RobotModel):
@@ -254,7 +308,12 @@ class Task:
         """Reset, initialise every stage and resolve the interfaces; InitStageException lists
         every misconfigured stage with its problem."""
         if self._model is None:
-            raise TaskError("the task has no robot model: pass it to Task(name, model) or call setRobotModel()")
+            node = self._node_of_planners()
+            if node is None:
+                raise TaskError("the task has no robot model: call loadRobotModel(node) or setRobotModel(), or "
+                                "pass it to Task(name, model)")
+            _LOG.info("task '%s' has no robot model: loading it through its PipelinePlanner's node", self.name)
+            self.loadRobotModel(node)
         self.reset()
         context = TaskContext(self)
         self._context = context
@@ -268,6 +327,8 @@ class Task:
         root._resolve_interface(GENERATE)
         root._validate_connectivity()
         self._initialized = True
+        if self._ros is not None and self._introspection_enabled:
+            self.introspection().publishTaskDescription()
 
     def plan(self, max_solutions: int = 0) -> MoveItErrorCode:
         """Plan until ``max_solutions`` solutions exist (0: all), the timeout, or preempt()."""
@@ -289,6 +350,8 @@ class Task:
             for callback in list(self._task_callbacks):
                 callback(self)
         self._planning_time = time.perf_counter() - started
+        if self._ros is not None and self._introspection_enabled:
+            self.introspection().publishTaskState()
         if root._solutions:
             count = len(root._solutions)
             return MoveItErrorCode(MoveItErrorCode.SUCCESS, f"{count} solution{'s' if count != 1 else ''} found",
@@ -328,6 +391,38 @@ class Task:
     def setCostTerm(self, term: Any) -> None:
         """The cost term of the task's solutions (MTC's Task.setCostTerm: the root container's)."""
         self._root.setCostTerm(term)
+
+    # ------------------------------------------------------------------ ROS (MTC's introspection)
+    def enableIntrospection(self, enabled: bool = True) -> None:
+        """MTC's enableIntrospection: with a node (loadRobotModel), init() publishes the task's
+        description and plan() its state on MTC's topics and the task viewer's. On by default."""
+        self._introspection_enabled = bool(enabled)
+
+    def introspection(self) -> Any:
+        """MTC's Introspection (publishTaskDescription, publishTaskState, publishSolution,
+        publishAllSolutions, reset); needs a node (loadRobotModel)."""
+        if self._ros is None:
+            raise TaskError("introspection needs a ROS node: call loadRobotModel(node) first")
+        if self._introspection is None:
+            self._introspection = self._ros.introspection(self)
+        return self._introspection
+
+    def publish(self, solution: SolutionBase | None = None) -> None:
+        """MTC's publish: the description, state and the solution (default: the best) on MTC's
+        introspection topics, where RViz's panel and our task viewer show it."""
+        chosen = self._pick(solution)
+        introspection = self.introspection()
+        introspection.publishTaskDescription()
+        introspection.publishTaskState()
+        introspection.publishSolution(chosen)
+
+    def execute(self, solution: SolutionBase | None = None) -> MoveItErrorCode:
+        """MTC's execute: the solution (default: the best) to the planning_server's
+        execute_task_solution action; blocks until the motion ended."""
+        chosen = self._pick(solution)
+        if self._ros is None:
+            raise TaskError("execute needs a ROS node: call loadRobotModel(node) first")
+        return self._ros.execute(self, chosen)
 
     def printState(self, stream: TextIO | None | object = STDOUT) -> str:
         """MTC's printState: per stage the interface counts and the solutions, indented by depth
