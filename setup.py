@@ -1,4 +1,5 @@
 """ament_python package: builds with colcon on a ROS machine and installs with pip elsewhere."""
+import os
 from glob import glob
 
 from setuptools import find_packages, setup
@@ -12,7 +13,8 @@ setup(
     data_files=[
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
         (f"share/{PACKAGE}", ["package.xml"]),
-        (f"share/{PACKAGE}/config", sorted(glob("config/*"))),
+        (f"share/{PACKAGE}/config", sorted(f for f in glob("config/*") if os.path.isfile(f))),
+        (f"share/{PACKAGE}/config/panda", sorted(glob("config/panda/*"))),
     ],
     install_requires=["setuptools"],
     zip_safe=True,

@@ -54,6 +54,8 @@ def main(script: str) -> int:
         result.update(valid=valid, trajectories=trajectories, problems=problems[:5])
         result["costs"] = [round(float(s.cost), 6) for s in task.solutions[:10]]
     print("MTC_SCRIPT_RESULT " + json.dumps(result), flush=True)
+    # keep the script's latched publishers alive a while (MTC_SCRIPT_LINGER s) for a test's probe
+    _real_sleep(float(os.environ.get("MTC_SCRIPT_LINGER", "0")))
     return 0
 
 

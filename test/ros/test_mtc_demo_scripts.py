@@ -129,13 +129,15 @@ def published_solution(msg: Any) -> TaskSolution:
 
 @pytest.mark.parametrize("name", PLANNING_SCRIPTS)
 def test_mtc_demo_script_plans_valid_solutions(name: str, solution_probe: Any, panda: RobotModel,
-                                               tmp_path: Path) -> None:
+                                               tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     probe, published = solution_probe
     with probe.lock:
         published.clear()
+    # the runner lingers after the script (its latched /solution stays up on a busy machine)
+    monkeypatch.setenv("MTC_SCRIPT_LINGER", "15")
     process = NodeProcess(str(RUNNER), [str(script_path(name, tmp_path))], name=f"mtc_{name}")
     try:
-        assert wait_until(lambda: not process.alive(), 150.0), f"{name} did not finish:\n{process.output()}"
+        assert process.wait_for_output("MTC_SCRIPT_RESULT", 150.0), f"{name} did not finish:\n{process.output()}"
         output = process.output()
         lines = [line for line in output.splitlines() if line.startswith("MTC_SCRIPT_RESULT ")]
         assert lines, f"{name} reported nothing:\n{output}"
