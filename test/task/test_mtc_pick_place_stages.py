@@ -137,8 +137,7 @@ def test_pickplace_demo_with_its_upright_path_constraint(panda):
     """The demo's second Connect keeps the object upright (MTC's path_constraints)."""
     task = build_demo(panda)
     transport = task.stages.children[3]
-    if "path_constraints" not in transport.properties:
-        pytest.skip("Connect has no path_constraints property")
+    assert "path_constraints" in transport.properties
     transport.path_constraints = {  # moveit_msgs/Constraints, field by field as in pickplace.py
         "name": "object:upright",
         "orientation_constraints": [{
