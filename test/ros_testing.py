@@ -58,7 +58,7 @@ class NodeProcess:
 
     def __init__(self, module: str, args: Iterable[str] = (), name: str | None = None, log_dir: Path | None = None):
         self.module = module
-        self.name = name or Path(module).stem if module.endswith(".py") else name or module.rsplit(".", 1)[-1]
+        self.name = name or (Path(module).stem if module.endswith(".py") else module.rsplit(".", 1)[-1])
         log_dir = log_dir or Path(os.environ.get("MYCOBOT_TEST_LOG_DIR", "/tmp/mycobot_test_logs"))
         log_dir.mkdir(parents=True, exist_ok=True)
         self.log_path = log_dir / f"{self.name}-{os.getpid()}-{time.monotonic_ns()}.log"

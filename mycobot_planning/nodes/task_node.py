@@ -31,6 +31,7 @@ from mycobot_planning.core.errors import PlanningError
 from mycobot_planning.core.planning_scene import PlanningScene
 from mycobot_planning.core.robot_model import RobotModel
 from mycobot_planning.nodes.node_runtime import Parameters, ParameterSpec, run_node
+from mycobot_planning.nodes.task_ros_interface import TaskRosInterface
 from mycobot_planning.nodes.task_topics import TaskIntrospection
 from mycobot_planning.task import InitStageException, Task, TaskError
 
@@ -172,12 +173,8 @@ class TaskNode(Node):
                                                       timeout=float(self.params.get("server_timeout")))
         self._move_groups: dict[str, MoveGroupClient] = {}
         self.move_group("arm")  # the planning client, created before the executor spins
-        from moveit_task_constructor_msgs.action import ExecuteTaskSolution
-        from rclpy.action import ActionClient
-
-        #: execution goes through MTC's execute_task_solution action, as MTC's Task::execute does
-        self._task_action = ActionClient(self, ExecuteTaskSolution, "/execute_task_solution",
-                                         callback_group=self._group)
+        #: execution through MTC's execute_task_solution action, as MTC's Task::execute does
+        self._task_ros = TaskRosInterface(self, callback_group=self._group)
         self.introspection = TaskIntrospection(self)
         self._display_pub = self.create_publisher(JointTrajectoryMsg, "/planned_path", DISPLAY_QOS)
         self.create_service(Trigger, "~/plan", self._srv_plan, callback_group=self._group)
@@ -360,36 +357,14 @@ class TaskNode(Node):
         duration = msg.motion_duration
         self.info(f"Executing the best solution of '{task.name}' ({len(msg.sub_trajectory)} steps, "
                   f"{duration:.2f} s of motion) through {self.params.get('planning_server')}")
-        code = self._execute_through_action(msg, duration * 2.0 + 30.0 + self.server_timeout)
+        # MTC's way: the solution goes to move_group's execute_task_solution action
+        code = self._task_ros.execute_message(msg, task.solutions[0].id, duration * 2.0 + 30.0 + self.server_timeout,
+                                              self.server_timeout)
         if code:
             self.info(f"Execution succeeded: {code.message or code.name}")
         else:
             self.error(f"Execution failed: {code.name}: {code.message}")
         return code
-
-    def _execute_through_action(self, msg: Any, timeout: float) -> MoveItErrorCode:
-        """MTC's way: the solution goes to move_group's execute_task_solution action."""
-        from interfaces_py.mtc_conversions import task_solution_to_msg
-        from moveit_task_constructor_msgs.action import ExecuteTaskSolution
-
-        if not self._task_action.wait_for_server(timeout_sec=self.server_timeout):
-            return MoveItErrorCode(MoveItErrorCode.COMMUNICATION_FAILURE,
-                                   f"no execute_task_solution action server answers within {self.server_timeout:g} s "
-                                   "(is the planning_server running?)")
-        done = threading.Event()
-        goal_future = self._task_action.send_goal_async(ExecuteTaskSolution.Goal(solution=task_solution_to_msg(msg)))
-        goal_future.add_done_callback(lambda _: done.set())
-        if not done.wait(self.server_timeout) or goal_future.result() is None or not goal_future.result().accepted:
-            return MoveItErrorCode(MoveItErrorCode.COMMUNICATION_FAILURE, "the execute_task_solution goal was not accepted")
-        handle = goal_future.result()
-        finished = threading.Event()
-        result_future = handle.get_result_async()
-        result_future.add_done_callback(lambda _: finished.set())
-        if not finished.wait(timeout):
-            handle.cancel_goal_async()
-            return MoveItErrorCode(MoveItErrorCode.TIMED_OUT, f"execute_task_solution gave no result within {timeout:.0f} s")
-        code = result_future.result().result.error_code
-        return MoveItErrorCode(code.val, code.message, code.source)
 
     # ------------------------------------------------------------------ start-up run
     def _start(self) -> None:

@@ -25,13 +25,14 @@ import rclpy
 import rclpy.parameter
 from moveit_msgs.msg import PlanningSceneComponents
 from moveit_msgs.srv import GetPlanningScene
-from rcl_interfaces.srv import GetParameters
+from moveit_task_constructor_msgs.action import ExecuteTaskSolution
+from rcl_interfaces.srv import GetParameters, ListParameters
 from rclpy.action import ActionClient
 from rclpy.node import Node
 
 from interfaces_py import names
 from interfaces_py.moveit_conversions import ConversionError, planning_scene_from_msg
-from interfaces_py.msgs import MessageError, MoveItErrorCode
+from interfaces_py.msgs import MessageError, MoveItErrorCode, TaskSolution
 from interfaces_py.msgs import PlanningScene as PlanningSceneMsg
 from interfaces_py.mtc_conversions import task_solution_to_msg
 from mycobot_planning.core.errors import PlanningError
@@ -91,14 +92,18 @@ class MtcIntrospection:
 class TaskRosInterface:
     """The ROS side of one Task (see module docstring)."""
 
-    def __init__(self, node: Any) -> None:
+    def __init__(self, node: Any, callback_group: Any = None) -> None:
+        """``callback_group``: where the action client's answers run (a node that blocks in one of
+        its own callbacks needs a reentrant one)."""
         if not isinstance(node, Node):
             raise TypeError(f"expected an rclpy Node, got {type(node).__name__}")
         self.node = node
         self._topics: TaskIntrospection | None = None
-        self._execute_client: ActionClient | None = None
+        # created now, so that it has found the action server by the time execute() is called
+        self._execute_client = ActionClient(node, ExecuteTaskSolution, names.EXECUTE_TASK_SOLUTION_ACTION,
+                                            callback_group=callback_group)
         self._spun_by: Any = None  # the executor our own spinning left the node in
-        self._scene_client = node.create_client(GetPlanningScene, names.GET_PLANNING_SCENE_SERVICE)
+        self._scene_client: Any = None  # created on the first fetch_scene
 
     # ------------------------------------------------------------------ waiting
     def _wait(self, future: Any, timeout: float) -> Any:
@@ -139,8 +144,6 @@ class TaskRosInterface:
 
     def _move_group_parameters(self, robot_description: str, timeout: float) -> dict[str, Any]:
         """robot_description(_semantic) and the planning/kinematics trees from move_group."""
-        from rcl_interfaces.srv import ListParameters
-
         node_name = f"/{names.MOVE_GROUP_NODE}"
         lister = self.node.create_client(ListParameters, f"{node_name}/list_parameters")
         getter = self.node.create_client(GetParameters, f"{node_name}/get_parameters")
@@ -176,6 +179,8 @@ class TaskRosInterface:
             getattr(PlanningSceneComponents, c) for c in (
                 "SCENE_SETTINGS", "ROBOT_STATE", "ROBOT_STATE_ATTACHED_OBJECTS", "WORLD_OBJECT_NAMES",
                 "WORLD_OBJECT_GEOMETRY", "ALLOWED_COLLISION_MATRIX", "OBJECT_COLORS", "TRANSFORMS"))
+        if self._scene_client is None:
+            self._scene_client = self.node.create_client(GetPlanningScene, names.GET_PLANNING_SCENE_SERVICE)
         answer = self._call(self._scene_client, request, "reading the current scene", max(timeout, SERVER_TIMEOUT))
         try:
             msg = PlanningSceneMsg.from_dict(planning_scene_from_msg(answer.scene))
@@ -195,18 +200,22 @@ class TaskRosInterface:
     def execute(self, task: Any, solution: Any, timeout: float | None = None) -> MoveItErrorCode:
         """MTC's Task::execute: the solution to move_group's execute_task_solution action; blocks
         until the motion ended (or ``timeout``, default twice its duration plus 30 s)."""
-        from moveit_task_constructor_msgs.action import ExecuteTaskSolution
+        return self.execute_message(task.to_msg(solution), getattr(solution, "id", 0), timeout)
 
-        if self._execute_client is None:
-            self._execute_client = ActionClient(self.node, ExecuteTaskSolution, names.EXECUTE_TASK_SOLUTION_ACTION)
-        msg = task.to_msg(solution)
-        if not self._execute_client.wait_for_server(timeout_sec=SERVER_TIMEOUT):
+    def execute_message(self, msg: TaskSolution, solution_id: int = 0, timeout: float | None = None,
+                        server_timeout: float = SERVER_TIMEOUT) -> MoveItErrorCode:
+        """A TaskSolution message through execute_task_solution (what task nodes execute, too)."""
+        if not self._execute_client.wait_for_server(timeout_sec=server_timeout):
             return MoveItErrorCode(MoveItErrorCode.COMMUNICATION_FAILURE,
-                                   "no execute_task_solution action server answers (is the planning_server running?)")
-        goal = ExecuteTaskSolution.Goal(solution=task_solution_to_msg(msg, getattr(solution, "id", 0)))
-        handle = self._wait(self._execute_client.send_goal_async(goal), SERVER_TIMEOUT)
+                                   f"no execute_task_solution action server answers within {server_timeout:g} s "
+                                   "(is the planning_server running?)")
+        goal = ExecuteTaskSolution.Goal(solution=task_solution_to_msg(msg, solution_id))
+        try:
+            handle = self._wait(self._execute_client.send_goal_async(goal), server_timeout)
+        except TimeoutError:
+            handle = None
         if handle is None or not handle.accepted:
-            return MoveItErrorCode(MoveItErrorCode.COMMUNICATION_FAILURE, "the execute_task_solution goal was refused")
+            return MoveItErrorCode(MoveItErrorCode.COMMUNICATION_FAILURE, "the execute_task_solution goal was not accepted")
         wait = timeout if timeout is not None else 2.0 * msg.motion_duration + 30.0
         try:
             result = self._wait(handle.get_result_async(), wait)
