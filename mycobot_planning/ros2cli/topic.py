@@ -152,9 +152,13 @@ def info(args: argparse.Namespace) -> int | str:
         types = _find_topic_types(node, topic, c.lookup_timeout(args))
         if not types:
             return "Unknown topic '%s'" % args.topic_name
-        # A topic is first seen through any one endpoint; the counts settle a moment later.
+        # A topic is first seen through any one endpoint; the counts settle a moment later. A side
+        # still at zero may be a participant Fast DDS has not announced yet (it can take up to its
+        # 3 s announcement period): wait for it up to the lookup timeout before reporting zero.
         c.settled(lambda: (node.count_publishers(topic), node.count_subscribers(topic)),
                   getattr(args, "spin_time", None) or c.LIST_MAX)
+        c.wait_for(lambda: node.count_publishers(topic) and node.count_subscribers(topic),
+                   c.lookup_timeout(args))
         if args.verbose:  # endpoints can be known before their node's name is: wait for the names
             c.wait_for(lambda: not any(
                 e.node_name == "_NODE_NAME_UNKNOWN_" for e in
