@@ -17,6 +17,7 @@ from mycobot_planning.core.transforms import make_pose
 from .common import emit, machine, spread, stats, timed
 from .perception_scenarios import bench_perception
 from .pick_place_scenarios import PICK_PLACE_SCENARIOS
+from .robots_scenarios import bench_robots
 from .robustness import bench_robustness
 from .ros_scenarios import ROS_SCENARIOS
 from .task_scenarios import TASK_SCENARIOS
@@ -296,6 +297,7 @@ SCENARIOS: dict[str, Callable[..., None]] = {
     "perception": bench_perception,
     "plan_ompl": bench_plan_ompl,
     "ptp": bench_ptp,
+    "robots": bench_robots,
     "robustness": bench_robustness,
     **TASK_SCENARIOS,
     **ROS_SCENARIOS,

@@ -20,6 +20,7 @@ import yaml
 
 from .errors import RobotModelError
 from .srdf import Srdf, parse_srdf
+from .srdf_check import UrdfTree, drop_unknown_names
 
 _LOG = logging.getLogger(__name__)
 
@@ -166,11 +167,19 @@ class RobotModel:
         joint_limits: Mapping | None = None,
         kinematics: Mapping | None = None,
         package_dirs: Iterable[str | Path] = (),
+        strict: bool = False,
     ) -> None:
         self.urdf_xml = urdf_xml
         self.srdf_xml = srdf_xml
         urdf = _parse_urdf_info(urdf_xml)
         self.srdf: Srdf = parse_srdf(srdf_xml)
+        #: What the forgiving loader skipped, one sentence each (also logged as warnings).
+        self.load_warnings: list[str] = []
+        self._strict = strict
+        if not strict:
+            tree = UrdfTree.build(urdf.links, {j: (e["parent"], e["child"]) for j, e in urdf.joints.items()})
+            self.srdf, self.load_warnings = drop_unknown_names(self.srdf, tree)
+            self._drop_unknown_mimics(urdf)
         self.name = urdf.name or self.srdf.robot_name
         try:
             # mimic=False: Pinocchio 4.1 adds a link's child joints in name order and refuses a
@@ -204,9 +213,14 @@ class RobotModel:
         joint_limits: Mapping | None = None,
         kinematics: Mapping | None = None,
         package_dirs: Iterable[str | Path] = (),
+        strict: bool = False,
     ) -> "RobotModel":
-        """Build from URDF and SRDF text (e.g. the robot_description parameters)."""
-        return cls(urdf_xml, srdf_xml, joint_limits, kinematics, package_dirs)
+        """Build from URDF and SRDF text (e.g. the robot_description parameters).
+
+        By default the SRDF is read as MoveIt reads it: groups, states, end effectors and
+        disabled pairs naming links or joints the URDF lacks are skipped with a warning each
+        (`load_warnings`); `strict=True` refuses the whole model instead."""
+        return cls(urdf_xml, srdf_xml, joint_limits, kinematics, package_dirs, strict)
 
     @classmethod
     def from_files(
@@ -216,8 +230,10 @@ class RobotModel:
         joint_limits_path: str | Path | None = None,
         kinematics_path: str | Path | None = None,
         package_dirs: Iterable[str | Path] | None = None,
+        strict: bool = False,
     ) -> "RobotModel":
-        """Build from files; package:// meshes resolve against the URDF's ancestor folders."""
+        """Build from files; package:// meshes resolve against the URDF's ancestor folders.
+        `strict` as in from_strings."""
         texts = []
         for path, what in ((urdf_path, "URDF"), (srdf_path, "SRDF")):
             try:
@@ -232,7 +248,16 @@ class RobotModel:
             _load_yaml(joint_limits_path, "joint limits file"),
             _load_yaml(kinematics_path, "kinematics file"),
             package_dirs,
+            strict,
         )
+
+    @classmethod
+    def from_config(cls, directory: str | Path, strict: bool = False) -> "RobotModel":
+        """Build from a robot configuration directory: the setup assistant's output, or a folder
+        with one URDF and one SRDF (see core/robot_config.py for the files it reads)."""
+        from .robot_config import RobotConfig
+
+        return RobotConfig.load(directory).model(strict=strict)
 
     @classmethod
     def mycobot(cls) -> "RobotModel":
@@ -261,6 +286,17 @@ class RobotModel:
             config_file("panda/kinematics.yaml"),
             package_dirs=[str(robots.parent.parent)],
         )
+
+    def _drop_unknown_mimics(self, urdf: _UrdfInfo) -> None:
+        """A mimic tag naming a joint the URDF lacks leaves its joint independent (as Pinocchio,
+        which reads the URDF without mimics here, already has it), with a warning."""
+        for name, entry in urdf.joints.items():
+            mimic = entry["mimic"]
+            if mimic is not None and mimic.joint not in urdf.joints:
+                entry["mimic"] = None
+                message = f"URDF joint '{name}' mimics unknown joint '{mimic.joint}': it moves on its own"
+                self.load_warnings.append(message)
+                _LOG.warning(message)
 
     def _build_joints(self, urdf: _UrdfInfo, joint_limits: dict) -> None:
         limits_cfg = joint_limits.get("joint_limits", {}) or {}
@@ -456,6 +492,10 @@ class RobotModel:
         group_joints = {name: self._group_joint_names(name) for name in self.srdf.groups}
         for eef in self.srdf.end_effectors.values():
             if eef.group not in self.srdf.groups or eef.parent_link not in self._child_joints:
+                if self._strict:
+                    raise RobotModelError(
+                        f"SRDF end effector '{eef.name}': group '{eef.group}' or parent link '{eef.parent_link}' "
+                        "is unknown")
                 _LOG.warning(
                     "SRDF end effector '%s' skipped: group '%s' or parent link '%s' unknown",
                     eef.name, eef.group, eef.parent_link,
@@ -531,15 +571,22 @@ class RobotModel:
 
     def _build_named_states(self) -> None:
         self._named_states: dict[str, dict[str, dict[str, float]]] = {}
+        # A planar or floating virtual joint's values (a legged robot's base pose in 'standing') are
+        # dropped: the model holds the base where the virtual joint's parent frame is.
+        virtual = {vj.name for vj in self.srdf.virtual_joints}
         for state in self.srdf.group_states:
             if state.group not in self._groups:
                 raise RobotModelError(f"SRDF group_state '{state.name}' names unknown group '{state.group}'")
-            for joint in state.values:
+            values = {}
+            for joint, value in state.values.items():
+                if joint in virtual:
+                    continue
                 if joint not in self._joints:
                     raise RobotModelError(
                         f"SRDF group_state '{state.name}' of group '{state.group}' names unknown joint '{joint}'"
                     )
-            self._named_states.setdefault(state.group, {})[state.name] = dict(state.values)
+                values[joint] = value
+            self._named_states.setdefault(state.group, {})[state.name] = values
 
     def _build_disabled_pairs(self) -> None:
         pairs: set[frozenset[str]] = set()

@@ -147,10 +147,10 @@ def test_malformed_descriptions(mycobot: RobotModel):
     bad_group = mycobot.srdf_xml.replace('<joint name="link1_to_link2"/>', '<joint name="nope"/>', 1)
     assert bad_group != mycobot.srdf_xml
     with pytest.raises(RobotModelError, match="unknown joint 'nope'"):
-        RobotModel.from_strings(mycobot.urdf_xml, bad_group)
+        RobotModel.from_strings(mycobot.urdf_xml, bad_group, strict=True)
     bad_pair = mycobot.srdf_xml.replace('link1="base_link"', 'link1="ghost_link"', 1)
     with pytest.raises(RobotModelError, match="ghost_link"):
-        RobotModel.from_strings(mycobot.urdf_xml, bad_pair)
+        RobotModel.from_strings(mycobot.urdf_xml, bad_pair, strict=True)
     with pytest.raises(RobotModelError, match="cannot read URDF file"):
         RobotModel.from_files("/nonexistent.urdf", config_file("mycobot_280.srdf"))
     with pytest.raises(RobotModelError, match="unknown joints"):
