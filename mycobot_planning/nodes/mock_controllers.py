@@ -21,6 +21,7 @@ from trajectory_msgs.msg import JointTrajectory
 
 from interfaces_py.ros_conversions import duration_to_seconds
 from mycobot_planning.core.controllers_config import ControllerConfig, load_controllers_config
+from mycobot_planning.core.robot_config import RobotConfig
 from mycobot_planning.core.robot_model import RobotModel
 from mycobot_planning.core.trajectory_limits import DEFAULT_LIMIT_TOLERANCE
 from mycobot_planning.mock_control.joint_trajectory_follower import (
@@ -82,6 +83,10 @@ class MockControllerManager(Node):
         super().__init__(NODE_NAME)
         self._lock = threading.Lock()
         self._params = Parameters(self, [
+            ParameterSpec("robot_config", "",
+                          "robot configuration directory (the setup assistant's output, or a folder with one URDF "
+                          "and one SRDF): robot, joint limits and ros2_controllers.yaml come from it where the "
+                          "parameters below leave them empty; empty: the package's myCobot 280", read_only=True),
             ParameterSpec("robot_description", "", "URDF of the robot (XML text); empty: the package's myCobot 280",
                           read_only=True),
             ParameterSpec("robot_description_semantic", "",
@@ -100,8 +105,13 @@ class MockControllerManager(Node):
                           "them by more is refused before anything moves (0.05: 5 %)", range=(0.0, 1.0),
                           read_only=True),
         ])
+        self._robot_config = RobotConfig.load(self._params.get("robot_config")) if self._params.get("robot_config") \
+            else None
         self.model = self._load_model()
-        controllers_file = self._params.get("controllers_file") or str(config_file("controllers.yaml"))
+        for warning in self.model.load_warnings:
+            self.get_logger().warning(warning)
+        from_config = self._robot_config.ros2_controllers if self._robot_config is not None else None
+        controllers_file = self._params.get("controllers_file") or str(from_config or config_file("controllers.yaml"))
         self.config = load_controllers_config(controllers_file, self.model.variable_names)
         self._positions = self.model.default_positions()
         self._velocities = np.zeros_like(self._positions)
@@ -162,12 +172,18 @@ class MockControllerManager(Node):
     def _load_model(self) -> RobotModel:
         urdf = self._params.get("robot_description")
         srdf = self._params.get("robot_description_semantic")
-        if not urdf and not srdf:
+        config = self._robot_config
+        if not urdf and not srdf and config is None:
             return RobotModel.mycobot()
-        if not urdf:
+        if srdf and not urdf:
             raise ValueError("robot_description_semantic is set but robot_description (the URDF) is empty")
-        limits = load_yaml_file(self._params.get("joint_limits_file"), "joint limits file")
-        return RobotModel.from_strings(urdf, srdf or '<robot name=""/>', limits, package_dirs=package_share_dirs())
+        if not urdf and config is not None:
+            urdf, srdf = config.urdf.read_text(), config.srdf.read_text()
+        limits_file = self._params.get("joint_limits_file") or (str(config.joint_limits) if config and config.joint_limits
+                                                                 else "")
+        limits = load_yaml_file(limits_file, "joint limits file")
+        dirs = [*(config.package_dirs if config else ()), *package_share_dirs()]
+        return RobotModel.from_strings(urdf, srdf or '<robot name=""/>', limits, package_dirs=dirs)
 
     def _make_endpoints(self, c: _Controller) -> _Controller:
         name = c.config.name

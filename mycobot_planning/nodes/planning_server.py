@@ -33,6 +33,7 @@ from mycobot_planning.capabilities.move_group_capabilities import (
     goal_from_parameters,
 )
 from mycobot_planning.core.planning_pipeline import PlanningPipeline
+from mycobot_planning.core.robot_config import RobotConfig
 from mycobot_planning.core.robot_model import RobotModel
 from mycobot_planning.core.trajectory_execution import ExecutionSettings, load_controllers
 from mycobot_planning.core.trajectory_limits import DEFAULT_LIMIT_TOLERANCE
@@ -96,6 +97,11 @@ class PlanningServer(Node):
         super().__init__(NODE_NAME)
         log = self.get_logger()
         self._config = _declare(self, [
+            ParameterSpec("robot_config", "",
+                          "robot configuration directory (the setup assistant's output, or a folder with one URDF "
+                          "and one SRDF): the robot, joint limits, kinematics, OMPL and controllers files come from "
+                          "it where the parameters below leave them empty; empty: the package's myCobot 280",
+                          read_only=True),
             ParameterSpec("robot_description", "", "URDF of the robot (XML text); empty: the package's myCobot 280",
                           read_only=True),
             ParameterSpec("robot_description_semantic", "", "SRDF of the robot (XML text); empty: the package's",
@@ -111,10 +117,14 @@ class PlanningServer(Node):
                           "controllers YAML (ros2_control or MoveIt layout); empty: config/controllers.yaml",
                           read_only=True),
         ])
+        self._robot_config = RobotConfig.load(self._config.get("robot_config")) if self._config.get("robot_config") \
+            else None
         model = self._load_model()
-        pipeline = PlanningPipeline(self._config.get("ompl_planning_file") or None,
+        for warning in model.load_warnings:
+            log.warning(warning)
+        pipeline = PlanningPipeline(self._config_path("ompl_planning_file", "ompl_planning"),
                                     self._config.get("pilz_cartesian_limits_file") or None)
-        controllers = load_controllers(self._config.get("controllers_file") or None)
+        controllers = load_controllers(self._config_path("controllers_file", "moveit_controllers"))
         self._params = _declare(self, self._specs(model, pipeline, self._goal_group))
 
         # The high-rate streams (/joint_states and the controllers' states, 100 Hz each) are
@@ -206,8 +216,17 @@ class PlanningServer(Node):
     # ------------------------------------------------------------------ set-up
     def _planning_context(self) -> tuple[RobotModel, PlanningPipeline]:
         """Another model and pipeline like the server's own, for a plan that runs beside another."""
-        return self._load_model(), PlanningPipeline(self._config.get("ompl_planning_file") or None,
+        return self._load_model(), PlanningPipeline(self._config_path("ompl_planning_file", "ompl_planning"),
                                                     self._config.get("pilz_cartesian_limits_file") or None)
+
+    def _config_path(self, parameter: str, config_key: str) -> str | None:
+        """A file parameter's value, else the robot_config directory's file of that kind, else None
+        (the package's default)."""
+        given = self._config.get(parameter)
+        if given:
+            return given
+        found = getattr(self._robot_config, config_key) if self._robot_config is not None else None
+        return str(found) if found is not None else None
 
     def _model_sources(self) -> tuple[str, str, dict | None, dict | None]:
         """URDF, SRDF, joint limits and kinematics as the parameters give them (the package's
@@ -216,8 +235,10 @@ class PlanningServer(Node):
         srdf = self._config.get("robot_description_semantic")
         if srdf and not urdf:
             raise ValueError("robot_description_semantic is set but robot_description (the URDF) is empty")
-        limits = load_yaml_file(self._config.get("joint_limits_file"), "joint limits file")
-        kinematics = load_yaml_file(self._config.get("kinematics_file"), "kinematics file")
+        if not urdf and self._robot_config is not None:
+            urdf, srdf = self._robot_config.urdf.read_text(), self._robot_config.srdf.read_text()
+        limits = load_yaml_file(self._config_path("joint_limits_file", "joint_limits"), "joint limits file")
+        kinematics = load_yaml_file(self._config_path("kinematics_file", "kinematics"), "kinematics file")
         if not urdf:
             urdf = config_file("mycobot_280.urdf").read_text()
             srdf = config_file("mycobot_280.srdf").read_text()
@@ -227,11 +248,12 @@ class PlanningServer(Node):
         return urdf, srdf or '<robot name=""/>', limits, kinematics
 
     def _load_model(self) -> RobotModel:
-        if not any(self._config.get(name) for name in ("robot_description", "robot_description_semantic",
-                                                         "joint_limits_file", "kinematics_file")):
+        if self._robot_config is None and not any(self._config.get(name) for name in (
+                "robot_description", "robot_description_semantic", "joint_limits_file", "kinematics_file")):
             return RobotModel.mycobot()
         urdf, srdf, limits, kinematics = self._model_sources()
-        return RobotModel.from_strings(urdf, srdf, limits, kinematics, package_dirs=package_share_dirs())
+        dirs = [*(self._robot_config.package_dirs if self._robot_config else ()), *package_share_dirs()]
+        return RobotModel.from_strings(urdf, srdf, limits, kinematics, package_dirs=dirs)
 
     def _goal_group(self) -> str:
         params = getattr(self, "_params", None)  # None while the parameters are being declared
@@ -308,7 +330,8 @@ class PlanningServer(Node):
                           range=(0.0001, 1.0)),
             ParameterSpec("max_acceleration_scaling_factor", 1.0, "default acceleration scaling factor",
                           range=(0.0001, 1.0)),
-            ParameterSpec("goal.group", "arm", "planning group of the Trigger 'plan' service", validator=group_check),
+            ParameterSpec("goal.group", "arm" if model.has_group("arm") or not model.group_names else model.group_names[0],
+                          "planning group of the Trigger 'plan' service", validator=group_check),
             ParameterSpec("goal.named_target", "", "named state goal (e.g. 'ready') of the Trigger 'plan' service; "
                           "the goal.* target set last is the one planned to", validator=named_check),
             ParameterSpec("goal.joint_values", [], "joint goal (one value per group joint, rad) of the Trigger "

@@ -158,6 +158,10 @@ class TaskNode(Node):
         self._created = time.monotonic()
         self.title = title or node_name
         # The model first: parameters naming groups, links or named states are checked against it.
+        self.robot_params = Parameters(self, [ParameterSpec(
+            "robot_config", "", "robot configuration directory (the setup assistant's output, or a folder with one "
+            "URDF and one SRDF) to plan for; use the planning_server's; empty: the package's myCobot 280",
+            read_only=True)])
         self.model = model if model is not None else self.load_model()
         self.params = Parameters(self, [*task_node_parameters(max_solutions, seed), *parameters])
         #: Why the last plan failed (empty after a success): what the ~/plan service answers.
@@ -186,8 +190,10 @@ class TaskNode(Node):
 
     # ------------------------------------------------------------------ hooks
     def load_model(self) -> RobotModel:
-        """The robot model (default: the package's myCobot 280, as the planning_server loads it)."""
-        return RobotModel.mycobot()
+        """The robot model: the ``robot_config`` directory's, else the package's myCobot 280 (as the
+        planning_server loads them)."""
+        directory = self.robot_params.get("robot_config")
+        return RobotModel.from_config(directory) if directory else RobotModel.mycobot()
 
     def build_task(self) -> Task:  # pragma: no cover - abstract
         raise NotImplementedError("a TaskNode subclass must implement build_task()")
