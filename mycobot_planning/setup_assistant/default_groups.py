@@ -3,8 +3,11 @@
 MoveIt Setup Assistant asks the user; a command line should work without questions for the
 common case, an arm with or without a gripper on a fixed or moving base. The arm is one chain
 from the root along the branch with the most moving joints. Where that branch splits into several
-short moving branches (fingers: at most two moving joints each), the chain ends there and the
-fingers become a 'gripper' group and end effector, as a MoveIt config has them.
+moving branches after the chain already has ARM_JOINTS moving joints (a hand: fingers), or into
+several short ones (at most FINGER_DEPTH moving joints each: a two-finger gripper), the chain ends
+there and the branches become a 'gripper' group and end effector, as a MoveIt config has them.
+Before that, a split is a base carrying legs and an arm, or a torso carrying two arms: the
+deepest branch is followed.
 """
 from __future__ import annotations
 
@@ -15,6 +18,7 @@ from ..core.robot_model import RobotModel
 
 MOVING = ("revolute", "continuous", "prismatic")
 FINGER_DEPTH = 2  # a branch this short (in moving joints) below a split is a finger
+ARM_JOINTS = 4  # a chain this long that splits has reached its hand
 
 
 @dataclass(frozen=True)
@@ -79,7 +83,8 @@ def default_groups(model: RobotModel, arm_name: str = "arm") -> tuple[list[Group
         moving = [j for j in branches if branch_depth(j) > 0]
         if not moving:
             break
-        if arm_joints >= 2 and len(moving) >= 2 and all(branch_depth(j) <= FINGER_DEPTH for j in moving):
+        if len(moving) >= 2 and (arm_joints >= ARM_JOINTS or (
+                arm_joints >= 2 and all(branch_depth(j) <= FINGER_DEPTH for j in moving))):
             fingers = moving
             break
         joint = max(moving, key=branch_depth)
