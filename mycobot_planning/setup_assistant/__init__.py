@@ -7,6 +7,6 @@ plus joint_limits.yaml, kinematics.yaml, ompl_planning.yaml, moveit_controllers.
 ros2_controllers.yaml, and a manifest (core.robot_config). No rclpy here: it is a plain tool.
 """
 from .assistant import SetupReport, build_config
-from .default_groups import GroupSpec, EndEffectorSpec, default_groups
+from .default_groups import GroupSpec, default_groups, parse_end_effector
 
-__all__ = ["SetupReport", "build_config", "GroupSpec", "EndEffectorSpec", "default_groups"]
+__all__ = ["SetupReport", "build_config", "GroupSpec", "default_groups", "parse_end_effector"]

@@ -9,7 +9,7 @@ import time
 from ..core.collision_matrix import ADJACENT, ALWAYS, DEFAULT, DEFAULT_SAMPLES, NEVER
 from ..core.errors import RobotModelError
 from .assistant import build_config
-from .default_groups import EndEffectorSpec, GroupSpec
+from .default_groups import GroupSpec, parse_end_effector
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -45,7 +45,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     try:
         groups = [GroupSpec.parse(text) for text in args.group]
-        eefs = [EndEffectorSpec.parse(text) for text in args.end_effector]
+        eefs = [parse_end_effector(text) for text in args.end_effector]
         xacro_args = {}
         for text in args.xacro_arg:
             if ":=" not in text:

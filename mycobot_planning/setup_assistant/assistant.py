@@ -19,7 +19,7 @@ from ..core.robot_model import RobotModel
 from ..core.srdf import SrdfChain, SrdfEndEffector, SrdfGroup, SrdfGroupState
 from ..paths import package_share_dirs
 from . import config_files
-from .default_groups import EndEffectorSpec, GroupSpec, default_groups
+from .default_groups import GroupSpec, default_groups
 from .robot_description import read_robot_description
 from .srdf_writer import write_srdf
 
@@ -39,7 +39,7 @@ class SetupReport:
 
 
 def build_config(urdf_path: str | Path, out_dir: str | Path, srdf_path: str | Path | None = None,
-                 groups: Sequence[GroupSpec] = (), end_effectors: Sequence[EndEffectorSpec] = (),
+                 groups: Sequence[GroupSpec] = (), end_effectors: Sequence[SrdfEndEffector] = (),
                  samples: int = DEFAULT_SAMPLES, seed: int = 0, progress: Progress | None = None,
                  xacro_args: dict[str, str] | None = None) -> SetupReport:
     """Write a robot configuration directory for this URDF; RobotModelError/ValueError on bad input
@@ -68,8 +68,8 @@ def build_config(urdf_path: str | Path, out_dir: str | Path, srdf_path: str | Pa
         srdf.groups[spec.name] = SrdfGroup(
             spec.name, joints=list(spec.joints),
             chains=[SrdfChain(spec.base_link, spec.tip_link)] if spec.tip_link else [])
-    for spec in wanted_eefs:
-        srdf.end_effectors[spec.name] = SrdfEndEffector(spec.name, spec.parent_link, spec.group, spec.parent_group)
+    for eef in wanted_eefs:
+        srdf.end_effectors[eef.name] = eef
 
     # Check the groups and end effectors strictly now: a typo on the command line is an error,
     # not something to skip. Then add 'home' (zeros clipped to the limits) where a group lacks it.

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 from ..core.robot_model import RobotModel
+from ..core.srdf import SrdfEndEffector
 
 MOVING = ("revolute", "continuous", "prismatic")
 FINGER_DEPTH = 2  # a branch this short (in moving joints) below a split is a finger
@@ -41,23 +42,15 @@ class GroupSpec:
         raise ValueError(f"--group '{text}': expected NAME:BASE_LINK:TIP_LINK or NAME:JOINT1,JOINT2,...")
 
 
-@dataclass(frozen=True)
-class EndEffectorSpec:
-    name: str
-    parent_link: str
-    group: str
-    parent_group: str = ""
-
-    @classmethod
-    def parse(cls, text: str) -> "EndEffectorSpec":
-        """NAME:PARENT_LINK:GROUP (GROUP: the end effector's own group, e.g. the gripper)."""
-        parts = text.split(":")
-        if len(parts) != 3 or not all(parts):
-            raise ValueError(f"--end-effector '{text}': expected NAME:PARENT_LINK:GROUP")
-        return cls(*parts)
+def parse_end_effector(text: str) -> SrdfEndEffector:
+    """NAME:PARENT_LINK:GROUP (GROUP: the end effector's own group, e.g. the gripper)."""
+    parts = text.split(":")
+    if len(parts) != 3 or not all(parts):
+        raise ValueError(f"--end-effector '{text}': expected NAME:PARENT_LINK:GROUP")
+    return SrdfEndEffector(*parts)
 
 
-def default_groups(model: RobotModel, arm_name: str = "arm") -> tuple[list[GroupSpec], list[EndEffectorSpec]]:
+def default_groups(model: RobotModel, arm_name: str = "arm") -> tuple[list[GroupSpec], list[SrdfEndEffector]]:
     """The arm chain (and a gripper group + end effector where the chain ends at fingers)."""
 
     def child_joints(link: str) -> list[str]:
@@ -111,5 +104,5 @@ def default_groups(model: RobotModel, arm_name: str = "arm") -> tuple[list[Group
                     finger_joints.append(current)
                 stack.extend(child_joints(model.joint(current).child_link))
         groups.append(GroupSpec("gripper", joints=tuple(finger_joints)))
-        eefs.append(EndEffectorSpec("gripper", link, "gripper", arm_name))
+        eefs.append(SrdfEndEffector("gripper", link, "gripper", arm_name))
     return groups, eefs
