@@ -142,3 +142,10 @@ def test_bad_input_is_a_clear_error_and_writes_nothing(tmp_path: Path, args: lis
 def test_missing_robot_file(tmp_path: Path) -> None:
     done = run(tmp_path / "nothing.urdf", "-o", tmp_path / "out")
     assert done.returncode == 1 and "does not exist" in done.stderr and "Traceback" not in done.stderr
+
+
+def test_ros2_run_finds_it() -> None:
+    done = subprocess.run([sys.executable, "-m", "mycobot_planning.ros2cli", "run", "mycobot_planning",
+                           "setup_assistant", "--help"], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    assert "--end-effector NAME:PARENT_LINK:GROUP" in done.stdout
