@@ -27,6 +27,8 @@ setup(
         "console_scripts": [
             f"ik_over_table = {PACKAGE}.demos.ik_over_table:main",
             f"mock_controllers = {PACKAGE}.nodes.mock_controllers:main",
+            f"mycobot_driver = {PACKAGE}.nodes.mycobot_driver:main",
+            f"mycobot_emulator = {PACKAGE}.hardware.emulator:main",
             f"planning_server = {PACKAGE}.nodes.planning_server:main",
             f"robot_state_publisher = {PACKAGE}.nodes.robot_state_publisher:main",
             f"modular = {PACKAGE}.nodes.modular:main",

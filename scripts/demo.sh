@@ -1,10 +1,15 @@
 #!/usr/bin/env bash
 # README command one: the seeds' pick and place, planned and executed end to end.
 #
-#   ./scripts/demo.sh [ROS_ARGS...]      e.g. ./scripts/demo.sh -p max_solutions:=3
+#   ./scripts/demo.sh [--hardware PORT|emulated] [ROS_ARGS...]   e.g. ./scripts/demo.sh -p max_solutions:=3
+#
+# --hardware PORT runs the pick and place on the real myCobot 280 on serial port PORT (through
+# mycobot_driver instead of the mock controllers); --hardware emulated on the emulated arm
+# (mycobot_emulator on a pseudo-terminal, driven by the same driver over pymycobot). With
+# --hardware the arm's readback must also end at home (within 0.02 rad per joint).
 #
 # 1. sets up .venv if needed (scripts/setup.sh);
-# 2. brings up the mock controllers and the planning_server (scripts/robot.sh, with a log and
+# 2. brings up the mock controllers (or the driver) and the planning_server (scripts/robot.sh, with a log and
 #    PID folder of this run's own, so a robot you started yourself is never touched);
 # 3. runs mtc_node with config/mtc_node_params.yaml, execute:=true and exit_when_done:=true (extra
 #    arguments go to mtc_node after those, e.g. -p place_pose:=[-0.183,0.14,0.0,0.0,0.0,0.0]),
@@ -26,6 +31,14 @@ if [[ "${1:-}" == "-h" || "${1:-}" == "--help" ]]; then
   sed -n '2,/^set -euo/p' "${BASH_SOURCE[0]}" | sed '$d' | sed 's/^# \{0,1\}//'
   exit 0
 fi
+HARDWARE=""
+if [[ "${1:-}" == --hardware ]]; then
+  [[ -n "${2:-}" ]] || { echo "demo.sh: --hardware needs a serial port or 'emulated'" >&2; exit 2; }
+  HARDWARE="$2"; shift 2
+elif [[ "${1:-}" == --hardware=* ]]; then
+  HARDWARE="${1#*=}"; shift
+  [[ -n "$HARDWARE" ]] || { echo "demo.sh: --hardware needs a serial port or 'emulated'" >&2; exit 2; }
+fi
 "$ROOT/scripts/setup.sh"
 PY="$ROOT/.venv/bin/python"
 PARAMS="$ROOT/config/mtc_node_params.yaml"
@@ -38,6 +51,8 @@ export ROS_AUTOMATIC_DISCOVERY_RANGE="${ROS_AUTOMATIC_DISCOVERY_RANGE:-LOCALHOST
 export ROS_DOMAIN_ID="${ROS_DOMAIN_ID:-$((1 + $$ % 100))}"
 export PYTHONUNBUFFERED=1
 ROBOT=("$ROOT/scripts/robot.sh" --log-dir "$DEMO_DIR" --run-dir "$DEMO_DIR/run")
+START_ARGS=()
+[[ -z "$HARDWARE" ]] || START_ARGS=(--hardware "$HARDWARE")
 
 NODE_PID=""
 VIEWER_PID=""
@@ -64,11 +79,15 @@ trap cleanup EXIT
 trap 'exit 130' INT TERM
 
 echo "[demo] ROS_DOMAIN_ID=$ROS_DOMAIN_ID; logs in $DEMO_DIR"
-echo "[demo] starting the mock controllers and the planning_server"
-if ! "${ROBOT[@]}" start; then
+if [[ -z "$HARDWARE" ]]; then
+  echo "[demo] starting the mock controllers and the planning_server"
+else
+  echo "[demo] starting mycobot_driver on ${HARDWARE/#emulated/the emulated arm} and the planning_server"
+fi
+if ! "${ROBOT[@]}" start "${START_ARGS[@]+"${START_ARGS[@]}"}"; then
   # robot.sh stops what it started when a start fails; one more try rides out a slow machine.
   echo "[demo] the robot did not come up; trying once more" >&2
-  "${ROBOT[@]}" start
+  "${ROBOT[@]}" start "${START_ARGS[@]+"${START_ARGS[@]}"}"
 fi
 
 # shellcheck source=viewer_common.sh
@@ -104,4 +123,47 @@ set +e
 "$PY" -m mycobot_planning.demos.pick_place_report "$NODE_LOG" "$PARAMS" "$node_code" "$@"
 check=$?
 set -e
+if [[ -n "$HARDWARE" ]]; then
+  # The arm's own readback (/joint_states of mycobot_driver) must end at home.
+  set +e
+  "$PY" - <<'PYEOF'
+import sys
+import time
+
+import rclpy
+from sensor_msgs.msg import JointState
+
+from mycobot_planning.nodes.node_runtime import use_fast_discovery
+
+use_fast_discovery()
+rclpy.init()
+node = rclpy.create_node("demo_home_check")
+latest = []
+node.create_subscription(JointState, "/joint_states", lambda m: latest.append(m), 10)
+deadline = time.monotonic() + 10.0
+while not latest and time.monotonic() < deadline:
+    rclpy.spin_once(node, timeout_sec=0.1)
+if not latest:
+    print("[demo] no /joint_states from the arm: cannot check that it ended at home")
+    sys.exit(1)
+msg = latest[-1]
+joints = dict(zip(msg.name, msg.position))
+arm = ["link1_to_link2", "link2_to_link3", "link3_to_link4", "link4_to_link5", "link5_to_link6",
+       "link6_to_link6_flange"]  # the myCobot's arm group; home: every joint 0
+error = max(abs(joints.get(j, float("inf"))) for j in arm)
+print(f"[demo] arm readback at the end: {[round(joints.get(j, float('nan')), 4) for j in arm]} rad "
+      f"(home: all 0; largest deviation {error:.4f} rad)")
+node.destroy_node()
+rclpy.try_shutdown()
+sys.exit(0 if error <= 0.02 else 1)
+PYEOF
+  home_check=$?
+  set -e
+  if [[ $home_check -ne 0 ]]; then
+    echo "[demo] FAILED: the arm's readback did not end at home" >&2
+    [[ $check -ne 0 ]] || check=1
+  else
+    echo "[demo] the arm's readback ended at home"
+  fi
+fi
 exit "$check"

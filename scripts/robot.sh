@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Launch-free bring-up of the robot: the mock ros2_control controllers (node controller_manager),
+# Launch-free bring-up of the robot: the mock ros2_control controllers (node controller_manager)
+# or, with --hardware, the driver of the real myCobot 280 (node mycobot_driver, same controllers),
 # the robot_state_publisher (/robot_description, /tf, /tf_static for RViz) and the planning_server
 # (the move_group stand-in, with its node move_group), in the background, like the seeds' robot.sh
 # but without a launch system. See usage() below.
@@ -12,12 +13,20 @@ RUN_DIR="${MYCOBOT_RUN_DIR:-/tmp/mycobot_planning/run}"
 TIMEOUT="${MYCOBOT_START_TIMEOUT:-60}"
 NODES=(mock_controllers robot_state_publisher planning_server)   # start order; stop runs in reverse
 declare -A READY_TEXT=([mock_controllers]="controller_manager ready"
+                       [mycobot_emulator]="mycobot_emulator ready"
+                       [mycobot_driver]="mycobot_driver ready"
                        [robot_state_publisher]="robot_state_publisher ready"
                        [planning_server]="planning_server ready")
+# Python module of each process (default: mycobot_planning.nodes.<name>)
+declare -A MODULE=([mycobot_emulator]="mycobot_planning.hardware.emulator")
+module_of() { echo "${MODULE[$1]:-mycobot_planning.nodes.$1}"; }
+HARDWARE=""
+DRIVER_PARAMS=()
 
 usage() {
   cat <<EOF
 Usage: scripts/robot.sh start|stop|restart|status [--log-dir DIR] [--run-dir DIR] [--timeout S]
+                        [--hardware PORT|emulated [--driver-param NAME:=VALUE]...]
                         [-- PLANNING_SERVER_ROS_ARGS...]
 
   start    start mock_controllers, robot_state_publisher and planning_server in the background (each
@@ -36,6 +45,15 @@ Options:
                  per node, <node>.log, the previous run's kept as <node>.log.1
   --run-dir DIR  PID files (default \$MYCOBOT_RUN_DIR or /tmp/mycobot_planning/run)
   --timeout S    seconds start waits for the nodes to be up (default \$MYCOBOT_START_TIMEOUT or 60)
+  --hardware PORT|emulated
+                 start/restart: drive the real myCobot 280 on serial port PORT (e.g. /dev/ttyUSB0)
+                 with mycobot_driver instead of the mock controllers (same controllers and actions;
+                 /joint_states from the arm's readback). "emulated" first starts mycobot_emulator,
+                 an emulated arm on a pseudo-terminal (its port: RUN_DIR/mycobot_port, its fault
+                 control socket: RUN_DIR/mycobot_emulator.sock), and drives that.
+  --driver-param NAME:=VALUE
+                 a parameter for mycobot_driver (repeatable), e.g. --driver-param model:=Pi
+                 --driver-param command_rate:=20.0
 
 Everything after "--" is handed to the planning_server as ROS arguments, after "--ros-args"
 (added unless you start with it), e.g.:
@@ -63,6 +81,9 @@ while [[ $# -gt 0 ]]; do
     --run-dir=*) RUN_DIR="${1#*=}"; shift ;;
     --timeout) [[ $# -ge 2 ]] || die "--timeout needs seconds"; TIMEOUT="$2"; shift 2 ;;
     --timeout=*) TIMEOUT="${1#*=}"; shift ;;
+    --hardware) [[ $# -ge 2 && -n "$2" ]] || die "--hardware needs a serial port or 'emulated'"; HARDWARE="$2"; shift 2 ;;
+    --hardware=*) HARDWARE="${1#*=}"; [[ -n "$HARDWARE" ]] || die "--hardware needs a serial port or 'emulated'"; shift ;;
+    --driver-param) [[ $# -ge 2 && "$2" == *:=* ]] || die "--driver-param needs NAME:=VALUE"; DRIVER_PARAMS+=("$2"); shift 2 ;;
     --) shift; SERVER_ARGS=("$@"); break ;;
     start|stop|restart|status)
       [[ -z "$COMMAND" ]] || die "one command only (got '$COMMAND' and '$1'); see --help"
@@ -75,10 +96,36 @@ done
 if [[ ${#SERVER_ARGS[@]} -gt 0 && "$COMMAND" != start && "$COMMAND" != restart ]]; then
   die "arguments after -- are for start/restart only"
 fi
+if [[ ( -n "$HARDWARE" || ${#DRIVER_PARAMS[@]} -gt 0 ) && "$COMMAND" != start && "$COMMAND" != restart ]]; then
+  die "--hardware and --driver-param are for start/restart only"
+fi
+[[ ${#DRIVER_PARAMS[@]} -eq 0 || -n "$HARDWARE" ]] || die "--driver-param needs --hardware"
 # Absolute folders: the paths printed and recorded stay valid from any working directory.
 mkdir -p "$LOG_DIR" "$RUN_DIR"
 LOG_DIR="$(cd "$LOG_DIR" && pwd)"
 RUN_DIR="$(cd "$RUN_DIR" && pwd)"
+EMULATED_PORT="$RUN_DIR/mycobot_port"
+EMULATOR_SOCKET="$RUN_DIR/mycobot_emulator.sock"
+
+# The set of processes: what this start asks for, else what the last start of this run dir
+# recorded (so stop and status know a hardware bring-up), else the mock's.
+nodes_for() {  # hardware -> node names, start order
+  case "$1" in
+    "") echo mock_controllers robot_state_publisher planning_server ;;
+    emulated) echo mycobot_emulator mycobot_driver robot_state_publisher planning_server ;;
+    *) echo mycobot_driver robot_state_publisher planning_server ;;
+  esac
+}
+RECORDED_NODES=""
+[[ -f "$RUN_DIR/nodes" ]] && RECORDED_NODES="$(cat "$RUN_DIR/nodes")"
+if [[ "$COMMAND" == start || "$COMMAND" == restart ]]; then
+  read -r -a WANTED_NODES <<< "$(nodes_for "$HARDWARE")"
+fi
+if [[ -n "$RECORDED_NODES" ]]; then
+  read -r -a NODES <<< "$RECORDED_NODES"
+elif [[ "$COMMAND" == start || "$COMMAND" == restart ]]; then
+  NODES=("${WANTED_NODES[@]}")
+fi
 
 export ROS_AUTOMATIC_DISCOVERY_RANGE="${ROS_AUTOMATIC_DISCOVERY_RANGE:-LOCALHOST}"
 export PYTHONUNBUFFERED=1
@@ -95,7 +142,7 @@ alive() {
   [[ -n "$pid" && -r "/proc/$pid/cmdline" ]] || return 1
   state="$(awk '{print $3}' "/proc/$pid/stat" 2>/dev/null || true)"
   [[ -n "$state" && "$state" != Z && "$state" != X ]] || return 1
-  tr '\0' ' ' < "/proc/$pid/cmdline" | grep -q -- "mycobot_planning.nodes.$name"
+  tr '\0' ' ' < "/proc/$pid/cmdline" | grep -q -- "$(module_of "$name")"
 }
 
 any_alive() {
@@ -161,7 +208,7 @@ start_node() {
   # setsid: the node leads a process group of its own, so stop can signal it and its children
   # without touching anything else. (This shell has no job control, so the background child is
   # not a group leader and setsid runs the node in place: $! is the node's PID.)
-  setsid "$PY" -m "mycobot_planning.nodes.$name" "$@" >>"$log" 2>&1 </dev/null &
+  setsid "$PY" -m "$(module_of "$name")" "$@" >>"$log" 2>&1 </dev/null &
   local pid=$!
   echo "$pid" > "$(pid_file "$name")"
   echo "$name: started (pid $pid, log $log)"
@@ -247,7 +294,7 @@ do_stop() {
       stop_node "$name"
     fi
   done
-  rm -f "$RUN_DIR/ros_domain_id"
+  rm -f "$RUN_DIR/ros_domain_id" "$RUN_DIR/nodes" "$RUN_DIR/hardware"
 }
 
 do_start() {
@@ -262,7 +309,18 @@ do_start() {
       die "the robot of $RUN_DIR already runs on ROS_DOMAIN_ID=$running_domain, not $domain: stop it first or use another --run-dir"
     fi
   fi
+  if [[ "${NODES[*]}" != "${WANTED_NODES[*]}" ]]; then
+    if any_alive; then
+      die "this run dir runs ${NODES[*]}, not ${WANTED_NODES[*]}: stop it first (scripts/robot.sh stop) or use another --run-dir"
+    fi
+    NODES=("${WANTED_NODES[@]}")
+  fi
+  if [[ -n "$HARDWARE" && -f "$RUN_DIR/hardware" && "$(cat "$RUN_DIR/hardware")" != "$HARDWARE" ]] && any_alive; then
+    die "this run dir drives the arm on $(cat "$RUN_DIR/hardware"), not $HARDWARE: stop it first"
+  fi
   echo "$domain" > "$RUN_DIR/ros_domain_id"
+  echo "${NODES[*]}" > "$RUN_DIR/nodes"
+  if [[ -n "$HARDWARE" ]]; then echo "$HARDWARE" > "$RUN_DIR/hardware"; else rm -f "$RUN_DIR/hardware"; fi
   echo "ROS_DOMAIN_ID=$domain ROS_AUTOMATIC_DISCOVERY_RANGE=$ROS_AUTOMATIC_DISCOVERY_RANGE; logs: $LOG_DIR"
   for name in "${NODES[@]}"; do
     if alive "$name"; then
@@ -276,6 +334,14 @@ do_start() {
       local args=()
       mapfile -t args < <(server_ros_args)
       start_node "$name" "${args[@]}"
+    elif [[ "$name" == mycobot_emulator ]]; then
+      start_node "$name" --link "$EMULATED_PORT" --control "$EMULATOR_SOCKET"
+    elif [[ "$name" == mycobot_driver ]]; then
+      local port="$HARDWARE" dargs=() p
+      [[ "$port" == emulated ]] && port="$EMULATED_PORT"
+      dargs=(--ros-args -p "port:=$port")
+      for p in "${DRIVER_PARAMS[@]+"${DRIVER_PARAMS[@]}"}"; do dargs+=(-p "$p"); done
+      start_node "$name" "${dargs[@]}"
     else
       start_node "$name"
     fi
@@ -304,10 +370,21 @@ do_start() {
   done
   local remaining=$((deadline - SECONDS)); [[ $remaining -ge 5 ]] || remaining=5
   if ! server_answers "$remaining"; then
+    if [[ " ${NODES[*]} " == *" mycobot_driver "* ]]; then
+      echo "robot.sh: no joint states from the arm; last lines of $(log_file mycobot_driver):" >&2
+      tail -n 5 "$(log_file mycobot_driver)" >&2 || true
+    fi
     echo "robot.sh: see the logs in $LOG_DIR" >&2
     abort_start "${started[@]}"
   fi
-  echo "robot up: mock_controllers (pid $(recorded_pid mock_controllers)), robot_state_publisher (pid $(recorded_pid robot_state_publisher)), planning_server (pid $(recorded_pid planning_server)); logs in $LOG_DIR"
+  local summary=() n
+  for n in "${NODES[@]}"; do summary+=("$n (pid $(recorded_pid "$n"))"); done
+  local joined; joined="$(printf '%s, ' "${summary[@]}")"
+  echo "robot up: ${joined%, }; logs in $LOG_DIR"
+  if [[ -n "$HARDWARE" ]]; then
+    local port="$HARDWARE"; [[ "$port" == emulated ]] && port="$EMULATED_PORT (emulated arm; faults: $EMULATOR_SOCKET)"
+    echo "hardware: mycobot_driver drives the myCobot 280 on $port"
+  fi
 }
 
 # Undo a failed start: stop what this start launched (never what was already running).
@@ -317,7 +394,7 @@ abort_start() {
     name="${!i}"
     stop_node "$name" >&2 || true
   done
-  any_alive || rm -f "$RUN_DIR/ros_domain_id"
+  any_alive || rm -f "$RUN_DIR/ros_domain_id" "$RUN_DIR/nodes" "$RUN_DIR/hardware"
   exit 1
 }
 

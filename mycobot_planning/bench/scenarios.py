@@ -15,6 +15,7 @@ from mycobot_planning.paths import example_robot_data_dir
 from mycobot_planning.core.transforms import make_pose
 
 from .common import emit, machine, spread, stats, timed
+from .driver_scenarios import bench_driver_tracking
 from .perception_scenarios import bench_perception
 from .pick_place_scenarios import PICK_PLACE_SCENARIOS
 from .robots_scenarios import bench_robots
@@ -291,6 +292,7 @@ def bench_ptp(repeat: int, seed: int) -> None:
 SCENARIOS: dict[str, Callable[..., None]] = {
     "cartesian": bench_cartesian,
     "collision": bench_collision,
+    "driver_tracking": bench_driver_tracking,
     "fk": bench_fk,
     "ik": bench_ik,
     "peers": bench_peers,

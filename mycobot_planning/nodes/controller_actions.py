@@ -117,7 +117,8 @@ class ControllerActions:
     def _follow(self, goal_handle: Any, command: TrajectoryCommand, feedback: Any | None,
                 path_limits: np.ndarray | None, goal_time_tolerance: float) -> tuple[str, str, FollowerState]:
         """Submit and follow one goal until it ends: (outcome, message, last state) with outcome
-        one of succeeded, rejected, canceled, preempted, path, failed, stalled."""
+        one of succeeded, rejected, canceled, preempted, path, failed, stalled, or shutdown (the
+        node is going down: nothing can be reported any more)."""
         result = self._manager.submit(self._c, command)
         if not result.accepted:
             return "rejected", result.reason, self._manager.follower_state(self._c)
@@ -126,6 +127,8 @@ class ControllerActions:
         while True:
             time.sleep(POLL_PERIOD)
             state = self._manager.follower_state(self._c)
+            if not self._manager.context.ok():  # SIGINT/SIGTERM: the action server is going away
+                return "shutdown", "the node is shutting down", state
             if state.goal_id != goal_id:
                 return "preempted", f"goal {goal_id} was preempted by goal {state.goal_id}", state
             if goal_handle.is_cancel_requested:
@@ -194,6 +197,8 @@ class ControllerActions:
         outcome, message, state = self._follow(
             goal_handle, self._command(goal.trajectory, goal_id), FollowJointTrajectory.Feedback(),
             path_limits if np.isfinite(path_limits).any() else None, duration_to_seconds(goal.goal_time_tolerance))
+        if outcome == "shutdown":  # nothing can reach the client any more
+            return result
         if outcome == "succeeded":
             limits = _tolerances(goal.goal_tolerance, self._c.config.joints)
             target = np.array(goal.trajectory.points[-1].positions, dtype=float) if goal.trajectory.points else None
@@ -254,6 +259,8 @@ class ControllerActions:
         command = TrajectoryCommand(list(self._c.config.joints), [0.0, duration], [[start], [target]],
                                     [[0.0], [0.0]], goal_id=goal_id)
         outcome, message, state = self._follow(goal_handle, command, GripperCommand.Feedback(), None, 0.0)
+        if outcome == "shutdown":  # nothing can reach the client any more
+            return result
         result.position = float(state.actual_positions[0])
         result.effort = 0.0
         result.stalled = outcome == "stalled" or state.status == ControllerStatus.STALLED

@@ -77,10 +77,17 @@ class _Controller:
 
 
 class MockControllerManager(Node):
-    """The controller_manager stand-in (see docs/nodes.md (mycobot_planning.nodes.mock_controllers))."""
+    """The controller_manager stand-in (see docs/nodes.md (mycobot_planning.nodes.mock_controllers)).
+
+    What the joints are is a "plant" behind four hooks (``_configure_plant``, ``_make_follower``,
+    ``_start_plant``, ``_ready_text``): here simulated (fault injection, initial positions); the
+    hardware driver (nodes/mycobot_driver.py) overrides them to drive the real arm with the same
+    controllers, actions and broadcaster."""
+
+    NODE_NAME = NODE_NAME
 
     def __init__(self) -> None:
-        super().__init__(NODE_NAME)
+        super().__init__(self.NODE_NAME)
         self._lock = threading.Lock()
         self._params = Parameters(self, [
             ParameterSpec("robot_config", "",
@@ -115,7 +122,29 @@ class MockControllerManager(Node):
         self.config = load_controllers_config(controllers_file, self.model.variable_names)
         self._positions = self.model.default_positions()
         self._velocities = np.zeros_like(self._positions)
+        self._controllers: dict[str, _Controller] = {}
+        self._configure_plant()
 
+        self._control_group = MutuallyExclusiveCallbackGroup()
+        for c in self.config.controllers:
+            indices = np.array([self.model.variable_index(j) for j in c.joints], dtype=int)
+            follower = self._make_follower(c, indices)
+            self._controllers[c.name] = self._make_endpoints(_Controller(c, follower, indices))
+        self._setup_broadcaster()
+        # One loop for all controllers, as ros2_control's controller manager runs them: one timer
+        # callback per period instead of one per controller keeps the node cheap in rclpy (its
+        # executor costs far more per wake-up than our update does).
+        self._loop_count = 0
+        self._control_timer = self.create_timer(1.0 / self.config.update_rate, self._on_control_loop,
+                                                callback_group=self._control_group)
+        self._start_plant()
+        self._params.on_change(self._on_node_params)
+        self.get_logger().info(self._ready_text())
+
+    # ------------------------------------------------------------------ the plant (simulated here)
+    def _configure_plant(self) -> None:
+        """Parameters of what stands behind the controllers: the mock's fault injection and
+        initial positions."""
         owner = {j: c.name for c in self.config.controllers for j in c.joints}
         specs = []
         for c in self.config.controllers:
@@ -135,38 +164,32 @@ class MockControllerManager(Node):
                 f"position of {joint} at start-up (rad or m); setting it later moves the joint there at once "
                 f"while {controller or 'nothing'} is not executing a goal",
                 validator=self._initial_position_check(joint, i, controller), dynamic_typing=True))
-        self._controllers: dict[str, _Controller] = {}
         self._fault_params = Parameters(self, specs)
         for i, joint in enumerate(self.model.variable_names):
             self._positions[i] = float(self._fault_params.get(f"initial_positions.{joint}"))
 
-        self._control_group = MutuallyExclusiveCallbackGroup()
-        for c in self.config.controllers:
-            indices = np.array([self.model.variable_index(j) for j in c.joints], dtype=int)
-            follower = JointTrajectoryFollower(
-                c.joints, self.model.lower_limits[indices], self.model.upper_limits[indices],
-                self._positions[indices], goal_tolerance=c.goal_tolerance, start_tolerance=c.start_tolerance,
-                name=c.name, velocity_limits=self.model.velocity_limits[indices],
-                acceleration_limits=self.model.acceleration_limits[indices],
-                limit_tolerance=float(self._params.get("limit_tolerance")))
-            follower.fail_after = float(self._fault_params.get(f"{c.name}.fail_after"))
-            follower.stall_after = float(self._fault_params.get(f"{c.name}.stall_after"))
-            self._controllers[c.name] = self._make_endpoints(_Controller(c, follower, indices))
-        self._setup_broadcaster()
-        # One loop for all controllers, as ros2_control's controller manager runs them: one timer
-        # callback per period instead of one per controller keeps the node cheap in rclpy (its
-        # executor costs far more per wake-up than our update does).
-        self._loop_count = 0
-        self._control_timer = self.create_timer(1.0 / self.config.update_rate, self._on_control_loop,
-                                                callback_group=self._control_group)
+    def _make_follower(self, c: ControllerConfig, indices: np.ndarray) -> JointTrajectoryFollower:
+        follower = JointTrajectoryFollower(
+            c.joints, self.model.lower_limits[indices], self.model.upper_limits[indices],
+            self._positions[indices], goal_tolerance=c.goal_tolerance, start_tolerance=c.start_tolerance,
+            name=c.name, velocity_limits=self.model.velocity_limits[indices],
+            acceleration_limits=self.model.acceleration_limits[indices],
+            limit_tolerance=float(self._params.get("limit_tolerance")))
+        follower.fail_after = float(self._fault_params.get(f"{c.name}.fail_after"))
+        follower.stall_after = float(self._fault_params.get(f"{c.name}.stall_after"))
+        return follower
+
+    def _start_plant(self) -> None:
         self._fault_params.on_change(self._on_fault_params)
-        self._params.on_change(self._on_node_params)
-        summary = ", ".join(
+
+    def _controllers_summary(self) -> str:
+        return ", ".join(
             f"{c.config.name} ({len(c.config.joints)} joint{'s' if len(c.config.joints) > 1 else ''}, "
             f"{self.config.update_rate / c.divisor:g} Hz)" for c in self._controllers.values())
-        self.get_logger().info(
-            f"controller_manager ready: {summary}; /joint_states with {len(self._js_names)} joints at "
-            f"{self._params.get('publish_rate'):g} Hz")
+
+    def _ready_text(self) -> str:
+        return (f"controller_manager ready: {self._controllers_summary()}; /joint_states with "
+                f"{len(self._js_names)} joints at {self._params.get('publish_rate'):g} Hz")
 
     # ------------------------------------------------------------------ set-up
     def _load_model(self) -> RobotModel:
