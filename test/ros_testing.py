@@ -39,12 +39,43 @@ def ros_env(domain_id: int | None = None) -> dict[str, str]:
     return env
 
 
+_SESSION_DOMAIN: list[int] = []
+_DOMAIN_LOCKS = Path("/tmp/mycobot_test_domains")
+
+
 def session_domain_id() -> int:
-    """1..100, stable for this test session (env override: MYCOBOT_TEST_DOMAIN_ID)."""
+    """1..100, stable for this test session (env override: MYCOBOT_TEST_DOMAIN_ID).
+
+    Two test sessions on one machine (a developer's and a fresh-clone run) must not share a
+    domain: their nodes would answer each other's clients ("more than one action server"). Each
+    session takes the first domain from pid % 100 on whose lock file it gets an exclusive flock,
+    held until the process ends (the OS drops it even on a crash)."""
     override = os.environ.get("MYCOBOT_TEST_DOMAIN_ID")
     if override:
         return int(override)
-    return 1 + os.getpid() % 100
+    if not _SESSION_DOMAIN:
+        import fcntl
+
+        _DOMAIN_LOCKS.mkdir(parents=True, exist_ok=True)
+        start = os.getpid() % 100
+        chosen = 1 + start
+        for offset in range(100):
+            candidate = 1 + (start + offset) % 100
+            handle = open(_DOMAIN_LOCKS / f"{candidate}.lock", "w")
+            try:
+                fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError:
+                handle.close()
+                continue
+            _SESSION_DOMAIN.append(candidate)
+            _DOMAIN_LOCK_HANDLES.append(handle)  # kept open: the lock lives as long as the session
+            break
+        else:
+            _SESSION_DOMAIN.append(chosen)  # every domain taken: share one, as before
+    return _SESSION_DOMAIN[0]
+
+
+_DOMAIN_LOCK_HANDLES: list = []
 
 
 def use_session_domain() -> None:
