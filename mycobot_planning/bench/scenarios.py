@@ -9,13 +9,12 @@ from interfaces_py.msgs import CollisionObject
 from mycobot_planning.core import PlanningScene, RobotModel, RobotState
 from mycobot_planning.core.kinematics import IKSolver
 from mycobot_planning.core.ompl_interface import OmplPlanner
-from mycobot_planning.core.planning_interface import JointGoal, MotionPlanRequest, PoseGoal
-from mycobot_planning.core.transforms import quat_to_matrix
-from mycobot_planning.paths import example_robot_data_dir
+from mycobot_planning.core.planning_interface import JointGoal, MotionPlanRequest
 from mycobot_planning.core.transforms import make_pose
 
 from .common import emit, machine, spread, stats, timed
 from .driver_scenarios import bench_driver_tracking
+from .peers.parts import bench_peers_parts
 from .perception_scenarios import bench_perception
 from .pick_place_scenarios import PICK_PLACE_SCENARIOS
 from .robots_scenarios import bench_robots
@@ -155,65 +154,6 @@ def bench_plan_ompl(repeat: int, seed: int) -> None:
     emit({**summary, **spread(medians), **machine()})
 
 
-class _OursOnPanda:
-    """Our OMPL pipeline as the benchmark's `plan(problem)` callable: the peers' problems (Panda,
-    SRDF start, panda_hand pose goal, the same boxes) planned with the default RRTConnect and the
-    same planning time limit. The scene is built once per box set, outside the timed call."""
-
-    def __init__(self) -> None:
-        root = example_robot_data_dir() / "panda_description"
-        self.model = RobotModel.from_files(root / "urdf" / "panda.urdf", root / "srdf" / "panda.srdf")
-        self.planner = OmplPlanner()
-        self._scenes: dict[str, PlanningScene] = {}
-
-    def scene_for(self, problem: dict) -> PlanningScene:
-        key = repr(problem["obstacles"])
-        if key not in self._scenes:
-            scene = PlanningScene(self.model)
-            for box in problem["obstacles"]:
-                pose = make_pose(box["position"], quat_xyzw=box["orientation_xyzw"])
-                scene.add_object(CollisionObject.box(box["id"], box["size"], pose))
-            self._scenes[key] = scene
-        return self._scenes[key]
-
-    def __call__(self, problem: dict):
-        scene = self.scene_for(problem)
-        start = RobotState(self.model)
-        start.set_joint_positions(dict(zip(problem["joint_names"], problem["start"])))
-        start.set_joint_positions({j: v for j, v in problem["finger_positions"].items() if j in self.model.variable_names})
-        goal = np.eye(4)
-        goal[:3, :3] = quat_to_matrix(problem["goal"]["orientation_xyzw"])
-        goal[:3, 3] = problem["goal"]["position"]
-        request = MotionPlanRequest(
-            "arm",
-            PoseGoal(goal, link=problem["tip_link"]),
-            start_state=start,
-            allowed_planning_time=problem["time_limit"],
-            seed=problem["index"] + 1,
-        )
-        response = self.planner.plan(scene, request)
-        if not response.success:
-            return {"path": None, "status": response.error_code.name}
-        return {"path": response.path, "status": "SUCCESS"}
-
-
-def bench_peers(repeat: int, seed: int) -> None:
-    """Panda pose goals: our OMPL pipeline beside mplib and pyroboplan (each in a virtual
-    environment the bench tooling creates on first use), on the same problems and time limit."""
-    from .peers import compare, report_records, run_ours, run_peers
-    from .peers.problems import panda_pose_problems
-
-    ours_plan = _OursOnPanda()
-    for index in range(repeat):
-        problems = panda_pose_problems(20, seed + index)
-        peers = run_peers(problems, time_limit=1.0)
-        ours = run_ours(problems, plan=ours_plan, time_limit=1.0)
-        for record in report_records(compare(ours, peers)):
-            emit({"scenario": "peers", "repeat": index, **record})
-        last = compare(ours, peers)
-    emit({"scenario": "peers", "summary": True, **last, **machine()})
-
-
 def cartesian_line_start(model: RobotModel) -> tuple[RobotState, np.ndarray, np.ndarray]:
     """A state with the flange pointing down at (0.18, -0.15, 0.20), and the 0.3 m line to
     (0.18, +0.15, 0.20) across the front of the robot."""
@@ -295,7 +235,7 @@ SCENARIOS: dict[str, Callable[..., None]] = {
     "driver_tracking": bench_driver_tracking,
     "fk": bench_fk,
     "ik": bench_ik,
-    "peers": bench_peers,
+    "peers": bench_peers_parts,
     "perception": bench_perception,
     "plan_ompl": bench_plan_ompl,
     "ptp": bench_ptp,

@@ -304,6 +304,9 @@ class RobotCollisionInfo:
             (i, j) for i in range(n) for j in range(i + 1, n) if self.geometry_links[i] != self.geometry_links[j]
         ]
         self.links_with_geometry = list(dict.fromkeys(self.geometry_links))
+        # Convex hulls of the link meshes, for the exact check's pre-test (see CompiledScene).
+        self.hull_geometries: list[coal.CollisionGeometry | None] = [
+            _convex_hull(g.geometry) for g in self.geometry_objects]
         self.lower = [float(x) for x in model.lower_limits]
         self.upper = [float(x) for x in model.upper_limits]
         self.neutral_q = np.asarray(pin.neutral(pin_model), dtype=float)
@@ -360,6 +363,23 @@ def _warn_always_colliding(robot: str, a: str, b: str) -> None:
         "collision in this scene; disable the pair in the SRDF or allow it in the allowed collision matrix",
         a, b, robot,
     )
+
+
+def _convex_hull(geometry: coal.CollisionGeometry) -> coal.CollisionGeometry | None:
+    """The convex hull of a triangle mesh (a Coal Convex holding the mesh), or None for shapes
+    that are convex already, or a hull that cannot be made (a flat or degenerate mesh)."""
+    if not isinstance(geometry, coal.BVHModelBase) or geometry.num_vertices < 4:
+        return None
+    try:
+        copy = geometry.clone()
+        copy.buildConvexRepresentation(False)
+        hull = copy.convex
+        hull.computeLocalAABB()
+    except Exception:  # qhull refuses flat or degenerate point sets
+        return None
+    if not hull.aabb_local.volume() > 0.0:
+        return None
+    return hull
 
 
 def _se3(matrix: np.ndarray) -> pin.SE3:
@@ -487,7 +507,40 @@ class CompiledScene:
             )
             self.manager = manager_type(pin_model, gm, gd)
         self._distance_data: dict[tuple, tuple[pin.GeometryData, list[int]]] = {}
+        self.hull_manager = self._hull_manager(robot, gm, gd) if self.manager is not None else None
         self.collides = self._make_checker()
+
+    def _hull_manager(self, robot: RobotCollisionInfo, gm: pin.GeometryModel, gd: pin.GeometryData):
+        """The same geometry, pairs and margins with every link mesh replaced by its convex hull,
+        behind its own broad phase; None when no link has a hull.
+
+        A hull contains its mesh, so a state the hulls find free is free, and the meshes are
+        consulted only for states the hulls find in collision: every verdict is still the
+        meshes' own. Convex-convex tests (GJK) are cheaper than mesh-mesh BVH traversals: on
+        the Panda's meshes a free state costs about a quarter less; a state the hulls find in
+        collision but the meshes do not (an object in a link's concavity) costs both checks."""
+        hulls = robot.hull_geometries
+        if not any(h is not None for h in hulls):
+            return None
+        hull_gm = pin.GeometryModel()
+        for index, geom in enumerate(gm.geometryObjects):
+            hull = hulls[index] if index < len(hulls) else None
+            if hull is None:
+                hull_gm.addGeometryObject(geom)
+            else:
+                hull_gm.addGeometryObject(pin.GeometryObject(
+                    geom.name, int(geom.parentJoint), int(geom.parentFrame), geom.placement, hull))
+        for i, j in self.pairs:
+            hull_gm.addCollisionPair(pin.CollisionPair(i, j))
+        hull_gd = hull_gm.createData()
+        for request in hull_gd.collisionRequests:
+            request.security_margin = SECURITY_MARGIN
+        for k in range(len(self.pairs)):
+            if not gd.activeCollisionPairs[k]:
+                hull_gd.deactivateCollisionPair(k)
+        manager_type = type(self.manager)
+        self._hull_model, self._hull_data, self._hull_pin_data = hull_gm, hull_gd, self.pin_model.createData()
+        return manager_type(self.pin_model, hull_gm, hull_gd)
 
     # ------------------------------------------------------------------ collision
     def _make_checker(self):
@@ -501,6 +554,15 @@ class CompiledScene:
             return no_pairs
         if self.manager is not None:
             manager = self.manager
+            hull_manager = self.hull_manager
+            if hull_manager is not None:
+                hull_data = self._hull_pin_data
+
+                def hulls_then_meshes(q: np.ndarray) -> bool:
+                    return compute(pin_model, hull_data, hull_manager, q, True) and \
+                        compute(pin_model, data, manager, q, True)
+
+                return hulls_then_meshes
 
             def broadphase(q: np.ndarray) -> bool:
                 return compute(pin_model, data, manager, q, True)

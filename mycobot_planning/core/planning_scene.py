@@ -619,6 +619,54 @@ class PlanningScene:
 
         return collision_free
 
+    def colliding_rows(
+        self,
+        group: str | Sequence[int] | np.ndarray,
+        reference_state: RobotState | None,
+        values: np.ndarray,
+        order: np.ndarray | None = None,
+        stop_at_first: bool = False,
+    ) -> np.ndarray:
+        """Collision verdicts (True: in collision; joint limits not considered) for many states
+        at once: each row of ``values`` fills the group's variables (a group name, or variable
+        indices) of ``reference_state`` (default: the current state). The configurations are
+        built in one NumPy step and each goes to the compiled scene in one call: what a
+        trajectory check of hundreds of states costs is the collision checks themselves.
+
+        ``order`` (row indices) is the order the rows are checked in; with ``stop_at_first`` the
+        checks end at the first colliding row, which is then the only True (rows not reached
+        are False)."""
+        values = np.asarray(values, dtype=float)
+        if values.ndim != 2:
+            raise StateError(f"expected a 2-D array of states, got shape {values.shape}")
+        indices = self._model.group(group).variable_indices if isinstance(group, str) else np.asarray(group, dtype=int)
+        if values.shape[1] != len(indices):
+            raise StateError(f"expected {len(indices)} values per state, got {values.shape[1]}")
+        full = np.array(self._state_or_current(reference_state).positions, dtype=float)
+        collides = self._compiled().collides
+        count = values.shape[0]
+        slots = self._model.q_slots(indices)
+        if slots is not None:
+            q = np.tile(np.asarray(self._robot.to_q(full), dtype=float), (count, 1))
+            q[:, slots] = values
+            check = collides
+        else:
+            q = np.tile(full, (count, 1))
+            q[:, indices] = values
+            to_q = self._robot.to_q
+
+            def check(row: np.ndarray) -> bool:
+                return collides(to_q(row))
+        if order is None and not stop_at_first:
+            return np.fromiter((check(row) for row in q), dtype=bool, count=count)
+        out = np.zeros(count, dtype=bool)
+        for i in (range(count) if order is None else np.asarray(order, dtype=int).tolist()):
+            if check(q[i]):
+                out[i] = True
+                if stop_at_first:
+                    break
+        return out
+
     def is_state_valid(self, state: RobotState | None = None) -> bool:
         """MoveIt's validity for planners: joint limits respected and no collision."""
         state = self._state_or_current(state)

@@ -121,13 +121,63 @@ def _fmt_exceeds(value: float, limit: float) -> str:
 
 
 # ---------------------------------------------------------------------------- sampling
-def _initial_times(times: np.ndarray, pos: np.ndarray, resolution: float) -> np.ndarray:
-    """Stored times plus a uniform subdivision of each interval sized by its chord: exact for the
-    monotone pieces time parameterisation produces; refinement fixes intervals that overshoot."""
+# Intervals whose chord needs at least this many samples are sampled evenly along their motion
+# rather than evenly in time (see _initial_times).
+_EVEN_MOTION_MIN_COUNT = 8
+# Points per such interval from which its motion is read.
+_EVEN_MOTION_GRID = 64
+# ... and the spacing they aim at, as a share of the resolution: reading the motion at 64
+# points places a sample within a fraction of a per cent of where it belongs.
+_EVEN_MOTION_SPACING = 0.98
+# Only for trajectories of at most this many stored points (straight runs timed by Ruckig): a
+# dense curve's many short intervals gain little and reading them costs more than it saves
+# (on the myCobot's plan_ompl paths, 1.2 ms instead of 0.4 ms of sampling for 7 % fewer states).
+_EVEN_MOTION_MAX_POINTS = 32
+
+
+def _initial_times(traj: TimedTrajectory, resolution: float) -> np.ndarray:
+    """Stored times plus a subdivision of each interval sized by its chord; refinement fixes
+    gaps that still move more than the resolution.
+
+    Short intervals are split evenly in time. Long ones (a straight motion timed from rest to
+    rest is two or three intervals of hundreds of samples) are split evenly along the motion of
+    their largest-moving joint, read from the trajectory at _EVEN_MOTION_GRID points: evenly in
+    time, the samples of a phase that speeds up from rest bunch at its slow end and leave its
+    fast end too coarse, and refinement then halves those gaps, half again as many samples as
+    the resolution needs. Where that joint does not move monotonically the interval keeps the
+    even split in time. Either way the refinement rounds check every gap."""
+    times, pos = traj.times, traj.positions
     h = np.diff(times)
     chord = np.max(np.abs(np.diff(pos, axis=0)), axis=1)
     counts = np.clip(np.ceil(chord / resolution), 1, _MAX_SPLIT).astype(int)
-    return _subdivide(times[:-1], h, counts, times[-1])
+    long = np.flatnonzero(counts >= _EVEN_MOTION_MIN_COUNT)
+    if not long.size or times.shape[0] > _EVEN_MOTION_MAX_POINTS:
+        return _subdivide(times[:-1], h, counts, times[-1])
+    counts[long] = np.clip(np.ceil(chord[long] / (resolution * _EVEN_MOTION_SPACING)), 1, _MAX_SPLIT).astype(int)
+    ts = _subdivide(times[:-1], h, counts, times[-1])
+    first = np.cumsum(counts) - counts
+    grid = np.linspace(0.0, 1.0, _EVEN_MOTION_GRID + 1)
+    sub = times[long, None] + h[long, None] * grid  # (L, G + 1)
+    q = traj.sample(sub.reshape(-1))[0].reshape(long.size, grid.size, -1)
+    drive = np.argmax(np.abs(pos[long + 1] - pos[long]), axis=1)
+    motion = q[np.arange(long.size), :, drive]  # (L, G + 1): the driving joint's position
+    span = motion[:, -1] - motion[:, 0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        progress = (motion - motion[:, :1]) / span[:, None]
+    # Intervals where the driving joint moves monotonically (the others keep the split in time)
+    rows = np.flatnonzero(np.isfinite(progress).all(axis=1) & (np.diff(progress, axis=1) > 0.0).all(axis=1))
+    if rows.size:
+        # One np.interp for all of them: row r's progress is shifted by 2 r, so the rows line up
+        # as one increasing sequence, and so do their targets.
+        ks, shift = long[rows], 2.0 * np.arange(rows.size)
+        n = counts[ks]
+        row_of = np.repeat(np.arange(rows.size), n)
+        local = np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
+        at = np.interp(local / n[row_of] + shift[row_of], (progress[rows] + shift[:, None]).reshape(-1),
+                       sub[rows].reshape(-1))
+        ts[first[ks][row_of] + local] = at
+        ts[first[ks]] = times[ks]
+    return ts
 
 
 def _subdivide(starts: np.ndarray, widths: np.ndarray, counts: np.ndarray, last: float | None) -> np.ndarray:
@@ -151,7 +201,7 @@ def _dense_samples(
     if times.shape[0] == 1:
         q, qd, qdd = traj.sample(times)
         return times.copy(), q, qd, qdd, False
-    ts = _initial_times(times, traj.positions, resolution)
+    ts = _initial_times(traj, resolution)
     exhausted = False
     for _ in range(_MAX_ROUNDS):
         q, qd, qdd = traj.sample(ts)
@@ -333,6 +383,22 @@ def _check_limit(
             )
 
 
+def halving_order(count: int) -> np.ndarray:
+    """0 .. count-1 coarse to fine: the ends, then every 2^k-th index for falling k, so a
+    collision anywhere is met after a few checks rather than after all those before it."""
+    taken = np.zeros(count, dtype=bool)
+    parts = [np.array([0, count - 1])] if count > 1 else [np.zeros(count, dtype=int)]
+    taken[parts[0]] = True
+    step = 1 << max(0, (count - 1).bit_length() - 1)
+    while step >= 1:
+        idx = np.arange(0, count, step)
+        idx = idx[~taken[idx]]
+        taken[idx] = True
+        parts.append(idx)
+        step //= 2
+    return np.concatenate(parts)
+
+
 def _check_collisions(
     scene: PlanningScene,
     start: RobotState,
@@ -340,11 +406,14 @@ def _check_collisions(
     ts: np.ndarray,
     q: np.ndarray,
     findings: _Findings,
+    first_collision: bool = False,
 ) -> None:
     model = scene.robot_model
     # Collisions only: the limits are the limit check's business.
-    collision_free = scene.validity_checker(indices, start, check_bounds=False)
-    invalid = np.fromiter((not collision_free(row) for row in q), dtype=bool, count=q.shape[0])
+    if first_collision:
+        invalid = scene.colliding_rows(indices, start, q, order=halving_order(q.shape[0]), stop_at_first=True)
+    else:
+        invalid = scene.colliding_rows(indices, start, q)
     if not np.any(invalid):
         return
     full = np.tile(np.asarray(start.positions, dtype=float), (q.shape[0], 1))
@@ -387,6 +456,7 @@ def validate_trajectory(
     velocity_scaling: float = 1.0,
     acceleration_scaling: float = 1.0,
     tolerance: float = 1e-6,
+    first_collision: bool = False,
 ) -> ValidationReport:
     """Check ``trajectory`` (over ``group``'s joints) in ``scene``; see docs/core.md (mycobot_planning.core.trajectory_validator).
 
@@ -394,7 +464,10 @@ def validate_trajectory(
     and the state the trajectory must start at (group joints within ``tolerance``). ``tolerance``
     is also the absolute slack for position limits, end velocities and position jumps.
     ``check_limits=False`` skips position/velocity/acceleration limits (collisions, continuity,
-    start, time stamps and rest are still checked).
+    start, time stamps and rest are still checked). ``first_collision=True`` checks the states
+    coarse to fine and stops at the first collision (then the only one reported): the same
+    verdict, sooner for a colliding trajectory (a planner trying a candidate); a valid one is
+    checked at every state as always.
 
     Raises :class:`TrajectoryValidationError` (or RobotModelError for an unknown group) when the
     call itself is wrong; every property of the trajectory is reported, never raised.
@@ -458,5 +531,5 @@ def validate_trajectory(
             "acceleration", [u + "/s^2" for u in units], names, ts, qdd, -alim, alim, alim * rel + tolerance,
             findings, anote,
         )
-    _check_collisions(scene, start, indices, ts, q, findings)
+    _check_collisions(scene, start, indices, ts, q, findings, bool(first_collision))
     return findings.report(int(ts.shape[0]))

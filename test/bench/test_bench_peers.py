@@ -222,7 +222,7 @@ def test_compare_without_ours_and_report_records():
 
 # ---------------------------------------------------------------- runner isolation and protocol
 
-@pytest.mark.parametrize("runner", ["mplib_runner.py", "pyroboplan_runner.py"])
+@pytest.mark.parametrize("runner", ["mplib_runner.py", "pyroboplan_runner.py", "roboplan_runner.py"])
 def test_runner_scripts_import_only_stdlib_numpy_and_their_peer(runner: str):
     tree = ast.parse((PEERS_DIR / runner).read_text())
     imported = set()
@@ -232,7 +232,8 @@ def test_runner_scripts_import_only_stdlib_numpy_and_their_peer(runner: str):
         elif isinstance(node, ast.ImportFrom):
             assert node.level == 0, f"{runner} has a relative import"
             imported.add(node.module.split(".")[0])
-    peer_libs = {"mplib_runner.py": {"mplib"}, "pyroboplan_runner.py": {"pyroboplan", "pinocchio", "coal"}}
+    peer_libs = {"mplib_runner.py": {"mplib"}, "pyroboplan_runner.py": {"pyroboplan", "pinocchio", "coal"},
+                 "roboplan_runner.py": {"roboplan"}}
     allowed = set(sys.stdlib_module_names) | {"__future__", "numpy"} | peer_libs[runner]
     assert "mycobot_planning" not in imported
     assert imported <= allowed, imported - allowed

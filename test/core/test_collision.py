@@ -435,3 +435,59 @@ def test_mesh_from_triangles(model):
                           meshes=[Mesh.from_triangles(vertices, triangles)], mesh_poses=[Pose()])
     scene.add_object(obj)
     assert any(c.body_a == "cube" for c in scene.check_collision().contacts)
+
+
+def _exact_verdicts(scene: PlanningScene, rows: np.ndarray) -> list[bool]:
+    """The meshes alone (the compiled scene's exact broad phase, no hull pre-test)."""
+    import pinocchio as pin
+
+    compiled = scene._compiled()
+    full = RobotState(scene.robot_model).positions
+    out = []
+    for row in rows:
+        q = compiled.robot.to_q(np.concatenate([row, full[len(row):]]))
+        out.append(bool(pin.computeCollisions(compiled.pin_model, compiled.data, compiled.manager, q, True)))
+    return out
+
+
+def test_panda_hull_pre_test_keeps_the_mesh_verdict(panda):
+    """Link meshes are first tested as convex hulls: a state the hulls find free is free, any
+    other is decided by the meshes, so every verdict is the meshes' own."""
+    scene = PlanningScene(panda)
+    scene.add_object(CollisionObject.box("box", [0.1, 0.1, 0.1], make_pose([0.5, 0.0, 0.5])))
+    compiled = scene._compiled()
+    assert compiled.hull_manager is not None
+    jmg = panda.group("arm")
+    rng = np.random.default_rng(4)
+    rows = rng.uniform(panda.lower_limits[jmg.variable_indices], panda.upper_limits[jmg.variable_indices], (400, 7))
+    check = scene.validity_checker("arm", RobotState(panda), check_bounds=False)
+    verdicts = [not check(row) for row in rows]
+    assert verdicts == _exact_verdicts(scene, rows)
+    assert 0 < sum(verdicts) < len(rows)
+    assert list(scene.colliding_rows("arm", RobotState(panda), rows)) == verdicts
+
+
+def test_hulls_that_always_touch_leave_every_verdict_to_the_meshes(monkeypatch):
+    """With every link's 'hull' a 3 m sphere, the hulls find every state in collision, and the
+    meshes still decide: the verdicts are the plain mesh scene's."""
+    import coal
+
+    from mycobot_planning.core import collision
+
+    def huge(geometry):
+        sphere = coal.Sphere(3.0)
+        sphere.computeLocalAABB()
+        return sphere
+
+    d = example_robot_data_dir() / "panda_description"
+    monkeypatch.setattr(collision, "_convex_hull", huge)
+    inflated = RobotModel.from_files(d / "urdf" / "panda.urdf", d / "srdf" / "panda.srdf")
+    scene = PlanningScene(inflated)
+    scene.add_object(CollisionObject.box("box", [0.1, 0.1, 0.1], make_pose([0.5, 0.0, 0.5])))
+    assert scene._compiled().hull_manager is not None
+    jmg = inflated.group("arm")
+    rng = np.random.default_rng(5)
+    rows = rng.uniform(inflated.lower_limits[jmg.variable_indices], inflated.upper_limits[jmg.variable_indices], (150, 7))
+    verdicts = list(scene.colliding_rows("arm", RobotState(inflated), rows))
+    assert verdicts == _exact_verdicts(scene, rows)
+    assert 0 < sum(verdicts) < len(rows)

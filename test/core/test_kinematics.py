@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -247,3 +248,77 @@ def test_batched_descents_drop_only_starts_still_far_off(mycobot: RobotModel):
             done = RobotState(mycobot, base.copy())
             done.set_group_positions("arm", final[k])
             assert np.allclose(done.frame_pose(jmg.tip_link), pose, atol=1e-4)
+
+
+@pytest.mark.parametrize("pose", [
+    make_pose([0.1, 0.2, 0.3], rpy=[0.3, -0.2, 1.0]),
+    make_pose([0.1, 0.2, 0.3], rpy=[0.3, -0.2, 1.0]).tolist(),
+    np.diag([1.0, 1.0, -1.0, 1.0]),  # a reflection
+    np.diag([1.0, 1.0, 1.0001, 1.0]),  # not orthonormal
+    np.array([[1.0, 0, 0, 0], [0, 1.0, 0, 0], [0, 0, 1.0, 0], [0, 0, 0.1, 1.0]]),  # bottom row
+    np.full((4, 4), np.nan),
+    np.eye(3),
+    "pose",
+])
+def test_fast_target_check_gives_check_poses_verdict(pose):
+    from mycobot_planning.core.kinematics import _target_pose
+    from mycobot_planning.core.transforms import check_pose
+
+    try:
+        expected = check_pose(pose, "IK target pose")
+    except ValueError as exc:
+        with pytest.raises(ValueError, match=re.escape(str(exc).split(":")[0])):
+            _target_pose(pose, "IK target pose")
+    else:
+        assert np.array_equal(_target_pose(pose, "IK target pose"), expected)
+
+
+def test_descents_reach_targets_with_joints_at_their_limits(panda: RobotModel):
+    """Targets whose solutions hold a joint at a limit (the Panda's elbow and wrist): a step
+    that would pass the limit stops there and the other joints take up the rest, so a single
+    descent from a table seed converges where merely clamping the step used to stall."""
+    jmg = panda.group("arm")
+    low, high = panda.lower_limits[jmg.variable_indices], panda.upper_limits[jmg.variable_indices]
+    rng = np.random.default_rng(3)
+    solver = IKSolver(panda, "arm")
+    solved = 0
+    for _ in range(20):
+        values = rng.uniform(low, high)
+        values[3], values[5] = high[3], low[5]  # panda_joint4 at its upper, panda_joint6 at its lower limit
+        state = RobotState(panda)
+        state.set_group_positions("arm", values)
+        target = state.frame_pose(jmg.tip_link)
+        solutions = solver.solve(target, rng=rng, attempts=1 + solver.options.seed_neighbours)
+        if solutions:
+            solved += 1
+            reached = solutions[0].frame_pose(jmg.tip_link)
+            assert np.allclose(reached, target, atol=1e-4)
+            assert solutions[0].satisfies_bounds()
+    assert solved >= 18
+
+
+def test_fast_target_check_never_accepts_what_check_pose_refuses():
+    """Poses perturbed around the orthonormality and last-row tolerances: the fast check
+    accepts only what check_pose accepts, and refuses with check_pose's own message."""
+    from scipy.spatial.transform import Rotation
+
+    from mycobot_planning.core.kinematics import _target_pose
+    from mycobot_planning.core.transforms import check_pose
+
+    rng = np.random.default_rng(0)
+    accepted = 0
+    for k in range(3000):
+        pose = np.eye(4)
+        pose[:3, :3] = Rotation.random(random_state=k).as_matrix()
+        pose[:3, 3] = rng.uniform(-1, 1, 3)
+        scale = 10.0 ** rng.uniform(-9, -4)
+        pose[rng.integers(0, 4), rng.integers(0, 4)] += rng.choice([-1.0, 1.0]) * scale
+        try:
+            expected = check_pose(pose, "IK target pose")
+        except ValueError as exc:
+            with pytest.raises(ValueError, match=re.escape(str(exc))):
+                _target_pose(pose, "IK target pose")
+        else:
+            assert _target_pose(pose, "IK target pose") is expected
+            accepted += 1
+    assert 0 < accepted < 3000

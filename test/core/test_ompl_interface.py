@@ -386,7 +386,8 @@ def test_same_seed_same_path(ptype):
 
 def test_edge_validator_checks_the_same_states_as_ompls(monkeypatch):
     """RRTConnect's edges are checked by our _EdgeValidator: the same states in the same order
-    as OMPL's DiscreteMotionValidator, so the same seed gives the same path and check count."""
+    as OMPL's DiscreteMotionValidator, so the same seed gives the same path; edges and end
+    states it has decided before are not checked again, so it needs fewer checks."""
     import mycobot_planning.core.ompl_interface.planners as ompl_interface
 
     world, start, goal = narrow_passage_world()
@@ -402,7 +403,7 @@ def test_edge_validator_checks_the_same_states_as_ompls(monkeypatch):
                         ompl_interface.PlannerSpec(**{**spec.__dict__, "plain_motion_checks": False}))
     theirs = run()
     world.assert_valid_path(ours, start, [goal])
-    assert ours.validity_checks == theirs.validity_checks
+    assert ours.validity_checks < theirs.validity_checks
     assert np.array_equal(ours.path, theirs.path)
 
 
@@ -669,3 +670,29 @@ def test_parse_projection_evaluator():
     for bad in ("joints()", "joints(a,,b)", "link(a, b)", "pose(a)", "joints(a"):
         with pytest.raises(OmplConfigError):
             parse_projection_evaluator(bad)
+
+
+def test_try_direct_returns_the_straight_motion_when_it_is_valid_and_plans_otherwise():
+    """try_direct: a free straight edge is the answer at once (checked as the planner checks an
+    edge, interpolated as asked); a blocked one leaves the problem to the planner."""
+    _, start, goal = easy_world(6)
+    world = World(6, [])  # nothing in the way
+    direct = plan_joint_space(world.lower, world.upper, world.planner_validity(), start, [goal], "RRTConnect", {},
+                              timeout=10.0, seed=3, interpolate_states=0, try_direct=True)
+    world.assert_valid_path(direct, start, [goal])
+    assert direct.direct and direct.simplify_time == 0.0 and "straight" in direct.message
+    steps = np.linalg.norm(np.diff(direct.path, axis=0), axis=1)
+    assert steps.max() <= world.resolution + 1e-9 and np.allclose(steps, steps[0])
+    many = plan_joint_space(world.lower, world.upper, world.planner_validity(), start, [goal], "RRTConnect", {},
+                            timeout=10.0, seed=3, interpolate_states=500, try_direct=True)
+    assert many.direct and len(many.path) == 500
+    world, start, goal = easy_world(6)  # the block is across the straight line
+    around = plan_joint_space(world.lower, world.upper, world.planner_validity(), start, [goal], "RRTConnect", {},
+                              timeout=10.0, seed=3, interpolate_states=0, try_direct=True)
+    world.assert_valid_path(around, start, [goal])
+    assert not around.direct
+    world, start, goal = narrow_passage_world()
+    blocked = plan_joint_space(world.lower, world.upper, world.planner_validity(), start, [goal], "RRTConnect", {},
+                               timeout=30.0, seed=11, interpolate_states=0, try_direct=True)
+    world.assert_valid_path(blocked, start, [goal])
+    assert not blocked.direct and len(blocked.path) > 2

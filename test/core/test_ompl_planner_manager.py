@@ -194,3 +194,29 @@ def test_collision_only_checker_agrees_with_the_full_check_within_limits(mycobot
     assert not collision_only(inside_wall) and not full_check(inside_wall)
     scene.remove_object("box")
     assert collision_only(inside_wall) and full_check(inside_wall)
+
+
+def test_a_free_straight_motion_is_the_plan_and_is_validated(mycobot: RobotModel, planner: OmplPlanner):
+    """Without the wall the straight motion ready -> ready + tau/8 on joint 2 is free: the plan is
+    that line (interpolated at the checking resolution), timed as one motion from rest to rest
+    and still checked by the trajectory validator; with the wall the planner goes around."""
+    start = ready_with(mycobot, link1_to_link2=-TAU / 8)
+    goal = dict(mycobot.named_state("ready", "arm"), link1_to_link2=TAU / 8)
+    scene = fallback_scene(mycobot, with_box=False)
+    response = planner.plan(scene, MotionPlanRequest("arm", JointGoal(goal), start_state=start, seed=4))
+    assert_valid(scene, response, "arm", start)
+    assert response.validated
+    path = response.path
+    direction = path[-1] - path[0]
+    offsets = (path - path[0]) @ direction / (direction @ direction)
+    assert np.allclose(path, path[0] + offsets[:, None] * direction, atol=1e-9)  # on the line
+    assert np.all(np.diff(offsets) > 0)
+    speeds = np.abs(response.trajectory.velocities).max(axis=1)
+    assert speeds[0] == pytest.approx(0.0, abs=1e-9) and speeds[-1] == pytest.approx(0.0, abs=1e-9)
+    walled = fallback_scene(mycobot, with_box=True)
+    around = planner.plan(walled, MotionPlanRequest("arm", JointGoal(goal), start_state=start, seed=4))
+    assert_valid(walled, around, "arm", start)
+    assert len(around.path) > 2
+    bent = around.path - around.path[0]
+    d = bent[-1]
+    assert not np.allclose(bent, np.outer(bent @ d / (d @ d), d), atol=1e-3)  # not the straight line

@@ -100,7 +100,24 @@ def test_finer_resolution_checks_more_states(mycobot):
     fine = validate_trajectory(scene, traj, "arm", resolution=0.002)
     assert coarse.valid and fine.valid
     assert fine.checked_states > 10 * coarse.checked_states
-    assert fine.checked_states >= 1.5 / 0.002  # joint 3 travels 1.07, joint 1 travels 1.0: >= 500 steps
+    travel = float(np.max(np.abs(traj.positions[-1] - traj.positions[0])))  # joint 3 travels 1.07
+    assert fine.checked_states >= travel / 0.002  # no gap longer than the resolution: >= 535 steps
+
+
+def test_a_straight_motion_is_sampled_evenly_along_the_way(mycobot):
+    """A rest-to-rest straight motion speeds up and slows down: its samples are spread evenly
+    along the motion, every gap within the resolution and hardly more states than that needs
+    (evenly in time, the fast middle needed halving: half again as many)."""
+    from mycobot_planning.core.trajectory_validator import _dense_samples
+
+    start = ready(mycobot)
+    traj = timed(mycobot, [start.group_positions("arm"), [1.0, 0.5, 0.5, 0.5, 0.5, 0.5]])
+    ts, q, _, _, exhausted = _dense_samples(traj, 0.002)
+    steps = np.max(np.abs(np.diff(q, axis=0)), axis=1)
+    travel = float(np.max(np.abs(traj.positions[-1] - traj.positions[0])))
+    assert not exhausted and steps.max() <= 0.002
+    assert len(ts) <= 1.1 * travel / 0.002
+    assert np.all(np.diff(ts) > 0) and ts[0] == traj.times[0] and ts[-1] == traj.times[-1]
 
 
 # ------------------------------------------------------------------------------- collisions
@@ -332,3 +349,23 @@ def test_bad_calls_raise(mycobot):
         validate_trajectory(scene, traj.positions, "arm")
     with pytest.raises(ValueError):  # TrajectoryValidationError is a ValueError
         validate_trajectory(scene, traj, "arm", resolution=float("inf"))
+
+
+def test_first_collision_gives_the_same_verdict_with_one_contact(mycobot):
+    """first_collision=True (a planner trying a candidate): coarse to fine, stopping at the first
+    colliding state; the verdict is the full check's, a valid trajectory is checked in full."""
+    a = np.array([-0.8, 0.0, 1.5708, 1.5708, 0.0, 0.0])
+    b = np.array([0.8, 0.0, 1.5708, 1.5708, 0.0, 0.0])
+    start = arm_state(mycobot, a)
+    scene = PlanningScene(mycobot, start)
+    traj = quintic_rest_to_rest(list(mycobot.group("arm").joint_names), a, b, 2.0)
+    free_full = validate_trajectory(scene, traj, "arm")
+    free_quick = validate_trajectory(scene, traj, "arm", first_collision=True)
+    assert free_full.valid and free_quick.valid and free_quick.checked_states == free_full.checked_states
+    scene.add_object(box_at_link(mycobot, arm_state(mycobot, (a + b) / 2), "link6_flange"))
+    full = validate_trajectory(scene, traj, "arm")
+    quick = validate_trajectory(scene, traj, "arm", first_collision=True)
+    assert not full.valid and not quick.valid
+    assert len([p for p in quick.problems if p.startswith("collision")]) == 1
+    assert quick.contacts and all("'box' (Object)" in c for c in quick.contacts)
+    assert full.first_invalid_time <= quick.first_invalid_time <= traj.times[-1]

@@ -1,4 +1,4 @@
-"""The `peers` benchmark: the same Panda pose-goal problems solved by us, mplib and pyroboplan.
+"""The peers benchmarks: the same Panda problems solved by us, mplib, pyroboplan and roboplan.
 
 The full story: docs/bench.md, section mycobot_planning.bench.peers.__init__.
 """
@@ -22,8 +22,8 @@ __all__ = [
     "report_records", "validate_path", "ensure_peer_venv", "PeerUnavailable",
 ]
 
-PEER_NAMES: tuple[str, ...] = ("mplib", "pyroboplan")
-RUNNERS = {"mplib": "mplib_runner.py", "pyroboplan": "pyroboplan_runner.py"}
+PEER_NAMES: tuple[str, ...] = ("mplib", "pyroboplan", "roboplan")
+RUNNERS = {"mplib": "mplib_runner.py", "pyroboplan": "pyroboplan_runner.py", "roboplan": "roboplan_runner.py"}
 DEFAULT_TIME_LIMIT = 1.0
 GOAL_POSITION_TOLERANCE = 1e-2
 GOAL_ROTATION_TOLERANCE = 2e-2

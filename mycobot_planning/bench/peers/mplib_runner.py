@@ -61,6 +61,8 @@ def _quat_angle(q1_xyzw, q2_xyzw) -> float:
 def main() -> int:
     out = _json_out()
     request = _read_request()
+    if "parts" in request:
+        return _run_parts(out, request)
     import numpy as np
     import mplib
     from mplib import Pose
@@ -133,6 +135,89 @@ def main() -> int:
         except Exception as error:  # one bad problem must not lose the others' results
             record.setdefault("seconds", None)
             record["status"] = f"error: {type(error).__name__}: {error}"
+        out.write(json.dumps(record) + "\n")
+    return 0
+
+
+def _run_parts(out, request: dict) -> int:
+    """The three parts (IK, validity checks, joint-goal plans); see docs/bench.md."""
+    import numpy as np
+    import mplib
+    from mplib import Pose
+    from mplib.collision_detection import fcl
+
+    parts = request["parts"]
+    time_limit = float(request.get("time_limit", 1.0))
+    np.random.seed(int(request.get("seed", 0)) + 1)  # mplib's IK restarts and OMPL seeds draw from numpy
+    workdir = tempfile.mkdtemp(prefix="mplib_peer_")
+    started = time.perf_counter()
+    urdf = _relative_mesh_urdf(request["urdf"], workdir)
+    planner = mplib.Planner(urdf, parts["tip_link"], srdf=request["srdf"])
+    names = list(planner.user_joint_names)
+    for box in parts.get("obstacles", []):
+        x, y, z, w = box["orientation_xyzw"]
+        shape = fcl.CollisionObject(fcl.Box(np.asarray(box["size"], dtype=float)), Pose())
+        obj = fcl.FCLObject(box["id"], Pose(box["position"], [w, x, y, z]), [shape], [Pose()])
+        planner.planning_world.add_object(obj)
+    arm = [names.index(j) for j in parts["joint_names"]]
+    fingers = parts.get("finger_positions", {})
+
+    def full(values) -> np.ndarray:
+        q = np.array([float(fingers.get(n, 0.0)) for n in names])
+        q[arm] = values
+        return q
+
+    start = full(parts["start"])
+
+    def solve_ik(problem: dict):
+        x, y, z, w = problem["goal"]["orientation_xyzw"]
+        goal = Pose(problem["goal"]["position"], [w, x, y, z])
+        t0 = time.perf_counter()
+        status, result = planner.IK(goal, start.copy())  # 20 restarts, collision-checked
+        seconds = time.perf_counter() - t0
+        if status != "Success" or result is None or len(result) == 0:
+            return seconds, None
+        return seconds, [float(v) for v in np.asarray(result[0], dtype=float)[arm]]
+
+    def plan(problem: dict):
+        t0 = time.perf_counter()
+        result = planner.plan_qpos([np.asarray(problem["goal"], dtype=float)], full(problem["start"]),
+                                   planning_time=time_limit)
+        seconds = time.perf_counter() - t0
+        if result.get("status") != "Success":
+            return seconds, str(result.get("status")), None
+        return seconds, "Success", [[float(v) for v in q] for q in np.asarray(result["position"], dtype=float)]
+
+    setup_seconds = time.perf_counter() - started
+    if parts["ik"]:
+        solve_ik(parts["ik"][0])  # warm-up, untimed
+    if parts["plan"]:
+        plan(parts["plan"][0])
+    out.write(json.dumps({"meta": True, "peer": PEER, "version": _version(),
+                          "setup_seconds": round(setup_seconds, 4)}) + "\n")
+    for problem in parts["ik"]:
+        record = {"part": "ik", "index": problem["index"]}
+        try:
+            record["seconds"], record["solution"] = solve_ik(problem)
+        except Exception as error:  # one bad problem must not lose the others' results
+            record.update(seconds=None, solution=None, status=f"error: {type(error).__name__}: {error}")
+        out.write(json.dumps(record) + "\n")
+    robot_set_qpos, colliding_now = planner.robot.set_qpos, planner.planning_world.is_state_colliding
+    clock = time.perf_counter
+    seconds, colliding = [], []
+    for q in [full(q) for q in parts["check"]]:
+        t0 = clock()
+        robot_set_qpos(q, True)  # as Planner.check_for_collision does, then one world query
+        hit = colliding_now()
+        seconds.append(clock() - t0)
+        colliding.append(bool(hit))
+    out.write(json.dumps({"part": "check", "seconds": seconds, "colliding": colliding}) + "\n")
+    for problem in parts["plan"]:
+        record = {"part": "plan", "index": problem["index"]}
+        try:
+            record["seconds"], record["status"], record["path"] = plan(problem)
+        except Exception as error:
+            record.update(seconds=None, status=f"error: {type(error).__name__}: {error}", path=None)
         out.write(json.dumps(record) + "\n")
     return 0
 

@@ -14,6 +14,9 @@ kept (``goal_joints``) so tests can check that claim.
 
 The goal link is ``panda_hand``: a real URDF link, so mplib (whose ``move_group`` must be a link)
 and pyroboplan (which targets any Pinocchio frame) can both aim it, as can our planner.
+
+``panda_parts_problems`` makes the ``peers`` scenario's three parts (IK poses, states to check,
+joint-goal pairs) the same way, around one 0.1 m box (see docs/bench.md, peers.parts).
 """
 from __future__ import annotations
 
@@ -210,3 +213,76 @@ def panda_pose_problems(count: int, seed: int, obstacles: bool = True,
             "obstacles": boxes,
         })
     return problems
+
+
+# ---------------------------------------------------------------------------------------------
+# The three-part set (IK, validity checks, joint-goal plans): issue 19's side-by-side measurement
+# ---------------------------------------------------------------------------------------------
+
+#: One 0.1 m box at (0.5, 0, 0.5) in the base frame, as in issue 19's measurement.
+PARTS_BOX: dict[str, Any] = {"id": "box", "size": [0.1, 0.1, 0.1], "position": [0.5, 0.0, 0.5],
+                             "orientation_xyzw": [0.0, 0.0, 0.0, 1.0]}
+PARTS_IK_COUNT = 200
+PARTS_CHECK_COUNT = 10_000
+PARTS_PLAN_COUNT = 50
+
+
+def panda_parts_problems(seed: int, ik_count: int = PARTS_IK_COUNT, check_count: int = PARTS_CHECK_COUNT,
+                         plan_count: int = PARTS_PLAN_COUNT) -> dict[str, Any]:
+    """Issue 19's three parts as one JSON-able dict, deterministic for ``seed``::
+
+        joint_names, finger_positions, tip_link, base_frame, start (SRDF 'default'),
+        obstacles ([PARTS_BOX]),
+        ik: [{index, goal {position, orientation_xyzw}, goal_joints}]  (poses of collision-free
+            random configurations; every IK starts from ``start``),
+        check: [[7 arm values], ...]  (uniform in the joint limits, colliding or not),
+        plan: [{index, start, goal}]  (joint goals; both ends collision-free random configurations)
+
+    "Collision-free" means self (SRDF pairs disabled) and box, by Pinocchio + Coal on the meshes.
+    """
+    for what, n in (("ik_count", ik_count), ("check_count", check_count), ("plan_count", plan_count)):
+        if n < 0:
+            raise ValueError(f"{what} must be >= 0, got {n}")
+    boxes = [dict(PARTS_BOX)]
+    checker = checker_for(boxes)
+    default = srdf_group_state(panda_srdf_path(), START_STATE)
+    start = np.array([default[j] for j in ARM_JOINTS])
+    finger = default.get(FINGER_JOINTS[0], 0.0)
+    model = checker.model
+    low = np.array([model.lowerPositionLimit[i] for i in checker.arm_q])
+    high = np.array([model.upperPositionLimit[i] for i in checker.arm_q])
+    rng = np.random.default_rng(seed)
+
+    def free_config() -> np.ndarray:
+        for _ in range(100_000):
+            arm = rng.uniform(low, high)
+            if not checker.in_collision(checker.full_q(arm, finger)):
+                return arm
+        raise RuntimeError("could not draw a collision-free Panda configuration")
+
+    ik = []
+    while len(ik) < ik_count:
+        arm = free_config()
+        position, quat = checker.tip_pose(checker.full_q(arm, finger))
+        if position[2] < MIN_GOAL_HEIGHT:
+            continue
+        ik.append({"index": len(ik),
+                   "goal": {"position": [float(v) for v in position],
+                            "orientation_xyzw": [float(v) for v in quat]},
+                   "goal_joints": [float(v) for v in arm]})
+    check = [[float(v) for v in rng.uniform(low, high)] for _ in range(check_count)]
+    plan = []
+    for index in range(plan_count):
+        a, b = free_config(), free_config()
+        plan.append({"index": index, "start": [float(v) for v in a], "goal": [float(v) for v in b]})
+    return {
+        "joint_names": list(ARM_JOINTS),
+        "finger_positions": {j: float(finger) for j in FINGER_JOINTS},
+        "tip_link": TIP_LINK,
+        "base_frame": BASE_FRAME,
+        "start": [float(v) for v in start],
+        "obstacles": boxes,
+        "ik": ik,
+        "check": check,
+        "plan": plan,
+    }

@@ -1,6 +1,6 @@
 """Separate virtual environments for the peer planners, created on demand by the bench tooling.
 
-The peers (mplib, pyroboplan) are benchmark-only: they are never dependencies of the package, and
+The peers (mplib, pyroboplan, roboplan) are benchmark-only: they are never dependencies of the package, and
 they cannot share our venv anyway (mplib 0.2.1 needs numpy < 2; pyroboplan pins pin==4.0.0 while
 we use pin 4.1). Each gets ``<root>/<name>`` made with ``python3 -m venv`` and exact pins, and a
 stamp file written last records what was installed: a venv whose stamp matches is reused at once,
@@ -59,6 +59,14 @@ PEERS: dict[str, PeerSpec] = {
         no_deps=("pyroboplan==1.3.1",),
         check="import pinocchio, coal, pyroboplan.planning.rrt, pyroboplan.ik.differential_ik",
         version_of="pyroboplan",
+    ),
+    # C++ core (Pinocchio + Coal underneath) with nanobind bindings; its roboplan-* packages are
+    # pinned to 0.7.0 by roboplan itself, pin/coal come from PyPI (cmeel) as its dependencies.
+    "roboplan": PeerSpec(
+        name="roboplan",
+        requirements=("roboplan==0.7.0", "numpy==2.4.6"),
+        check="import roboplan.core, roboplan.rrt, roboplan.simple_ik",
+        version_of="roboplan",
     ),
     # Not a planner: the time_parameterization scenario compares our dense-path TOPP with it.
     # 0.6.10's wheel imports and solves under numpy 2.4.6 (checked); matplotlib comes as a dep.

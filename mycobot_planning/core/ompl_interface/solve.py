@@ -54,6 +54,7 @@ class OmplResult:
     approximate: bool = False
     validity_checks: int = 0  # states checked: pre-checks + every state OMPL asked about (planning + simplification)
     message: str = ""
+    direct: bool = False  # the path is the straight motion start -> goal (try_direct), nothing shorter exists
 
 
 class _CallbackContext:
@@ -175,53 +176,95 @@ class _ManifoldBridge(ob.Constraint):
             out[:, :] = 0.0
 
 
+_ORDERS: dict[int, np.ndarray] = {}
+
+
+def _bisection_order(segments: int) -> np.ndarray:
+    """Interior fractions of an edge cut into ``segments``, in DiscreteMotionValidator's order
+    (breadth-first halving)."""
+    order = _ORDERS.get(segments)
+    if order is None:
+        mids: list[int] = []
+        queue = [(1, segments - 1)] if segments >= 2 else []
+        while queue:
+            first, last = queue.pop(0)
+            mid = (first + last) // 2
+            mids.append(mid)
+            if first < mid:
+                queue.append((first, mid - 1))
+            if last > mid:
+                queue.append((mid + 1, last))
+        order = np.array(mids, dtype=float) / segments
+        order.setflags(write=False)
+        if len(_ORDERS) < 4096:
+            _ORDERS[segments] = order
+    return order
+
+
+def _direct_motion(a: np.ndarray, b: np.ndarray, valid: Callable[[np.ndarray], bool], resolution: float) -> bool:
+    """The straight edge a -> b checked as DiscreteMotionValidator checks an edge (the end, then
+    the interior by halving, at most ``resolution`` apart in the Euclidean norm), by ``valid``
+    (_guarded_validity's function)."""
+    if not valid(b.copy()):
+        return False
+    segments = max(1, int(math.ceil(float(np.linalg.norm(b - a)) / resolution)))
+    fractions = _bisection_order(segments)
+    for q in a + fractions[:, None] * (b - a):
+        if not valid(q):
+            return False
+    return True
+
+
 class _EdgeValidator(ob.MotionValidator):
     """OMPL's DiscreteMotionValidator, with each edge's states made by NumPy and checked in one
     Python loop: the end state first, then the interior by repeated halving (the same states in
     the same order, so plans are identical), but without an OMPL-to-Python call, a state copy
     and an array per state. Edge checks are most of a plan's validity checks (the simplifier
     alone makes two thirds of them). Used only for planners that ask plain (from, to)
-    questions (``PlannerSpec.plain_motion_checks``)."""
+    questions (``PlannerSpec.plain_motion_checks``).
+
+    Answers are remembered for the plan: an edge asked again (a fifth of the questions on the
+    myCobot's benchmark plan: the simplifier's rounds and its final check of the path ask about
+    edges already decided) and an end state seen before (tree nodes and path vertices end many
+    edges) are not checked again. Same questions, same answers, so the same path: only fewer
+    states go to the validity function."""
 
     def __init__(self, si: Any, valid: Callable[[np.ndarray], bool], dim: int) -> None:
         super().__init__(si)
         self._space = si.getStateSpace()
         self._valid = valid  # _guarded_validity's function: counted, never raising, cancellable
         self._dim = dim
-        self._orders: dict[int, np.ndarray] = {}
+        self._edges: dict[bytes, bool] = {}
+        self._ends: dict[bytes, bool] = {}
 
     def _order(self, segments: int) -> np.ndarray:
         """Interior fractions in DiscreteMotionValidator's order (breadth-first halving)."""
-        order = self._orders.get(segments)
-        if order is None:
-            mids: list[int] = []
-            queue = [(1, segments - 1)] if segments >= 2 else []
-            while queue:
-                first, last = queue.pop(0)
-                mid = (first + last) // 2
-                mids.append(mid)
-                if first < mid:
-                    queue.append((first, mid - 1))
-                if last > mid:
-                    queue.append((mid + 1, last))
-            order = np.array(mids, dtype=float) / segments
-            self._orders[segments] = order
-        return order
+        return _bisection_order(segments)
 
     def checkMotion(self, s1: Any, s2: Any, *last_valid: Any) -> bool:  # noqa: N802 - OMPL's name
         if last_valid:  # never asked by the planners this is installed for
             raise RuntimeError("_EdgeValidator cannot report the last valid state")
         dim = self._dim
+        a = np.array(s1[0:dim])
         b = np.array(s2[0:dim])
-        if not self._valid(b.copy()):  # a copy: the user function may write into its argument
-            return False
-        fractions = self._order(self._space.validSegmentCount(s1, s2))
-        if fractions.size:
-            a = np.array(s1[0:dim])
-            for q in a + fractions[:, None] * (b - a):
-                if not self._valid(q):
-                    return False
-        return True
+        end = b.tobytes()
+        edge = a.tobytes() + end
+        known = self._edges.get(edge)
+        if known is not None:
+            return known
+        ok = self._ends.get(end)
+        if ok is None:
+            ok = self._ends[end] = bool(self._valid(b.copy()))  # a copy: the function may write into it
+        if ok:
+            fractions = self._order(self._space.validSegmentCount(s1, s2))
+            if fractions.size:
+                valid = self._valid
+                for q in a + fractions[:, None] * (b - a):
+                    if not valid(q):
+                        ok = False
+                        break
+        self._edges[edge] = ok
+        return ok
 
 
 _IDLE: list[Any] = []
@@ -293,6 +336,7 @@ def plan_joint_space(
     cancel: Any = None,
     manifold: Any = None,
     manifold_delta: float | None = None,
+    try_direct: bool = False,
 ) -> OmplResult:
     """Plan a collision-free joint-space path from ``start`` to any of ``goals`` with OMPL.
 
@@ -332,6 +376,13 @@ def plan_joint_space(
     planned, then reversed, because a walk along the manifold depends on its direction. Every
     configured planner runs on it; some only slowly (on the Panda demo of
     test/task/test_mtc_path_constraints.py, SORRTstar and BFMT time out).
+
+    ``try_direct`` (not with a manifold): before OMPL is set up, the straight edge from the start
+    to each goal (nearest first) is checked exactly as the planner checks an edge; the first
+    valid one is the answer (``message`` says so), with no tree, no simplification (a straight
+    edge is what the simplifier would end at) and interpolation as asked. Easy problems then
+    cost one edge check; when every direct edge is blocked (most checks fail at the first
+    halvings) the planner runs as usual.
 
     Raises OmplConfigError for malformed input (naming it) and re-raises any exception from
     ``is_state_valid`` (or the manifold's functions) after stopping the planner.
@@ -443,6 +494,26 @@ def plan_joint_space(
                 planning_time=time.perf_counter() - t0,
                 message="start already satisfies the goal",
             )
+
+    if try_direct and not constrained:
+        extent = float(np.linalg.norm(hi - lo))
+        resolution = float(longest_valid_segment_fraction) * extent
+        for i, g in sorted(valid_goals, key=lambda ig: float(np.linalg.norm(ig[1] - q_start))):
+            ok = _direct_motion(q_start, g, guarded, resolution)
+            if ctx.error is not None:
+                raise ctx.error
+            if ctx.cancelled:
+                return result("ABORT", planning_time=time.perf_counter() - t0, message="cancelled during planning")
+            if ok:
+                planning_time = time.perf_counter() - t0
+                waypoints = np.array([q_start, g])
+                if interpolate_states is not None:
+                    segments = max(1, int(math.ceil(float(np.linalg.norm(g - q_start)) / resolution)))
+                    count = max(segments + 1, interpolate_states)
+                    waypoints = q_start + np.linspace(0.0, 1.0, count)[:, None] * (g - q_start)
+                    waypoints[-1] = g
+                return result("EXACT_SOLUTION", waypoints, goal_index=i, planning_time=planning_time,
+                              message="the straight motion to the goal is valid", direct=True)
 
     if seed is not None:
         previous = ou.getLogLevel()
