@@ -15,7 +15,9 @@ joints and readbacks), ``command_rate_hz`` (send_angles frames per second of arm
 ``readback_rate_hz`` (get_angles answers per second), plus the link figures: what 115200 baud
 allows by bytes alone (``link_max_readback_hz``: get_angles request + answer only;
 ``link_max_cycle_hz``: get_angles + send_angles with their answers) and what pymycobot achieves on
-the emulated 115200 link in a tight loop (``measured_max_readback_hz``).
+the emulated 115200 link in a tight loop (``measured_max_readback_hz``); ``port_loss_abort_s``
+(median; ``port_loss_abort_max_s`` the worst): the seconds from the port closing mid-motion to the
+goal reported failed, once per repeat, 0.3 s into the first arm motion.
 
 Register in scenarios.SCENARIOS as ``"driver_tracking": bench_driver_tracking``.
 """
@@ -23,8 +25,9 @@ from __future__ import annotations
 
 import tempfile
 import time
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterator
 
 import numpy as np
 
@@ -33,7 +36,7 @@ from mycobot_planning.hardware.driver import DriverConfig, DriverCore
 from mycobot_planning.hardware.emulator import EmulatedArm
 from mycobot_planning.hardware.follower import MeasuredTrajectoryFollower
 from mycobot_planning.hardware.protocol import BITS_PER_BYTE
-from mycobot_planning.mock_control.joint_trajectory_follower import TrajectoryCommand
+from mycobot_planning.mock_control.joint_trajectory_follower import ControllerStatus, TrajectoryCommand
 
 from .common import emit, machine, spread
 
@@ -96,8 +99,9 @@ def _wait(predicate, timeout: float) -> bool:
     return predicate()
 
 
-def run_once(parts: list[dict[str, Any]], model: RobotModel) -> dict[str, Any]:
-    """Follow every part through driver + emulator; errors and rates of this run."""
+@contextmanager
+def _driven_arm(model: RobotModel) -> Iterator[tuple[EmulatedArm, DriverCore]]:
+    """An emulated arm on a pseudo-terminal and a connected driver core in front of it."""
     with tempfile.TemporaryDirectory(prefix="mycobot_bench_") as tmp, \
             EmulatedArm(Path(tmp) / "port", baud=BAUD) as emulator:
         config = DriverConfig(port=emulator.port, baud=BAUD)
@@ -107,38 +111,47 @@ def run_once(parts: list[dict[str, Any]], model: RobotModel) -> dict[str, Any]:
         try:
             if not _wait(lambda: core.connected, 30.0):
                 raise RuntimeError(f"benchmark set-up: the driver did not connect: {core.reason}")
-            core.trace = []
-            errors: list[np.ndarray] = []
-            outcomes: list[str] = []
-            moving_time = 0.0
-            mark = time.monotonic()
-            for part in parts:
-                now = time.time()
-                started = {}
-                with core.lock:
-                    for key, follower in (("arm", arm), ("gripper", gripper)):
-                        if key in part:
-                            p = part[key]
-                            cmd = TrajectoryCommand.from_arrays(follower.joint_names, p["times"], p["positions"],
-                                                                p["velocities"])
-                            result = follower.submit(cmd, now)
-                            if not result.accepted:
-                                raise RuntimeError(f"benchmark: {key} refused a trajectory: {result.reason}")
-                            started[key] = now
-                first = len(core.trace)
-                core.wake()
-                _wait(lambda: not arm.active and not gripper.active, part["duration"] + 10.0)
-                outcomes += [f.status for key, f in (("arm", arm), ("gripper", gripper)) if key in part]
-                if "arm" in part:
-                    moving_time += float(part["arm"]["times"][-1])
-                    # the trajectory as the controller interpolates it (JTC's splines through the
-                    # points), at the time each readback arrived, until the trajectory's end
-                    errors += [np.abs(q - desired) for t, q, desired in core.trace[first:]
-                               if desired is not None and t - started["arm"] <= part["arm"]["times"][-1]]
-            received = emulator.received(mark)
-            elapsed = time.monotonic() - mark
+            yield emulator, core
         finally:
             core.close()
+
+
+def _submit(follower: MeasuredTrajectoryFollower, part: dict[str, Any], now: float, what: str) -> None:
+    cmd = TrajectoryCommand.from_arrays(follower.joint_names, part["times"], part["positions"], part["velocities"])
+    result = follower.submit(cmd, now)
+    if not result.accepted:
+        raise RuntimeError(f"benchmark: {what} refused a trajectory: {result.reason}")
+
+
+def run_once(parts: list[dict[str, Any]], model: RobotModel) -> dict[str, Any]:
+    """Follow every part through driver + emulator; errors and rates of this run."""
+    with _driven_arm(model) as (emulator, core):
+        arm, gripper = core.arm, core.gripper
+        core.trace = []
+        errors: list[np.ndarray] = []
+        outcomes: list[str] = []
+        moving_time = 0.0
+        mark = time.monotonic()
+        for part in parts:
+            now = time.time()
+            started = {}
+            with core.lock:
+                for key, follower in (("arm", arm), ("gripper", gripper)):
+                    if key in part:
+                        _submit(follower, part[key], now, key)
+                        started[key] = now
+            first = len(core.trace)
+            core.wake()
+            _wait(lambda: not arm.active and not gripper.active, part["duration"] + 10.0)
+            outcomes += [f.status for key, f in (("arm", arm), ("gripper", gripper)) if key in part]
+            if "arm" in part:
+                moving_time += float(part["arm"]["times"][-1])
+                # the trajectory as the controller interpolates it (JTC's splines through the
+                # points), at the time each readback arrived, until the trajectory's end
+                errors += [np.abs(q - desired) for t, q, desired in core.trace[first:]
+                           if desired is not None and t - started["arm"] <= part["arm"]["times"][-1]]
+        received = emulator.received(mark)
+        elapsed = time.monotonic() - mark
         err = np.array(errors) if errors else np.zeros((0, 6))
         sends = sum(1 for _, name, _ in received if name == "SEND_ANGLES")
         reads = sum(1 for _, name, _ in received if name == "GET_ANGLES")
@@ -150,6 +163,33 @@ def run_once(parts: list[dict[str, Any]], model: RobotModel) -> dict[str, Any]:
                 "readbacks_compared": int(err.shape[0]), "goals": len(outcomes),
                 "goals_succeeded": sum(1 for o in outcomes if o == "succeeded"),
                 "motion_s": moving_time, "wall_s": elapsed}
+
+
+#: s into the pick and place's first arm motion when the port is closed (port_loss_abort_s)
+PORT_LOSS_AFTER = 0.3
+
+
+def port_loss_abort(parts: list[dict[str, Any]], model: RobotModel) -> float:
+    """Seconds from the port closing mid-motion (the pseudo-terminal goes away) to the arm's goal
+    reported failed by the driver core: the issue's "aborted within 0.5 s", measured."""
+    part = next(p for p in parts if "arm" in p)  # from home, where the emulated arm starts
+    if part["duration"] < 2 * PORT_LOSS_AFTER:
+        raise RuntimeError(f"benchmark: the first arm motion lasts only {part['duration']:.2f} s")
+    with _driven_arm(model) as (emulator, core):
+        with core.lock:
+            _submit(core.arm, part["arm"], time.time(), "arm")
+        core.wake()
+        time.sleep(PORT_LOSS_AFTER)
+        if not core.arm.active:
+            raise RuntimeError(f"benchmark: the arm motion ended before the port was closed: {core.arm.status}")
+        dropped = time.monotonic()
+        emulator.drop()
+        if not _wait(lambda: not core.arm.active, 30.0):
+            raise RuntimeError("benchmark: the driver did not abort the goal within 30 s of the port closing")
+        seconds = time.monotonic() - dropped
+        if core.arm.status != ControllerStatus.FAILED or "lost the arm" not in core.arm.state().message:
+            raise RuntimeError(f"benchmark: the goal ended '{core.arm.status}', not aborted for the lost port")
+        return seconds
 
 
 def max_readback_rate(seconds: float = 2.0) -> float:
@@ -174,6 +214,7 @@ def bench_driver_tracking(repeat: int, seed: int) -> None:
     runs = []
     for index in range(repeat):
         run = run_once(parts, model)
+        run["port_loss_abort_s"] = port_loss_abort(parts, model)
         runs.append(run)
         emit({"scenario": "driver_tracking", "repeat": index,
               **{k: (round(v, 5) if isinstance(v, float) else v) for k, v in run.items()}})
@@ -186,6 +227,8 @@ def bench_driver_tracking(repeat: int, seed: int) -> None:
         "command_rate_hz": round(float(np.median([r["command_rate_hz"] for r in runs])), 1),
         "readback_rate_hz": round(float(np.median([r["readback_rate_hz"] for r in runs])), 1),
         "goals_succeeded": f"{sum(r['goals_succeeded'] for r in runs)}/{sum(r['goals'] for r in runs)}",
+        "port_loss_abort_s": round(float(np.median([r["port_loss_abort_s"] for r in runs])), 3),
+        "port_loss_abort_max_s": round(max(r["port_loss_abort_s"] for r in runs), 3),
         "baud": BAUD,
         "link_max_readback_hz": round(link_readback, 1),
         "link_max_cycle_hz": round(link_cycle, 1),
