@@ -4,10 +4,7 @@ The full story: docs/bench.md, section mycobot_planning.bench.peers.__init__.
 """
 from __future__ import annotations
 
-import json
 import math
-import subprocess
-import sys
 import time
 from pathlib import Path
 from typing import Any, Callable, Iterable, Sequence
@@ -15,7 +12,7 @@ from typing import Any, Callable, Iterable, Sequence
 import numpy as np
 
 from .problems import checker_for, panda_pose_problems, panda_srdf_path, write_absolute_urdf
-from .venvs import PEERS, PeerUnavailable, cache_dir, ensure_peer_venv, log, read_stamp
+from .venvs import PEERS, PeerUnavailable, cache_dir, ensure_peer_venv, log, read_stamp, run_runner
 
 __all__ = [
     "PEER_NAMES", "panda_pose_problems", "run_peers", "run_peer", "run_ours", "compare",
@@ -123,44 +120,14 @@ def run_peer(name: str, problems: list[dict], time_limit: float = DEFAULT_TIME_L
     """
     if name not in RUNNERS:
         raise KeyError(f"unknown peer '{name}'; known: {', '.join(RUNNERS)}")
-    try:
-        python = ensure_peer_venv(name)
-    except PeerUnavailable as error:
-        log(str(error))
-        return {"available": False, "peer": name, "reason": error.reason}
-    except OSError as error:
-        return {"available": False, "peer": name, "reason": f"venv creation failed: {error}"}
-
-    request = json.dumps(_planner_request(problems, time_limit))
     timeout = 120.0 + len(problems) * (3.0 * time_limit + 5.0)
     log(f"{name}: solving {len(problems)} problems (time limit {time_limit} s each)")
-    started = time.perf_counter()
-    try:
-        proc = subprocess.run([str(python), str(runner_path(name))], input=request,
-                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                              timeout=timeout)
-    except subprocess.TimeoutExpired:
-        return {"available": False, "peer": name, "reason": f"runner timed out after {timeout:.0f} s"}
-    log(f"{name}: runner finished in {time.perf_counter() - started:.1f} s")
-    meta: dict[str, Any] = {}
-    by_index: dict[int, dict] = {}
-    for line in proc.stdout.splitlines():
-        line = line.strip()
-        if not line.startswith("{"):
-            continue
-        try:
-            record = json.loads(line)
-        except ValueError:
-            continue
-        if record.get("meta"):
-            meta = record
-        elif "index" in record:
-            by_index[int(record["index"])] = record
-    if proc.returncode != 0 and not by_index:
-        tail = "\n".join(proc.stderr.strip().splitlines()[-15:])
-        print(proc.stderr, file=sys.stderr)
-        return {"available": False, "peer": name,
-                "reason": f"runner exited with {proc.returncode}: {tail}"}
+    outcome = run_runner(name, ensure_peer_venv, runner_path(name), _planner_request(problems, time_limit), timeout)
+    if isinstance(outcome, dict):
+        return outcome
+    records, proc = outcome
+    meta = next((r for r in records if r.get("meta")), {})
+    by_index = {int(r["index"]): r for r in records if not r.get("meta") and "index" in r}
     results = []
     for problem in problems:
         record = by_index.get(problem["index"]) or {

@@ -5,25 +5,20 @@ The full story: docs/bench.md, section mycobot_planning.bench.peers.parts.
 """
 from __future__ import annotations
 
-import json
 import math
-import subprocess
-import sys
 import time
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from . import PEER_NAMES, RUNNERS, runner_path
 from .problems import checker_for, panda_parts_problems, panda_srdf_path, write_absolute_urdf
-from .venvs import PEERS, PeerUnavailable, cache_dir, ensure_peer_venv, log, read_stamp
+from .venvs import PEERS, cache_dir, ensure_peer_venv, log, read_stamp, run_runner
 
 __all__ = ["PARTS_PEERS", "OursParts", "run_ours_parts", "run_peer_parts", "judge_parts",
            "summarize_parts", "parts_ratios", "bench_peers_parts"]
 
-PARTS_PEERS: tuple[str, ...] = ("mplib", "pyroboplan", "roboplan")
-RUNNERS = {"mplib": "mplib_runner.py", "pyroboplan": "pyroboplan_runner.py",
-           "roboplan": "roboplan_runner.py"}
+PARTS_PEERS: tuple[str, ...] = PEER_NAMES
 TIME_LIMIT = 1.0  # s of planning time per joint-goal problem, every planner
 RECHECK_STEP = 0.01  # rad: the independent recheck of every returned path
 IK_POSITION_TOLERANCE = 2e-3  # m, judged by our independent FK (roboplan's own tolerance is 1e-3)
@@ -141,58 +136,23 @@ def run_ours_parts(parts: dict, time_limit: float = TIME_LIMIT, seed: int = 0) -
 # ---------------------------------------------------------------------------------------------
 
 
-def runner_path(name: str) -> Path:
-    return Path(__file__).resolve().parent / RUNNERS[name]
-
-
 def run_peer_parts(name: str, parts: dict, time_limit: float = TIME_LIMIT, seed: int = 0) -> dict[str, Any]:
     """One peer's side of the parts from its runner; ``{"available": False, ...}`` when the
     venv cannot be built or the runner gives nothing (never raises for a peer's failure)."""
     if name not in RUNNERS:
         raise KeyError(f"unknown peer '{name}'; known: {', '.join(RUNNERS)}")
-    try:
-        python = ensure_peer_venv(name)
-    except PeerUnavailable as error:
-        log(str(error))
-        return {"available": False, "peer": name, "reason": error.reason}
-    except OSError as error:
-        return {"available": False, "peer": name, "reason": f"venv creation failed: {error}"}
-    request = json.dumps({"urdf": str(write_absolute_urdf(cache_dir())), "srdf": str(panda_srdf_path()),
-                          "time_limit": float(time_limit), "seed": int(seed), "parts": parts})
+    request = {"urdf": str(write_absolute_urdf(cache_dir())), "srdf": str(panda_srdf_path()),
+               "time_limit": float(time_limit), "seed": int(seed), "parts": parts}
     timeout = 300.0 + len(parts["plan"]) * (3.0 * time_limit + 5.0) + len(parts["ik"]) * 2.0
     log(f"{name}: parts ({len(parts['ik'])} IK, {len(parts['check'])} checks, {len(parts['plan'])} plans)")
-    started = time.perf_counter()
-    runner = runner_path(name)
-    try:
-        proc = subprocess.run([str(python), str(runner)], input=request, stdout=subprocess.PIPE,
-                              stderr=subprocess.PIPE, text=True, timeout=timeout)
-    except subprocess.TimeoutExpired:
-        return {"available": False, "peer": name, "reason": f"runner timed out after {timeout:.0f} s"}
-    log(f"{name}: runner finished in {time.perf_counter() - started:.1f} s")
-    meta: dict[str, Any] = {}
-    ik: dict[int, dict] = {}
-    plan: dict[int, dict] = {}
-    check: dict[str, Any] | None = None
-    for line in proc.stdout.splitlines():
-        line = line.strip()
-        if not line.startswith("{"):
-            continue
-        try:
-            record = json.loads(line)
-        except ValueError:
-            continue
-        if record.get("meta"):
-            meta = record
-        elif record.get("part") == "ik":
-            ik[int(record["index"])] = record
-        elif record.get("part") == "plan":
-            plan[int(record["index"])] = record
-        elif record.get("part") == "check":
-            check = record
-    if proc.returncode != 0 and not (ik or plan or check):
-        tail = "\n".join(proc.stderr.strip().splitlines()[-15:])
-        print(proc.stderr, file=sys.stderr)
-        return {"available": False, "peer": name, "reason": f"runner exited with {proc.returncode}: {tail}"}
+    outcome = run_runner(name, ensure_peer_venv, runner_path(name), request, timeout)
+    if isinstance(outcome, dict):
+        return outcome
+    records, proc = outcome
+    meta = next((r for r in records if r.get("meta")), {})
+    ik = {int(r["index"]): r for r in records if r.get("part") == "ik"}
+    plan = {int(r["index"]): r for r in records if r.get("part") == "plan"}
+    check = next((r for r in records if r.get("part") == "check"), None)
     missing = f"no result (runner exit code {proc.returncode})"
     stamp = read_stamp(name) or {}
     return {

@@ -21,6 +21,7 @@ import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any, Callable
 
 STAMP = ".peer-stamp.json"
 
@@ -186,3 +187,39 @@ def installed_version(py: Path, distribution: str) -> str:
         stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
     )
     return proc.stdout.strip() if proc.returncode == 0 else "unknown"
+
+
+def run_runner(name: str, python_of: Callable[[str], Path], runner: Path, request: dict[str, Any],
+               timeout: float) -> tuple[list[dict[str, Any]], subprocess.CompletedProcess] | dict[str, Any]:
+    """Run a peer's runner script in its venv (``python_of(name)``, normally ensure_peer_venv)
+    with ``request`` as JSON on stdin. Returns the JSON records it printed (its other stdout lines
+    are library noise) and the finished process; or ``{"available": False, "peer", "reason"}``
+    when the venv cannot be built, the runner times out, or it fails before printing a result.
+    Never raises for a peer's own failure: one broken peer must not lose the others' figures."""
+    try:
+        python = python_of(name)
+    except PeerUnavailable as error:
+        log(str(error))
+        return {"available": False, "peer": name, "reason": error.reason}
+    except OSError as error:
+        return {"available": False, "peer": name, "reason": f"venv creation failed: {error}"}
+    started = time.perf_counter()
+    try:
+        proc = subprocess.run([str(python), str(runner)], input=json.dumps(request), stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return {"available": False, "peer": name, "reason": f"runner timed out after {timeout:.0f} s"}
+    log(f"{name}: runner finished in {time.perf_counter() - started:.1f} s")
+    records = []
+    for line in proc.stdout.splitlines():
+        line = line.strip()
+        if line.startswith("{"):
+            try:
+                records.append(json.loads(line))
+            except ValueError:
+                continue
+    if proc.returncode != 0 and all(r.get("meta") for r in records):
+        tail = "\n".join(proc.stderr.strip().splitlines()[-15:])
+        print(proc.stderr, file=sys.stderr)
+        return {"available": False, "peer": name, "reason": f"runner exited with {proc.returncode}: {tail}"}
+    return records, proc
