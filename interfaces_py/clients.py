@@ -5,16 +5,16 @@ The full story: docs/interfaces.md, section interfaces_py.clients.
 from __future__ import annotations
 
 import math
-import threading
 import uuid
 from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 import rclpy
 from rclpy.context import Context
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
+from interfaces_py.background_spin import BackgroundSpin
 from interfaces_py.json_rpc import JsonRpcClient, RpcError, RpcTimeout
 from interfaces_py.pose_conversion import pose_message
 from interfaces_py.msgs import (
@@ -48,8 +48,7 @@ class _RosHandle:
 
     def __init__(self, node: Node | None, prefix: str) -> None:
         self._context: Context | None = None
-        self._executor: SingleThreadedExecutor | None = None
-        self._thread: threading.Thread | None = None
+        self._spin: BackgroundSpin | None = None
         if node is not None:
             self.node = node
             return
@@ -59,18 +58,9 @@ class _RosHandle:
         # Single-threaded on purpose: the callbacks (answers arriving) are short, and rclpy's
         # multi-threaded executor busy-polls while callbacks are queued, eating the CPU (and the
         # GIL) of the script that is waiting for the answer.
-        self._executor = SingleThreadedExecutor(context=self._context)
-        self._executor.add_node(self.node)
-        self._thread = threading.Thread(target=self._spin, name=f"{prefix} executor", daemon=True)
-        self._thread.start()
-
-    def _spin(self) -> None:
-        try:
-            self._executor.spin()
-        except (ExternalShutdownException, KeyboardInterrupt):
-            pass
-        except Exception:  # context shut down while spinning
-            pass
+        executor = SingleThreadedExecutor(context=self._context)
+        executor.add_node(self.node)
+        self._spin = BackgroundSpin(executor, name=f"{prefix} executor")
 
     @property
     def owned(self) -> bool:
@@ -80,17 +70,13 @@ class _RosHandle:
         if self._context is None:
             return
         context, self._context = self._context, None
-        try:
-            self._executor.shutdown(timeout_sec=1.0)
-        except Exception:  # best-effort teardown: the context may already be shut down (Ctrl-C)
-            pass
+        if self._spin is not None:
+            self._spin.stop()
         try:
             self.node.destroy_node()
-        except Exception:  # best-effort teardown, as above
+        except Exception:  # best-effort teardown: the context may already be shut down (Ctrl-C)
             pass
         rclpy.try_shutdown(context=context)
-        if self._thread is not None:
-            self._thread.join(timeout=2.0)
 
 
 class _Client:

@@ -24,6 +24,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 
+from interfaces_py.background_spin import BackgroundSpin
 from mycobot_planning.paths import config_file
 
 REPO = Path(__file__).resolve().parent.parent
@@ -158,7 +159,7 @@ class ProbeNode:
         self.executor.add_node(self.node)
         self.lock = threading.Lock()
         self.clients: dict[str, Any] = {}
-        self.thread: threading.Thread | None = None
+        self.spinner: BackgroundSpin | None = None
 
     def collect(self, msg_type: Any, topic: str, qos: Any = 10) -> list[Any]:
         """Subscribe to ``topic``; the returned list receives every message (under ``lock``)."""
@@ -188,8 +189,7 @@ class ProbeNode:
         return dict(zip(msg.name, msg.position)) if msg is not None else {}
 
     def spin_in_background(self) -> None:
-        self.thread = threading.Thread(target=self.executor.spin, daemon=True)
-        self.thread.start()
+        self.spinner = BackgroundSpin(self.executor, name=f"{self.node.get_name()} executor")
 
     def client(self, srv_type: Any, name: str) -> Any:
         with self.lock:
@@ -217,7 +217,10 @@ class ProbeNode:
         return self.set_parameters(node, [param])[0]
 
     def close(self) -> None:
-        self.executor.shutdown(timeout_sec=1.0)
+        if self.spinner is not None:
+            self.spinner.stop()
+        else:
+            self.executor.shutdown(timeout_sec=1.0)
         self.node.destroy_node()
         rclpy.try_shutdown(context=self.context)
 

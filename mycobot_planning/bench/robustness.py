@@ -385,6 +385,7 @@ class Prober:
         from sensor_msgs.msg import JointState
         from std_msgs.msg import String
         from trajectory_msgs.msg import JointTrajectory
+        from interfaces_py.background_spin import BackgroundSpin
 
         from interfaces_py.json_rpc import RPC_QOS
 
@@ -405,14 +406,7 @@ class Prober:
         self.controllers = {c: self.node.create_publisher(JointTrajectory, f"/{c}/joint_trajectory", 10)
                             for c in ("arm_controller", "grip_action_controller")}
         self._param_clients: dict[str, Any] = {}
-        self.thread = threading.Thread(target=self._spin, daemon=True)
-        self.thread.start()
-
-    def _spin(self) -> None:
-        try:
-            self.executor.spin()
-        except Exception:  # the context is shut down under it at close(): nothing left to serve
-            pass
+        self.spinner = BackgroundSpin(self.executor, name="robustness probe")
 
     def _on_answer(self, msg: Any) -> None:
         try:
@@ -494,7 +488,7 @@ class Prober:
     def close(self) -> None:
         import rclpy
 
-        self.executor.shutdown(timeout_sec=1.0)
+        self.spinner.stop()
         self.node.destroy_node()
         rclpy.try_shutdown(context=self.context)
 

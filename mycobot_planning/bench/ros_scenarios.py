@@ -139,6 +139,7 @@ class _JointWatcher:
         from rclpy.executors import SingleThreadedExecutor
         from rclpy.node import Node
         from sensor_msgs.msg import JointState
+        from interfaces_py.background_spin import BackgroundSpin
 
         self._rclpy = rclpy
         self.context = Context()
@@ -152,14 +153,7 @@ class _JointWatcher:
         self.moved_at: float | None = None
         self._index: list[int] | None = None
         self.node.create_subscription(JointState, "/joint_states", self._on_joint_state, 10)
-        self.thread = threading.Thread(target=self._spin, daemon=True)
-        self.thread.start()
-
-    def _spin(self) -> None:
-        try:
-            self.executor.spin()
-        except Exception:  # the probe's context is shut down under the spinning executor at the end
-            pass
+        self.spinner = BackgroundSpin(self.executor, name="joint state probe")
 
     def _on_joint_state(self, msg: Any) -> None:
         now = time.perf_counter()
@@ -182,7 +176,7 @@ class _JointWatcher:
             self.moved_at = None
 
     def close(self) -> None:
-        self.executor.shutdown(timeout_sec=1.0)
+        self.spinner.stop()
         self.node.destroy_node()
         self._rclpy.try_shutdown(context=self.context)
 

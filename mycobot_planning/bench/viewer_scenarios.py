@@ -86,6 +86,7 @@ def bench_viewer_lag(repeat: int, seed: int) -> None:
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import JointState
     from std_msgs.msg import String
+    from interfaces_py.background_spin import BackgroundSpin
 
     from interfaces_py.json_rpc import JsonRpcClient
     from mycobot_planning.core.robot_model import RobotModel
@@ -106,8 +107,7 @@ def bench_viewer_lag(repeat: int, seed: int) -> None:
     node = Node("viewer_lag_bench", context=context)
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
-    spinner = threading.Thread(target=executor.spin, daemon=True)
-    spinner.start()
+    spinner = BackgroundSpin(executor, name="viewer bench probe")
     page = None
     try:
         url_box: list[str] = []
@@ -191,7 +191,7 @@ def bench_viewer_lag(repeat: int, seed: int) -> None:
     finally:
         if page is not None:
             page.close()
-        executor.shutdown(timeout_sec=1.0)
+        spinner.stop()
         node.destroy_node()
         rclpy.try_shutdown(context=context)
         if viewer.poll() is None:

@@ -23,6 +23,7 @@ from std_srvs.srv import Trigger
 from trajectory_msgs.msg import JointTrajectory as JointTrajectoryMsg
 from visualization_msgs.msg import Marker, MarkerArray
 
+from interfaces_py.background_spin import BackgroundSpin
 from interfaces_py.json_rpc import BAD_REQUEST, JsonRpcServer, RpcError, decode_request, log_safe
 from interfaces_py.msgs import CollisionObject, JointTrajectory, MoveItErrorCode
 from interfaces_py.ros_conversions import collision_object_to_markers, joint_trajectory_to_msg
@@ -205,8 +206,7 @@ class PlanningServer(Node):
         self.move_group = MoveGroupFace(self.core, *self._model_sources(), self.context, self._log)
         self.extra_nodes = [self.move_group]
         self.move_group.publish_scene()
-        self._monitor_thread = threading.Thread(target=self._spin_monitor, name="state monitor", daemon=True)
-        self._monitor_thread.start()
+        self._monitor_spin = BackgroundSpin(self._monitor_executor, name="state monitor")
         log.info(
             f"planning_server ready: robot '{model.name}', groups {model.group_names}, pipelines "
             f"{pipeline.pipeline_ids}, controllers "
@@ -393,12 +393,6 @@ class PlanningServer(Node):
     def _on_feedback(self) -> None:
         self.core.executor.notify()
 
-    def _spin_monitor(self) -> None:
-        try:
-            self._monitor_executor.spin()
-        except Exception:  # the context is shut down under it at exit: nothing left to monitor
-            pass
-
     def close(self) -> None:
         """On shutdown: stop a running execution so the controllers hold where they are, then
         stop the state monitor."""
@@ -407,7 +401,7 @@ class PlanningServer(Node):
             deadline = time.monotonic() + 1.0  # let the execution send its stop commands
             while self.core.executor.executing and time.monotonic() < deadline:
                 time.sleep(0.01)
-        self._monitor_executor.shutdown(timeout_sec=1.0)
+        self._monitor_spin.stop()
         self._monitor.destroy_node()
         self.move_group.close()
         self.move_group.destroy_node()

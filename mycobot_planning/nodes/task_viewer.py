@@ -5,7 +5,6 @@ The full story: docs/nodes.md, section mycobot_planning.nodes.task_viewer.
 from __future__ import annotations
 
 import sys
-import threading
 from typing import Any
 
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
@@ -17,6 +16,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from trajectory_msgs.msg import JointTrajectory as JointTrajectoryMsg
 
+from interfaces_py.background_spin import BackgroundSpin
 from interfaces_py.json_rpc import BAD_REQUEST, JsonRpcServer, RpcError
 from interfaces_py.msgs import MessageError
 from interfaces_py.ros_conversions import joint_trajectory_from_msg
@@ -85,7 +85,6 @@ class TaskViewerNode(Node):
         self._monitor.create_subscription(JointState, "/joint_states", self._on_joint_state, JOINT_STATES_QOS)
         self._monitor_executor = SingleThreadedExecutor(context=self.context)
         self._monitor_executor.add_node(self._monitor)
-        self._monitor_thread = threading.Thread(target=self._spin_monitor, name="joint states", daemon=True)
 
         inputs = MutuallyExclusiveCallbackGroup()
         self.create_subscription(String, "/planning_server/monitored_planning_scene", self._on_scene, LATCHED_QOS,
@@ -110,7 +109,7 @@ class TaskViewerNode(Node):
             "get_display_lags": self._rpc_lags,
         }.items():
             self._rpc.register(method, handler)
-        self._monitor_thread.start()
+        self._monitor_spin = BackgroundSpin(self._monitor_executor, name="joint states")
         self._discover()
         log.info(f"task_viewer: open {self.viewer.url} in a browser (robot '{model.name}', "
                  f"{len(self.viewer.live.links)} links with collision shapes)")
@@ -144,12 +143,6 @@ class TaskViewerNode(Node):
             self._discovery_timer = self.create_timer(float(changed["discovery_period"]), self._discover,
                                                       callback_group=MutuallyExclusiveCallbackGroup())
         self.get_logger().info(f"applied {', '.join(f'{k}={v}' for k, v in changed.items())}")
-
-    def _spin_monitor(self) -> None:
-        try:
-            self._monitor_executor.spin()
-        except Exception:  # shutdown while spinning
-            pass
 
     # ------------------------------------------------------------------ inputs
     def _on_joint_state(self, msg: JointState) -> None:
@@ -226,7 +219,7 @@ class TaskViewerNode(Node):
                 "applied": state["applied"]}
 
     def close(self) -> None:
-        self._monitor_executor.shutdown(timeout_sec=1.0)
+        self._monitor_spin.stop()
         self.viewer.close()
 
 

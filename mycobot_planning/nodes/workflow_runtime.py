@@ -17,15 +17,15 @@ from __future__ import annotations
 import functools
 import signal
 import sys
-import threading
 import time
 from typing import Any, Callable
 
 import rclpy
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
+from interfaces_py.background_spin import BackgroundSpin
 from interfaces_py.clients import MoveGroupClient, PlanResult, RpcError
 from interfaces_py.msgs import MoveItErrorCode, RobotTrajectory
 from mycobot_planning.core.planning_pipeline import PlanningPipeline
@@ -170,8 +170,7 @@ def run_workflow(factory: Callable[[], WorkflowNode], args: list[str] | None = N
     signal.signal(signal.SIGINT, _interrupt)
     signal.signal(signal.SIGTERM, _interrupt)
     node: WorkflowNode | None = None
-    executor: SingleThreadedExecutor | None = None
-    thread: threading.Thread | None = None
+    spinner: BackgroundSpin | None = None
     code = 0
     try:
         try:
@@ -181,17 +180,7 @@ def run_workflow(factory: Callable[[], WorkflowNode], args: list[str] | None = N
             return 1
         executor = SingleThreadedExecutor()
         executor.add_node(node)
-
-        def spin() -> None:
-            try:
-                executor.spin()
-            except (ExternalShutdownException, KeyboardInterrupt):
-                pass
-            except Exception:  # the context was shut down under the executor at exit
-                pass
-
-        thread = threading.Thread(target=spin, name=f"{node.get_name()} executor", daemon=True)
-        thread.start()
+        spinner = BackgroundSpin(executor, name=f"{node.get_name()} executor")
         try:
             node.run()
             node.get_logger().info("done")
@@ -207,11 +196,9 @@ def run_workflow(factory: Callable[[], WorkflowNode], args: list[str] | None = N
             node.interrupted()
         code = 130
     finally:
-        if executor is not None:
-            executor.shutdown(timeout_sec=1.0)
+        if spinner is not None:
+            spinner.stop()
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
-        if thread is not None:
-            thread.join(timeout=2.0)
     return code

@@ -29,6 +29,7 @@ from std_msgs.msg import String  # noqa: E402
 from std_srvs.srv import Trigger  # noqa: E402
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint  # noqa: E402
 
+from interfaces_py.background_spin import BackgroundSpin  # noqa: E402
 from interfaces_py.ros_conversions import seconds_to_duration  # noqa: E402
 from mycobot_planning.core import RobotModel  # noqa: E402
 
@@ -63,12 +64,10 @@ class Probe:
         self.params = AsyncParameterClient(self.node, "controller_manager")
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
-        self.thread = threading.Thread(target=self.executor.spin, daemon=True)
-        self.thread.start()
+        self.spinner = BackgroundSpin(self.executor, name="controllers probe executor")
 
     def close(self) -> None:
-        self.executor.shutdown(timeout_sec=5.0)
-        self.thread.join(5.0)
+        self.spinner.stop()
         self.node.destroy_node()
         self.context.try_shutdown()
 

@@ -4,7 +4,6 @@
 move_group's execute_task_solution action, as MTC's Task::execute and RViz's panel send it."""
 from __future__ import annotations
 
-import threading
 
 import numpy as np
 import pytest
@@ -20,6 +19,7 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_srvs.srv import Trigger
 
+from interfaces_py.background_spin import BackgroundSpin
 from mycobot_planning.paths import config_file
 from mycobot_planning.demos.pick_place import PickPlaceParameters, expected_place_pose
 from ros_testing import NodeProcess, use_session_domain, wait_until
@@ -52,8 +52,7 @@ def wire():
         qos = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.TRANSIENT_LOCAL)
         node.create_subscription(cls, topic, lambda m, k=topic[1:]: on_message(k, m), qos)
-    spinner = threading.Thread(target=executor.spin, daemon=True)
-    spinner.start()
+    spinner = BackgroundSpin(executor, name="mtc wire probe executor")
 
     def spin_until(predicate, timeout: float = 120.0) -> bool:
         return wait_until(predicate, timeout)
@@ -69,7 +68,7 @@ def wire():
         yield {"node": node, "executor": executor, "got": got, "spin_until": spin_until,
                "statistics_count": lambda: statistics_count[0]}
     finally:
-        executor.shutdown()
+        spinner.stop()
         node.destroy_node()
         rclpy.try_shutdown(context=context)
         if mtc is not None:

@@ -9,7 +9,6 @@ chosen in the page's dropdown moving the shown robot.
 """
 from __future__ import annotations
 
-import threading
 import time
 import urllib.request
 from pathlib import Path
@@ -28,6 +27,7 @@ from std_msgs.msg import String
 from trajectory_msgs.msg import JointTrajectory as JointTrajectoryMsg
 
 import headless_chromium
+from interfaces_py.background_spin import BackgroundSpin
 from interfaces_py.json_rpc import JsonRpcClient, RpcError
 from interfaces_py.msgs import JointTrajectory, JointTrajectoryPoint
 from interfaces_py.ros_conversions import joint_trajectory_to_msg
@@ -72,8 +72,7 @@ class TaskNode:
         self.published = self.introspection.publish(task, solutions=1)
         self.node.create_timer(0.02, self._publish_joint_states)
         self.rpc = JsonRpcClient(self.node, "/task_viewer")
-        self.thread = threading.Thread(target=self.executor.spin, daemon=True)
-        self.thread.start()
+        self.spinner = BackgroundSpin(self.executor, name="task node executor")
 
     def _publish_joint_states(self) -> None:
         msg = JointState(name=list(self.joints), position=list(self.joints.values()))
@@ -84,7 +83,7 @@ class TaskNode:
         return self.rpc.call("get_state", timeout=15.0)
 
     def close(self) -> None:
-        self.executor.shutdown(timeout_sec=1.0)
+        self.spinner.stop()
         self.node.destroy_node()
         rclpy.try_shutdown(context=self.context)
 
