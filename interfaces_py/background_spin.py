@@ -51,7 +51,7 @@ class BackgroundSpin:
             self.thread.join(timeout)
         ended = not self.thread.is_alive()
         try:
-            self.executor.shutdown(timeout_sec=0.0 if not ended else None)
+            self.executor.shutdown(timeout_sec=1.0 if ended else 0.0)
         except Exception:  # noqa: BLE001 - best-effort teardown: the context may be gone already
             pass
         return ended
