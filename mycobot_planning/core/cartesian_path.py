@@ -16,6 +16,7 @@ from scipy.spatial.transform import Rotation
 
 from interfaces_py.msgs import MoveItErrorCode
 
+from .cartesian_precision import CartesianPrecision, PrecisionCheck
 from .errors import PlanningError
 from .kinematic_constraints import CONSTRAINT_CHECK_STEP
 from .kinematics import IKSolver
@@ -35,6 +36,7 @@ __all__ = [
     "STOP_INVALID_REQUEST",
     "STOP_JOINT_JUMP",
     "STOP_NO_IK",
+    "STOP_PRECISION",
     "compute_cartesian_path",
 ]
 
@@ -44,6 +46,7 @@ STOP_NO_IK = "no_ik_solution"
 STOP_COLLISION = "collision"
 STOP_JOINT_JUMP = "joint_space_jump"
 STOP_PATH_CONSTRAINTS = "path_constraints"
+STOP_PRECISION = "precision"
 STOP_INVALID_REQUEST = "invalid_request"
 
 #: MoveIt forces at least this many steps per segment when the relative jump test is on, so the
@@ -355,6 +358,7 @@ def compute_cartesian_path(
     frame: str = "world",
     sample_period: float | None = None,
     path_constraints: Any = None,
+    precision: CartesianPrecision | None = None,
 ) -> CartesianPathResult:
     """MoveIt's computeCartesianPath: move the ik frame through waypoints along straight lines.
 
@@ -387,25 +391,44 @@ def compute_cartesian_path(
         frame: frame the waypoints are expressed in: 'world', a link, or a collision object
             (resolved at the start state).
         sample_period: passed to the time parameterisation (None: breakpoints only).
+        precision: MoveIt's CartesianPrecision (None: not checked): the ik frame, halfway
+            between consecutive states, stays within ``translational`` m and ``rotational`` rad
+            of the line; the steps are halved until it does, or the path stops (stop_reason
+            ``precision``) where a step would be shorter than ``max_resolution`` of the path.
 
     Returns:
         A CartesianPathResult; never raises for bad input (error codes instead).
     """
     started = time.perf_counter()
+    if precision is not None and not isinstance(precision, CartesianPrecision):
+        return failed_result(MoveItErrorCode.INVALID_MOTION_PLAN,
+                             f"precision must be a CartesianPrecision, got {type(precision).__name__}", group, started)
     try:
-        return _compute(
-            scene, group, start_state, waypoints, link, ik_frame_offset, eef_step, jump_threshold, avoid_collisions,
-            velocity_scaling, acceleration_scaling, revolute_jump_threshold, prismatic_jump_threshold,
-            max_rotation_step, collision_check_resolution, frame, sample_period, started, path_constraints,
-        )
+        while True:
+            try:
+                return _compute(
+                    scene, group, start_state, waypoints, link, ik_frame_offset, eef_step, jump_threshold,
+                    avoid_collisions, velocity_scaling, acceleration_scaling, revolute_jump_threshold,
+                    prismatic_jump_threshold, max_rotation_step, collision_check_resolution, frame, sample_period,
+                    started, path_constraints, precision,
+                )
+            except _RefineSteps:  # a step left the line by more than the precision: halve them all
+                eef_step = eef_step / 2.0
+                if max_rotation_step is not None:
+                    max_rotation_step = max_rotation_step / 2.0
     except PlanningFailure as exc:
         return failed_result(exc.code, exc.message, group, started)
+
+
+class _RefineSteps(Exception):
+    """Raised by _compute when a step misses the precision and halved steps are still longer
+    than the precision's max_resolution of the path."""
 
 
 def _compute(
     scene, group, start_state, waypoints, link, ik_frame_offset, eef_step, jump_threshold, avoid_collisions,
     velocity_scaling, acceleration_scaling, revolute_jump_threshold, prismatic_jump_threshold, max_rotation_step,
-    collision_check_resolution, frame, sample_period, started, path_constraints=None,
+    collision_check_resolution, frame, sample_period, started, path_constraints=None, precision=None,
 ) -> CartesianPathResult:
     if not isinstance(scene, PlanningScene):
         raise failure(MoveItErrorCode.INVALID_MOTION_PLAN, f"scene must be a PlanningScene, got {type(scene).__name__}")
@@ -462,6 +485,9 @@ def _compute(
     is_valid = scene.validity_checker(jmg.name, start, check_bounds=False)
     check_buffer = full.copy()
     fallback: IKSolver | None = None
+    straightness = None if precision is None else PrecisionCheck(
+        model, idx, link, offset, full, precision, revolute_only=bool(np.all(revolute)),
+        tolerances=(_POSITION_TOLERANCE, _ORIENTATION_TOLERANCE))
 
     if path_constraints:
         problem = path_constraints.violation(start)
@@ -509,9 +535,20 @@ def _compute(
             detail = (f"prismatic joint step {float(np.max(np.abs(delta[prismatic]))):.4f} m exceeds "
                       f"prismatic_jump_threshold {prismatic_jump_threshold:g} at step {s + 1}")
             break
+        largest = float(np.abs(delta).max())
+        if straightness is not None and straightness.needs_check(largest):
+            p0, r0 = (p_ik[s - 1], r_ik[s - 1]) if s > 0 else (ik_start[:3, 3], ik_start[:3, :3])
+            off_line, turned = straightness.deviation(previous, x, p0, r0, p_ik[s], r_ik[s])
+            if straightness.exceeded(off_line, turned):
+                if 0.5 / n_steps >= precision.max_resolution:
+                    raise _RefineSteps()
+                solver.update(previous)
+                stop_reason = STOP_PRECISION
+                detail = (f"the motion to step {s + 1} leaves the line by {off_line * 1000:.3f} mm / {turned:.4f} rad "
+                          f"with steps at the finest resolution ({precision})")
+                break
         if avoid_collisions:
             colliding = None
-            largest = float(np.abs(delta).max())
             between = int(math.ceil(largest / resolution)) if largest > resolution else 1
             for j in range(1, between + 1):
                 values = x if j == between else previous + (j / between) * delta
@@ -529,7 +566,6 @@ def _compute(
                 break
         if path_constraints:
             # the state, and the joint-space motion to it, every CONSTRAINT_CHECK_STEP
-            largest = float(np.abs(delta).max())
             between = max(1, int(math.ceil(largest / CONSTRAINT_CHECK_STEP)))
             problem = None
             for j in range(between, 0, -1):
