@@ -9,6 +9,7 @@ from enum import IntEnum
 from typing import TYPE_CHECKING, Any, Callable, Mapping, Sequence
 
 import numpy as np
+import pinocchio as pin
 
 from .errors import TaskError
 
@@ -22,6 +23,7 @@ __all__ = [
     "DistanceToReference",
     "LambdaCostTerm",
     "LinkMotion",
+    "LinkRotation",
     "PathLength",
     "TrajectoryCostTerm",
     "TrajectoryDuration",
@@ -118,6 +120,25 @@ class TrajectoryDuration(TrajectoryCostTerm):
         return (0.0 if s.trajectory is None else float(s.trajectory.duration)), ""
 
 
+def _link_frames(s: "SubTrajectory", link: str, cost_name: str) -> tuple[list[np.ndarray] | None, str]:
+    """The link's pose at each waypoint of ``s``'s trajectory; (None, MTC's comment) when the
+    robot has no such link."""
+    traj = s.trajectory
+    start = s.start.scene.current_state
+    model = start.model
+    if not model.has_link(link):
+        return None, f"{cost_name}: frame '{link}' unknown in trajectory"
+    indices = np.array([model.variable_index(n) for n in traj.joint_names], dtype=int)
+    state = start.copy()
+    positions = start.positions.copy()
+    frames = []
+    for row in traj.positions:
+        positions[indices] = row
+        state.set_positions(positions)
+        frames.append(state.frame_pose(link))
+    return frames, ""
+
+
 class LinkMotion(TrajectoryCostTerm):
     """Length (m) of the path of a link's origin along the trajectory."""
 
@@ -127,26 +148,30 @@ class LinkMotion(TrajectoryCostTerm):
         self.link_name = link
 
     def subtrajectory_cost(self, s):
-        traj = s.trajectory
-        if traj is None or len(traj) == 0:
+        if s.trajectory is None or len(s.trajectory) == 0:
             return 0.0, ""
-        start = s.start.scene.current_state
-        model = start.model
-        if not model.has_link(self.link_name):
-            return math.inf, f"LinkMotionCost: frame '{self.link_name}' unknown in trajectory"
-        indices = np.array([model.variable_index(n) for n in traj.joint_names], dtype=int)
-        state = start.copy()
-        positions = start.positions.copy()
-        previous = None
-        distance = 0.0
-        for row in traj.positions:
-            positions[indices] = row
-            state.set_positions(positions)
-            point = state.frame_pose(self.link_name)[:3, 3]
-            if previous is not None:
-                distance += float(np.linalg.norm(point - previous))
-            previous = point
-        return distance, ""
+        frames, comment = _link_frames(s, self.link_name, "LinkMotionCost")
+        if frames is None:
+            return math.inf, comment
+        return sum(float(np.linalg.norm(b[:3, 3] - a[:3, 3])) for a, b in zip(frames, frames[1:])), ""
+
+
+class LinkRotation(TrajectoryCostTerm):
+    """Total orientation change (rad) of a link along the trajectory: the sum of the angles
+    between the link's orientations at consecutive waypoints (MTC's cost::LinkRotation)."""
+
+    def __init__(self, link: str) -> None:
+        if not isinstance(link, str) or not link:
+            raise TaskError(f"LinkRotation needs a link name, got {link!r}")
+        self.link_name = link
+
+    def subtrajectory_cost(self, s):
+        if s.trajectory is None or len(s.trajectory) == 0:
+            return 0.0, ""
+        frames, comment = _link_frames(s, self.link_name, "LinkRotationCost")
+        if frames is None:
+            return math.inf, comment
+        return sum(float(np.linalg.norm(pin.log3(a[:3, :3].T @ b[:3, :3]))) for a, b in zip(frames, frames[1:])), ""
 
 
 class Clearance(TrajectoryCostTerm):

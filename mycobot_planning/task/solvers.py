@@ -38,6 +38,7 @@ from typing import TYPE_CHECKING, Any, Callable, Mapping
 import numpy as np
 
 from ..core.cartesian_path import compute_cartesian_path
+from ..core.cartesian_precision import CartesianPrecision
 from ..core.errors import PlanningError
 from ..core.joint_interpolation import DEFAULT_MAX_STEP, interpolate_joint_path
 from ..core.kinematic_constraints import ConstraintError, PathConstraints, dense_violation
@@ -419,6 +420,8 @@ class CartesianPath(PlannerInterface):
         p.declare("step_size", step_size, "step size between consecutive waypoints (m)", type=float)
         p.declare("jump_threshold", jump_threshold, "acceptable fraction of mean joint motion per step", type=float)
         p.declare("min_fraction", min_fraction, "fraction of motion required for success", type=float)
+        p.declare("precision", CartesianPrecision(), "precision of the linear path (MoveIt's CartesianPrecision)",
+                  type=CartesianPrecision)
         p.declare("max_cartesian_speed", 0.0, "max Cartesian speed of cartesian_speed_limited_link (m/s; 0: "
                   "no limit): the trajectory is slowed down uniformly", type=float)
         p.declare("cartesian_speed_limited_link", "", "link whose speed max_cartesian_speed limits (empty: the "
@@ -432,6 +435,9 @@ class CartesianPath(PlannerInterface):
 
     def setMinFraction(self, fraction: float) -> None:
         self._properties.set("min_fraction", fraction)
+
+    def setPrecision(self, precision: CartesianPrecision) -> None:
+        self._properties.set("precision", precision)
 
     def setIKFrame(self, pose_or_link: Any, link: str | None = None) -> None:
         self._properties.set("ik_frame", pose_or_link if link is None else PoseStamped(link, pose_or_link))
@@ -477,7 +483,7 @@ class CartesianPath(PlannerInterface):
             from_scene, group, from_scene.current_state, [np.asarray(target, dtype=float)], link=link,
             ik_frame_offset=np.asarray(offset, dtype=float), eef_step=float(p["step_size"]),
             jump_threshold=float(p["jump_threshold"]), avoid_collisions=True, velocity_scaling=velocity,
-            acceleration_scaling=acceleration, path_constraints=constraints,
+            acceleration_scaling=acceleration, path_constraints=constraints, precision=p["precision"],
         )
         if not result.success:
             return PlanResult(False, None, result.message, self.planner_id)

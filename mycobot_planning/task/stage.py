@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import bisect
 import time
+from enum import IntEnum
 from typing import TYPE_CHECKING, Any, Callable, Iterable
 
 import numpy as np
@@ -560,6 +561,14 @@ class MonitoringGenerator(Generator):
         raise NotImplementedError
 
 
+class Direction(IntEnum):
+    """MTC's PropagatingEitherWay.Direction: AUTO (the container decides), FORWARD, BACKWARD."""
+
+    AUTO = 0
+    FORWARD = 1
+    BACKWARD = 2
+
+
 class PropagatingEitherWay(ComputeBase):
     """Reads states on one side, computes, writes the result to the other side.
 
@@ -569,9 +578,10 @@ class PropagatingEitherWay(ComputeBase):
     direction)`` returning ``(ok, end_scene, SubTrajectory)``.
     """
 
-    AUTO = 0
-    FORWARD = 1
-    BACKWARD = 2
+    Direction = Direction
+    AUTO = Direction.AUTO
+    FORWARD = Direction.FORWARD
+    BACKWARD = Direction.BACKWARD
 
     def __init__(self, name: str = "", direction: int = 0) -> None:
         super().__init__(name)

@@ -1,12 +1,12 @@
 """The stages of the task constructor, under MTC's names (``from mycobot_planning.task import
 stages``; ``stages.CurrentState("current")``)."""
 from .compute_ik import ComputeIK
-from .connect import Connect
+from .connect import Connect, MergeMode
 from .fix_collision_objects import FixCollisionObjects
 from .generate_grasp_pose import GenerateGraspPose
 from .generate_place_pose import GeneratePlacePose
 from .generate_pose import GeneratePose
-from .generate_random_pose import GenerateRandomPose
+from .generate_random_pose import GenerateRandomPose, PoseDimension
 from .limit_solutions import LimitSolutions
 from .modify_planning_scene import ModifyPlanningScene
 from .move_relative import MoveRelative
@@ -29,6 +29,7 @@ __all__ = [
     "GeneratePose",
     "GenerateRandomPose",
     "LimitSolutions",
+    "MergeMode",
     "ModifyPlanningScene",
     "MoveRelative",
     "MoveTo",
@@ -36,6 +37,7 @@ __all__ = [
     "Pick",
     "PickPlaceBase",
     "Place",
+    "PoseDimension",
     "PredicateFilter",
     "SimpleGrasp",
     "SimpleGraspBase",

@@ -12,6 +12,7 @@ planner, as in MTC (e.g. keep a held object upright).
 """
 from __future__ import annotations
 
+from enum import IntEnum
 from typing import Any, Sequence
 
 import numpy as np
@@ -26,9 +27,17 @@ from ..storage import InterfaceState, SolutionSequence, SubTrajectory
 from ..trajectories import find_group, merge_trajectories
 
 
+class MergeMode(IntEnum):
+    """MTC's stages.MergeMode: how Connect joins the trajectories of several groups."""
+
+    SEQUENTIAL = 0  # one after the other
+    WAYPOINTS = 1  # merged into one trajectory by their waypoints
+
+
 class Connect(Connecting):
-    SEQUENTIAL = 0
-    WAYPOINTS = 1
+    MergeMode = MergeMode
+    SEQUENTIAL = MergeMode.SEQUENTIAL
+    WAYPOINTS = MergeMode.WAYPOINTS
 
     def __init__(self, name: str = "connect", planners: Sequence[tuple[str, PlannerInterface]] = ()) -> None:
         super().__init__(name)

@@ -10,6 +10,7 @@ pose alone, as GeneratePose does. Random numbers come from the task's seed when 
 from __future__ import annotations
 
 import time
+from enum import IntEnum
 from typing import Iterator
 
 import numpy as np
@@ -20,9 +21,21 @@ from ..geometry import PoseStamped
 from .generate_pose import GeneratePose
 
 
+class PoseDimension(IntEnum):
+    """MTC's stages.PoseDimension: what a sampler of GenerateRandomPose varies."""
+
+    X = 0
+    Y = 1
+    Z = 2
+    ROLL = 3
+    PITCH = 4
+    YAW = 5
+
+
 class GenerateRandomPose(GeneratePose):
-    X, Y, Z, ROLL, PITCH, YAW = range(6)
-    _DIMENSIONS = {"X": X, "Y": Y, "Z": Z, "ROLL": ROLL, "PITCH": PITCH, "YAW": YAW}
+    PoseDimension = PoseDimension
+    X, Y, Z, ROLL, PITCH, YAW = PoseDimension
+    _DIMENSIONS = {d.name: d for d in PoseDimension}
 
     def __init__(self, name: str = "generate random pose", monitored=None) -> None:
         super().__init__(name, monitored)
@@ -44,6 +57,14 @@ class GenerateRandomPose(GeneratePose):
         if not (isinstance(width, (int, float)) and np.isfinite(width) and width >= 0.0):
             raise TaskError(f"stage '{self._name}': sampler width must be a number >= 0, got {width!r}")
         self._samplers.append((int(dof), float(width), distribution))
+
+    def sample_dimension(self, pose_dimension: int | str, width: float) -> None:
+        """MTC's Python form: a uniform sampler over a range ``width`` centred on the seed."""
+        self.sampleDimension(pose_dimension, width, "uniform")
+
+    def set_max_solutions(self, max_solutions: int) -> None:
+        """MTC's Python form of ``max_solutions = n``."""
+        self._properties["max_solutions"] = max_solutions
 
     def _targets(self, seed: PoseStamped) -> Iterator[PoseStamped]:
         yield seed
