@@ -536,7 +536,7 @@ def _compute(
                       f"prismatic_jump_threshold {prismatic_jump_threshold:g} at step {s + 1}")
             break
         largest = float(np.abs(delta).max())
-        if straightness is not None and straightness.needs_check(largest):
+        if straightness is not None and straightness.needs_check(delta, largest):
             p0, r0 = (p_ik[s - 1], r_ik[s - 1]) if s > 0 else (ik_start[:3, 3], ik_start[:3, :3])
             off_line, turned = straightness.deviation(previous, x, p0, r0, p_ik[s], r_ik[s])
             if straightness.exceeded(off_line, turned):

@@ -10,9 +10,10 @@ kinematics at the joint-space midpoint of a step) and halves its steps until the
 Most steps are far too short to bulge: along a joint-space line with steps delta, the ik frame's
 second derivative is at most (sum |delta_j|)^2 x R in position (R bounds the distance from any
 joint of the chain to the frame: the sum of the chain's link offsets) and (sum |delta_j|)^2 in
-angle, and a curve leaves its chord by at most an eighth of that. A step whose bound, doubled
-and plus the IK tolerance, is within the precision needs no forward kinematics
-(:meth:`PrecisionCheck.needs_check`); chains with a prismatic joint are always checked.
+angle, and a curve leaves its chord by at most an eighth of that. A step whose bound (plus the
+IK tolerance; the angle's bound doubled, as it holds to first order only) is within the
+precision needs no forward kinematics (:meth:`PrecisionCheck.needs_check`); chains with a
+prismatic joint are always checked.
 """
 from __future__ import annotations
 
@@ -56,39 +57,39 @@ class PrecisionCheck:
         self.precision = precision
         self.model = model
         self.pmodel = model.pin_model
-        self.pdata = self.pmodel.createData()
+        self.pdata = None  # made on the first check: most paths never need one
         self.fid = model.frame_id(link)
         self.idx = np.asarray(group_indices)
-        self.slots = model.q_slots(self.idx)
         self.dof = len(self.idx)
         self.full = np.array(full, dtype=float)
-        self.q = np.array(model.to_q(self.full), dtype=float)
+        self.q: np.ndarray | None = None  # the configuration buffer, made with pdata on the first check
         self.offset = None if offset is None else np.asarray(offset, dtype=float)
         # R: an upper bound on the distance from any joint of the chain to the ik frame
-        frame = self.pmodel.frames[self.fid]
-        reach = float(np.linalg.norm(frame.placement.translation))
+        reach = _chain_reach(model, self.fid)
         if self.offset is not None:
-            reach += float(np.linalg.norm(self.offset[:3, 3]))
-        joint = frame.parentJoint
-        while joint > 0:
-            reach += float(np.linalg.norm(self.pmodel.jointPlacements[joint].translation))
-            joint = self.pmodel.parents[joint]
-        # largest sum |delta_j| whose doubled bound (plus the IK tolerances) stays within the precision
+            reach += math.sqrt(float(self.offset[:3, 3] @ self.offset[:3, 3]))
+        # the largest sum |delta_j| whose bounds (plus the IK tolerances) stay within the precision
         position_tolerance, orientation_tolerance = tolerances
-        room = min((precision.translational - position_tolerance) * 4.0 / max(reach, 1e-9),
+        room = min((precision.translational - position_tolerance) * 8.0 / max(reach, 1e-9),
                    (precision.rotational - orientation_tolerance) * 4.0)
         self._skip_below = math.sqrt(room) if revolute_only and room > 0 else 0.0
 
-    def needs_check(self, largest: float) -> bool:
-        """False when a step whose largest joint motion is ``largest`` is provably too short to
-        miss the precision (sum |delta_j| <= dof x largest)."""
-        return largest * self.dof >= self._skip_below
+    def needs_check(self, delta: np.ndarray, largest: float) -> bool:
+        """False when the step ``delta`` (group values; ``largest`` its largest magnitude) is
+        provably too short to miss the precision."""
+        if largest * self.dof < self._skip_below:  # sum |delta_j| <= dof x largest: no sum needed
+            return False
+        return float(np.abs(delta).sum()) >= self._skip_below
 
     def deviation(self, a: np.ndarray, b: np.ndarray, p0: np.ndarray, r0: np.ndarray, p1: np.ndarray,
                   r1: np.ndarray) -> tuple[float, float]:
         """(m, rad): how far the ik frame is, halfway from group values ``a`` to ``b``, from the
         midpoint of the targets (p0, r0) -> (p1, r1)."""
         x = 0.5 * (np.asarray(a) + np.asarray(b))
+        if self.pdata is None:
+            self.pdata = self.pmodel.createData()
+            self.slots = self.model.q_slots(self.idx)
+            self.q = np.array(self.model.to_q(self.full), dtype=float)
         if self.slots is not None:
             q = self.q
             q[self.slots] = x
@@ -97,8 +98,8 @@ class PrecisionCheck:
             q = self.model.to_q(self.full)
         pin.forwardKinematics(self.pmodel, self.pdata, q)
         placement = pin.updateFramePlacement(self.pmodel, self.pdata, self.fid)
-        rotation = np.array(placement.rotation)
-        position = np.array(placement.translation)
+        rotation = placement.rotation
+        position = placement.translation
         if self.offset is not None:
             position = position + rotation @ self.offset[:3, 3]
             rotation = rotation @ self.offset[:3, :3]
@@ -109,3 +110,20 @@ class PrecisionCheck:
 
     def exceeded(self, translational: float, rotational: float) -> bool:
         return translational > self.precision.translational or rotational > self.precision.rotational
+
+
+def _chain_reach(model, fid: int) -> float:
+    """The sum of the offsets of the frame and of every joint above it: no joint of the chain is
+    farther from the frame, whatever the configuration (kept on the model, per frame)."""
+    cache = model.__dict__.setdefault("_chain_reach", {})
+    reach = cache.get(fid)
+    if reach is None:
+        pmodel = model.pin_model
+        frame = pmodel.frames[fid]
+        reach = float(np.linalg.norm(frame.placement.translation))
+        joint = frame.parentJoint
+        while joint > 0:
+            reach += float(np.linalg.norm(pmodel.jointPlacements[joint].translation))
+            joint = pmodel.parents[joint]
+        cache[fid] = reach
+    return reach
