@@ -373,8 +373,7 @@ class DriverCore:
         self.connected = False
         self.reason = reason
         text = f"lost the arm on {self.config.port}: {reason}"
-        self._abort_goals(text)
-        self._set_unavailable(f"the arm on {self.config.port} is not connected ({reason})")
+        self._refuse_and_abort(f"the arm on {self.config.port} is not connected ({reason})", text)
         self._safe_stop()
         self.link.close()
         self._event("error", text + f"; goals aborted, reconnecting every {self.config.reconnect_period:g} s")
@@ -392,6 +391,15 @@ class DriverCore:
             self.arm.unavailable = text
             if self.gripper is not None:
                 self.gripper.unavailable = text
+
+    def _refuse_and_abort(self, refusal: str, reason: str) -> None:
+        """New goals refused with ``refusal``, then the running ones aborted with ``reason``, in
+        one step under the lock: a client that resends as soon as its goal is aborted must not
+        start a motion before the refusal is in place (seen: a goal accepted while error 17 was
+        being handled)."""
+        with self.lock:
+            self._set_unavailable(refusal)
+            self._abort_goals(reason)
 
     def _abort_goals(self, reason: str) -> None:
         now = self.clock()
@@ -484,9 +492,8 @@ class DriverCore:
         if code:
             text = self._error_text(code)
             self._event("error", f"{text}: stopping the arm, goals aborted, new goals refused until it clears")
-            self._abort_goals(text)
+            self._refuse_and_abort(text, text)
             self._safe_stop()
-            self._set_unavailable(text)
         else:
             self._event("info", "the arm's error cleared; goals are accepted again")
             self._set_unavailable("")

@@ -326,8 +326,13 @@ def control_request(socket_path: str | Path, request: dict[str, Any], timeout: f
 def _serve_control(arm: EmulatedArm, path: Path, stop: threading.Event) -> None:
     path.unlink(missing_ok=True)
     server = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-    server.bind(str(path))
+    # bound under another name and moved into place once listening: a client that sees the path
+    # can connect (bind alone creates the file, and a connect before listen is refused)
+    staging = path.with_name(path.name + ".tmp")
+    staging.unlink(missing_ok=True)
+    server.bind(str(staging))
     server.listen(4)
+    os.replace(staging, path)
     server.settimeout(0.2)
     try:
         while not stop.is_set():
