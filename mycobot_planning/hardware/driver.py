@@ -388,26 +388,30 @@ class DriverCore:
 
     def _set_unavailable(self, text: str) -> None:
         with self.lock:
-            self.arm.unavailable = text
-            if self.gripper is not None:
-                self.gripper.unavailable = text
+            for f in self._followers():
+                f.unavailable = text
 
     def _refuse_and_abort(self, refusal: str, reason: str) -> None:
         """New goals refused with ``refusal``, then the running ones aborted with ``reason``, in
-        one step under the lock: a client that resends as soon as its goal is aborted must not
-        start a motion before the refusal is in place (seen: a goal accepted while error 17 was
-        being handled)."""
+        one step under the lock (the node's, not reentrant: taken once): a client that resends
+        as soon as its goal is aborted must not start a motion before the refusal is in place
+        (seen: a goal accepted while error 17 was being handled)."""
+        now = self.clock()
         with self.lock:
-            self._set_unavailable(refusal)
-            self._abort_goals(reason)
+            for f in self._followers():
+                f.unavailable = refusal
+            self._abort_locked(now, reason)
 
     def _abort_goals(self, reason: str) -> None:
         now = self.clock()
         with self.lock:
-            for f in self._followers():
-                for state in f.abort(now, reason):
-                    self._on_change(f, state)
-                self._was_active[id(f)] = False
+            self._abort_locked(now, reason)
+
+    def _abort_locked(self, now: float, reason: str) -> None:
+        for f in self._followers():
+            for state in f.abort(now, reason):
+                self._on_change(f, state)
+            self._was_active[id(f)] = False
 
     def _followers(self) -> list[MeasuredTrajectoryFollower]:
         return [self.arm] + ([self.gripper] if self.gripper is not None else [])

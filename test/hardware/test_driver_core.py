@@ -1,6 +1,7 @@
 """The driver core (ROS-free) on the emulated arm through pymycobot: following, faults, stop."""
 from __future__ import annotations
 
+import threading
 import time
 
 import numpy as np
@@ -37,7 +38,9 @@ class Rig:
         self.gripper = MeasuredTrajectoryFollower(["gripper"], [-0.5], [0.0], [0.0], goal_tolerance=0.01,
                                                   name="gripper", goal_time=3.0, allow_stalling=True)
         self.events: list[tuple[str, str]] = []
-        self.core = DriverCore(self.config, self.arm, self.gripper, on_event=lambda lv, t: self.events.append((lv, t)))
+        # a plain lock, as the node gives it: a nested acquisition deadlocks here as it would there
+        self.core = DriverCore(self.config, self.arm, self.gripper, lock=threading.Lock(),
+                               on_event=lambda lv, t: self.events.append((lv, t)))
         self.core.start()
         assert wait_until(lambda: self.core.connected), self.events
 
