@@ -278,9 +278,12 @@ print_status() {
 do_stop() {
   # SIGINT every node first (the planning_server first: it stops a running execution while the
   # controllers still listen), then wait for each: their shutdowns overlap instead of adding up.
+  # The emulated arm is the exception: it is stopped last, after the driver, whose shutdown sends
+  # the arm its stop command (a fresh-clone run saw the emulator gone before that command).
   local i name signalled=()
   for ((i = ${#NODES[@]} - 1; i >= 0; i--)); do
     name="${NODES[$i]}"
+    [[ "$name" != mycobot_emulator ]] || continue
     if alive "$name"; then
       kill -INT -- "-$(recorded_pid "$name")" 2>/dev/null || true
       signalled+=("$name")
