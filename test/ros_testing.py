@@ -188,6 +188,21 @@ class ProbeNode:
             msg = self._joint_state
         return dict(zip(msg.name, msg.position)) if msg is not None else {}
 
+    def wait_for_move_group(self, timeout: float = 30.0) -> bool:
+        """Whether move_group's planning service and its execute_trajectory and move_action
+        servers are known to this node within ``timeout``: what a MoveIt client (pymoveit2) needs
+        discovered before its first request, or it gives up at once ("not yet available")."""
+        from moveit_msgs.action import ExecuteTrajectory, MoveGroup
+        from moveit_msgs.srv import GetMotionPlan
+        from rclpy.action import ActionClient
+
+        # kept until the node closes: destroying them while the executor spins stalled it
+        actions = [ActionClient(self.node, ExecuteTrajectory, "/execute_trajectory"),
+                   ActionClient(self.node, MoveGroup, "/move_action")]
+        service = self.node.create_client(GetMotionPlan, "/plan_kinematic_path")
+        return wait_until(lambda: service.service_is_ready() and all(a.server_is_ready() for a in actions),
+                          timeout, period=0.1)
+
     def spin_in_background(self) -> None:
         self.spinner = BackgroundSpin(self.executor, name=f"{self.node.get_name()} executor")
 

@@ -59,6 +59,7 @@ def client():
         user = Client()
         try:
             assert user.moveit2.wait_for_joint_state(10.0)
+            assert user.wait_for_move_group(), "move_group's services and actions were not discovered"
             yield user
         finally:
             user.close()

@@ -79,6 +79,7 @@ def test_pymoveit2_plans_and_executes_a_pose_goal(ur5_system, ur5_config: Path) 
     client = Client()
     try:
         assert client.moveit2.wait_for_joint_state(10.0)
+        assert client.wait_for_move_group(), "move_group's services and actions were not discovered"
         quat = Rotation.from_matrix(goal[:3, :3]).as_quat()
         assert client.moveit2.move_to_pose(position=goal[:3, 3].tolist(), quat_xyzw=quat.tolist())
         assert client.moveit2.wait_until_executed()
