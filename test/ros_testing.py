@@ -194,7 +194,7 @@ class ProbeNode:
         discovered before its first request, or it gives up at once ("not yet available")."""
         from moveit_msgs.action import ExecuteTrajectory, MoveGroup
         from moveit_msgs.srv import GetMotionPlan
-        from rclpy.action import ActionClient
+        from interfaces_py.action_client import ActionClient
 
         # kept until the node closes: destroying them while the executor spins stalled it
         actions = [ActionClient(self.node, ExecuteTrajectory, "/execute_trajectory"),

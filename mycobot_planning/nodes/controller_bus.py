@@ -23,9 +23,9 @@ from typing import Any, Callable
 from action_msgs.msg import GoalStatus
 from control_msgs.action import FollowJointTrajectory, GripperCommand
 from control_msgs.msg import JointTrajectoryControllerState
-from rclpy.action import ActionClient
 from rclpy.node import Node
 
+from interfaces_py.action_client import ActionClient
 from interfaces_py.msgs import JointTrajectory
 from interfaces_py.ros_conversions import joint_trajectory_to_msg
 from mycobot_planning.core.trajectory_execution import GRIPPER_COMMAND, ControllerInfo, ControllerState

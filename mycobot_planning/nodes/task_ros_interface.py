@@ -27,10 +27,10 @@ from moveit_msgs.msg import PlanningSceneComponents
 from moveit_msgs.srv import GetPlanningScene
 from moveit_task_constructor_msgs.action import ExecuteTaskSolution
 from rcl_interfaces.srv import GetParameters, ListParameters
-from rclpy.action import ActionClient
 from rclpy.node import Node
 
 from interfaces_py import names
+from interfaces_py.action_client import ActionClient
 from interfaces_py.moveit_conversions import ConversionError, planning_scene_from_msg
 from interfaces_py.msgs import MessageError, MoveItErrorCode, TaskSolution
 from interfaces_py.msgs import PlanningScene as PlanningSceneMsg

@@ -129,7 +129,7 @@ def _yaml(msg: Any) -> str:
 def send_goal(args: argparse.Namespace) -> int | str:
     import rclpy
     import yaml
-    from rclpy.action import ActionClient
+    from interfaces_py.action_client import ActionClient
 
     from ._message import get_interface, set_message_fields
 

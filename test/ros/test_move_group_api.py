@@ -33,11 +33,11 @@ from moveit_msgs.srv import (
 )
 from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
 from rcl_interfaces.srv import SetParameters
-from rclpy.action import ActionClient
 from sensor_msgs.msg import JointState
 from shape_msgs.msg import SolidPrimitive
 from std_msgs.msg import String
 
+from interfaces_py.action_client import ActionClient
 from mycobot_planning.core.robot_model import RobotModel
 from mycobot_planning.core.robot_state import RobotState
 from ros_testing import ProbeNode, wait_until, robot_processes

@@ -13,12 +13,12 @@ from moveit_msgs.srv import GetPlanningScene
 from moveit_task_constructor_msgs.action import ExecuteTaskSolution
 from moveit_task_constructor_msgs.msg import Solution, TaskDescription, TaskStatistics
 from moveit_task_constructor_msgs.srv import GetSolution
-from rclpy.action import ActionClient
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_srvs.srv import Trigger
 
+from interfaces_py.action_client import ActionClient
 from interfaces_py.background_spin import BackgroundSpin
 from mycobot_planning.paths import config_file
 from mycobot_planning.demos.pick_place import PickPlaceParameters, expected_place_pose

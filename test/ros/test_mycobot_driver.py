@@ -14,9 +14,9 @@ rclpy = pytest.importorskip("rclpy", reason="rclpy is installed by scripts/setup
 pytest.importorskip("pymycobot", reason="pymycobot 4.0.7 is installed by scripts/setup.sh")
 
 from control_msgs.action import FollowJointTrajectory, GripperCommand  # noqa: E402
-from rclpy.action import ActionClient  # noqa: E402
 from trajectory_msgs.msg import JointTrajectoryPoint  # noqa: E402
 
+from interfaces_py.action_client import ActionClient  # noqa: E402
 from interfaces_py.ros_conversions import seconds_to_duration  # noqa: E402
 from mycobot_planning.hardware.emulator import EmulatedArm  # noqa: E402
 
