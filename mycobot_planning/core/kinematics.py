@@ -46,9 +46,19 @@ class IKOptions:
     # solution saturates in fewer attempts (ComputeIK on the seeds' pick and place: 100 instead
     # of 150 attempts, every solution still found in 200 of 200 runs).
     restart_neighbours: int = 120
-    orientation_weight: float = 0.05  # metres per unit of rotation-matrix difference in the table
+    # Metres per unit of rotation-matrix difference in the table's nearest-pose lookup. None:
+    # ORIENTATION_WEIGHT_PER_REACH times the link's reach (see IKSolver._seed_table).
+    orientation_weight: float | None = None
 
 
+#: The table's orientation weight per metre of reach (the RMS distance of the link's sampled
+#: positions from their centre): how far apart two orientations count against two positions
+#: scales with the arm. 0.27 gives the myCobot (reach 0.19 m) the 0.05 m it was tuned at; a
+#: fixed 0.05 m left the Panda (reach 0.60 m, weight 0.16 m now) seeding its descents on
+#: position alone: 13 % slower IK (bench `peers`), every pose still solved.
+ORIENTATION_WEIGHT_PER_REACH = 0.27
+#: Group states sampled to measure the reach
+REACH_SAMPLES = 500
 #: Most starts descended together (see IKSolver._descend_batch); batches grow 1, 4, 16... to it.
 BATCH_SIZE = 32
 #: A restart whose error (norm of log6) still exceeds ABORT_ERROR after ABORT_ITERATION steps
@@ -145,6 +155,8 @@ class IKSolver:
         self._damping3 = options.damping * np.eye(3)
         self._damping6 = options.damping * np.eye(6)
         self._gesv = get_lapack_funcs(("gesv",), (np.zeros((6, 6)),))[0]
+        self._orientation_weight = (options.orientation_weight if options.orientation_weight is not None
+                                    else ORIENTATION_WEIGHT_PER_REACH * self._reach())
         self._seed_features: tuple = (None, None)  # (key of the last seed, its pose features)
 
     # ------------------------------------------------------------------ one descent
@@ -160,23 +172,46 @@ class IKSolver:
             size = self.options.seed_table_size
             samples = rng.uniform(self._sample_lower, self._sample_upper, size=(size, len(self._indices)))
             full = self.model.default_positions()
-            features = np.empty((size, 3 if position_only else 12))
+            features = np.empty((size, 12))
             pmodel, pdata = self.model.pin_model, self.model.pin_data
             for i, x in enumerate(samples):
                 full[self._indices] = x
                 pin.forwardKinematics(pmodel, pdata, self.model.to_q(full))
-                features[i] = self._features(pin.updateFramePlacement(pmodel, pdata, self.frame_id), position_only)
+                pose = pin.updateFramePlacement(pmodel, pdata, self.frame_id)
+                features[i, :3] = pose.translation
+                features[i, 3:] = pose.rotation.reshape(-1)
+            if position_only:
+                return cKDTree(features[:, :3]), samples
+            features[:, 3:] *= self._orientation_weight
             return cKDTree(features), samples
 
         options = self.options
         key = ("ik_seed_table", self.group.name, self.link, position_only, options.seed_table_size,
-               options.orientation_weight)
+               self._orientation_weight)
         return self.model.cached(key, build)
+
+    def _reach(self) -> float:
+        """RMS distance of the link's positions over a fixed sample of group states from their
+        centre (cached per model, group and link): the arm's size, for the orientation weight."""
+        def measure() -> float:
+            rng = np.random.default_rng(54321)
+            full = self.model.default_positions()
+            pmodel, pdata = self.model.pin_model, self.model.pin_data
+            points = np.empty((REACH_SAMPLES, 3))
+            for i, x in enumerate(rng.uniform(self._sample_lower, self._sample_upper,
+                                              size=(REACH_SAMPLES, len(self._indices)))):
+                full[self._indices] = x
+                pin.forwardKinematics(pmodel, pdata, self.model.to_q(full))
+                points[i] = pin.updateFramePlacement(pmodel, pdata, self.frame_id).translation
+            spread = float(np.sqrt(np.mean(np.sum((points - points.mean(axis=0)) ** 2, axis=1))))
+            return spread if spread > 1e-6 else 1.0  # a link that does not move: any weight will do
+
+        return self.model.cached(("ik_reach", self.group.name, self.link), measure)
 
     def _features(self, pose: pin.SE3, position_only: bool) -> np.ndarray:
         if position_only:
             return np.array(pose.translation)
-        return np.concatenate([pose.translation, self.options.orientation_weight * pose.rotation.reshape(-1)])
+        return np.concatenate([pose.translation, self._orientation_weight * pose.rotation.reshape(-1)])
 
     def _start_points(self, base: np.ndarray, target: pin.SE3, position_only: bool, rng: np.random.Generator):
         """Starting group vectors with their iteration budgets, best first.

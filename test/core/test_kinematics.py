@@ -322,3 +322,25 @@ def test_fast_target_check_never_accepts_what_check_pose_refuses():
             assert _target_pose(pose, "IK target pose") is expected
             accepted += 1
     assert 0 < accepted < 3000
+
+
+def test_the_seed_tables_orientation_weight_follows_the_arms_reach():
+    """0.27 m per metre of reach: the myCobot keeps the 0.05 m it was tuned at, the Panda (three
+    times the reach) gets three times the weight, and an explicit option still wins."""
+    from mycobot_planning.core.kinematics import ORIENTATION_WEIGHT_PER_REACH, IKOptions
+    from mycobot_planning.paths import example_robot_data_dir
+
+    mycobot = IKSolver(RobotModel.mycobot(), "arm")
+    assert mycobot._orientation_weight == pytest.approx(0.05, abs=0.002)
+    assert 0.17 < mycobot._reach() < 0.21  # m: the myCobot 280's flange
+    root = example_robot_data_dir() / "panda_description"
+    panda_model = RobotModel.from_files(root / "urdf" / "panda.urdf", root / "srdf" / "panda.srdf")
+    panda = IKSolver(panda_model, "arm", "panda_hand")
+    assert panda._orientation_weight == pytest.approx(ORIENTATION_WEIGHT_PER_REACH * panda._reach())
+    assert panda._orientation_weight > 2.5 * mycobot._orientation_weight
+    fixed = IKSolver(panda_model, "arm", "panda_hand", options=IKOptions(orientation_weight=0.3))
+    assert fixed._orientation_weight == 0.3
+    tree, _ = fixed._seed_table(False)
+    assert np.max(np.abs(tree.data[:, 3:])) == pytest.approx(0.3, rel=1e-3)  # rotation entries reach ±1
+    pose = make_pose([0.4, 0.1, 0.4], rpy=[math.pi, 0.0, 0.0])
+    assert panda.solve(pose, max_solutions=1) and fixed.solve(pose, max_solutions=1)
