@@ -55,7 +55,7 @@ class IKOptions:
 #: positions from their centre): how far apart two orientations count against two positions
 #: scales with the arm. 0.27 gives the myCobot (reach 0.19 m) the 0.05 m it was tuned at; a
 #: fixed 0.05 m left the Panda (reach 0.60 m, weight 0.16 m now) seeding its descents on
-#: position alone: 13 % slower IK (bench `peers`), every pose still solved.
+#: position alone: about 10 % slower IK (the `peers` poses), every pose still solved.
 ORIENTATION_WEIGHT_PER_REACH = 0.27
 #: Group states sampled to measure the reach
 REACH_SAMPLES = 500
