@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Callable, Protocol
 
 import numpy as np
@@ -155,8 +156,6 @@ class IKSolver:
         self._damping3 = options.damping * np.eye(3)
         self._damping6 = options.damping * np.eye(6)
         self._gesv = get_lapack_funcs(("gesv",), (np.zeros((6, 6)),))[0]
-        self._orientation_weight = (options.orientation_weight if options.orientation_weight is not None
-                                    else ORIENTATION_WEIGHT_PER_REACH * self._reach())
         self._seed_features: tuple = (None, None)  # (key of the last seed, its pose features)
 
     # ------------------------------------------------------------------ one descent
@@ -189,6 +188,14 @@ class IKSolver:
         key = ("ik_seed_table", self.group.name, self.link, position_only, options.seed_table_size,
                self._orientation_weight)
         return self.model.cached(key, build)
+
+    @cached_property
+    def _orientation_weight(self) -> float:
+        """The option's weight, or ORIENTATION_WEIGHT_PER_REACH times the reach; measured on
+        first use, so a solver that never looks up an orientation costs nothing more to make."""
+        if self.options.orientation_weight is not None:
+            return self.options.orientation_weight
+        return ORIENTATION_WEIGHT_PER_REACH * self._reach()
 
     def _reach(self) -> float:
         """RMS distance of the link's positions over a fixed sample of group states from their
