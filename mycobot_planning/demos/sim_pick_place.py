@@ -24,6 +24,8 @@ from interfaces_py.msgs import CollisionObject
 from ..core.robot_model import RobotModel
 from ..core.robot_trajectory import TimedTrajectory
 from ..simulation.grasp_monitor import PlaceOutcome, SlipMonitor, judge_place
+from ..paths import config_file
+from ..simulation.scene import load_scene
 from ..simulation.simulator import MujocoSimulator
 from .pick_place import PickPlaceParameters, build_pick_place_task, expected_place_pose, pick_place_scene, \
     vector_to_pose
@@ -242,14 +244,14 @@ def execute_in_simulation(sim: MujocoSimulator, steps: Sequence[tuple[str, Timed
 def run_sim_pick_place(robot: RobotModel, params: PickPlaceParameters | None = None, *, seed: int = 0,
                        sim: MujocoSimulator | None = None, close_position: float | None = None,
                        **sim_options: Any) -> SimPickPlaceResult:
-    """Plan the seeds' pick and place for ``params`` and execute it in a simulator (``sim`` or a
-    new one whose object stands where ``params.object_pose`` says)."""
+    """Plan the seeds' pick and place for ``params`` and execute it in ``sim``, or in a new
+    simulator of config/mujoco_scene.yaml whose object stands where ``params.object_pose`` says
+    (``sim_options`` go to it; it is closed afterwards)."""
     params = params or PickPlaceParameters()
     if sim is None:
-        sim = MujocoSimulator(robot, **sim_options)
-        scene = simulation_scene_for(sim.scene, params)
-        sim.close()
-        sim = MujocoSimulator(robot, scene, sim.settings, **sim_options)
+        scene = simulation_scene_for(load_scene(config_file("mujoco_scene.yaml")), params)
+        with MujocoSimulator(robot, scene, **sim_options) as own:
+            return run_sim_pick_place(robot, params, seed=seed, sim=own, close_position=close_position)
     floor = sim.scene.floor.z if sim.scene.floor is not None else None
     solution = plan_pick_place(robot, params, seed, floor_z=floor)
     if solution is None:

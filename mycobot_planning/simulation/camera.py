@@ -16,6 +16,7 @@ from __future__ import annotations
 import os
 import threading
 import time
+from collections import deque
 from dataclasses import dataclass
 
 import mujoco
@@ -162,7 +163,7 @@ class CameraWorker:
         self._error: BaseException | None = None
         self.latest: DepthFrame | None = None
         self.frames = 0
-        self.render_seconds = 0.0
+        self._durations: deque[float] = deque(maxlen=50)
         self._thread = threading.Thread(target=self._run, name="mujoco_sim_camera", daemon=True)
         self._thread.start()
         if not self._ready.wait(start_timeout):
@@ -191,7 +192,7 @@ class CameraWorker:
                         attached = self._model
                     started = time.perf_counter()
                     frame = camera.render(self._snapshot, self._stamp)
-                    self.render_seconds += time.perf_counter() - started
+                    self._durations.append(time.perf_counter() - started)
                     self.latest = frame
                     self.frames += 1
                     if self._on_frame is not None:
@@ -222,6 +223,11 @@ class CameraWorker:
             error, self._error = self._error, None
             raise SimulationError(f"the depth camera failed: {error}") from None
         return self.latest
+
+    @property
+    def frame_seconds(self) -> float:
+        """Median time to render and back-project a frame over the last 50 (0: none yet)."""
+        return float(np.median(self._durations)) if self._durations else 0.0
 
     def close(self) -> None:
         self._closing = True

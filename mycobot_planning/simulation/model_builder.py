@@ -63,9 +63,6 @@ class ModelIndex:
 
     def fill(self, model: mujoco.MjModel, scene: SimScene) -> None:
         """Look every id up in ``model`` (after each compile)."""
-        def jid(name: str) -> int:
-            return mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
-
         names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) for j in range(model.njnt)]
         self.joint_qpos = {n: int(model.jnt_qposadr[j]) for j, n in enumerate(names) if n}
         self.joint_dof = {n: int(model.jnt_dofadr[j]) for j, n in enumerate(names) if n}
@@ -94,7 +91,6 @@ class ModelIndex:
             self.object_qpos[obj.id] = int(model.jnt_qposadr[j]) if j >= 0 else -1
             self.object_dof[obj.id] = int(model.jnt_dofadr[j]) if j >= 0 else -1
             self.object_geoms[obj.id] = int(model.body_geomadr[b])
-        del jid
 
 
 # --------------------------------------------------------------------------------- the robot
@@ -246,6 +242,11 @@ def _robot_spec(robot: RobotModel, settings: SimulationSettings, index: ModelInd
             eq.type = mujoco.mjtEq.mjEQ_JOINT
             eq.name1, eq.name2 = name, source
             eq.data[:5] = [offset, multiplier, 0.0, 0.0, 0.0]
+    # As stiff as the time step allows (MuJoCo's minimum time constant is two steps): the mimic
+    # joints stand for a rigid linkage, which the default (20 ms) lets twist under a grip.
+    for eq in spec.equalities:
+        if eq.type == mujoco.mjtEq.mjEQ_JOINT and eq.name1 in index.mimic_joints:
+            eq.solref = [2.0 * settings.timestep, 1.0]
     servo, grip = settings.arm_servo, settings.gripper
     for name in index.arm_joints:
         joints[name].armature = servo.armature

@@ -30,7 +30,7 @@ from interfaces_py.pose_conversion import PoseError, pose_matrix
 from ..perception.depth_camera import DepthCameraConfig
 from ..perception.errors import PerceptionError
 from .errors import SimulationModelError
-from .settings import _finite, _triple
+from .settings import finite_number, friction_triple
 
 SHAPES = ("box", "cylinder", "sphere")
 _OBJECT_KEYS = {"id", "shape", "size", "height", "radius", "pose", "mass", "fixed", "friction", "color"}
@@ -62,7 +62,7 @@ class SceneObject:
         if self.shape not in SHAPES:
             raise SimulationModelError(f"{where}: shape must be one of {list(SHAPES)}, got {self.shape!r}")
         want = {"box": 3, "cylinder": 2, "sphere": 1}[self.shape]
-        size = tuple(_finite(f"{where} size", v, 0.0, low_open=True) for v in self.size)
+        size = tuple(finite_number(f"{where} size", v, 0.0, low_open=True) for v in self.size)
         if len(size) != want:
             raise SimulationModelError(f"{where}: a {self.shape} needs {want} sizes, got {list(self.size)}")
         object.__setattr__(self, "size", size)
@@ -77,7 +77,7 @@ class SceneObject:
                     f"{where} is a free body with mass {mass!r}: MuJoCo cannot simulate a free body without "
                     "mass; give it a mass > 0 (kg) or make it fixed (fixed: true)")
         object.__setattr__(self, "mass", float(self.mass or 0.0))
-        object.__setattr__(self, "friction", _triple(f"{where} friction", list(self.friction)))
+        object.__setattr__(self, "friction", friction_triple(f"{where} friction", self.friction))
         color = tuple(float(c) for c in self.color)
         if len(color) not in (3, 4) or any(not 0.0 <= c <= 1.0 for c in color):
             raise SimulationModelError(f"{where}: color must be [r, g, b(, a)] in 0..1, got {list(self.color)}")
@@ -134,8 +134,8 @@ class Floor:
     friction: tuple[float, float, float] = DEFAULT_FRICTION
 
     def __post_init__(self) -> None:
-        _finite("floor.z", self.z)
-        object.__setattr__(self, "friction", _triple("floor.friction", list(self.friction)))
+        finite_number("floor.z", self.z)
+        object.__setattr__(self, "friction", friction_triple("floor.friction", self.friction))
 
 
 @dataclass(frozen=True)

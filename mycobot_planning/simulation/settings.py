@@ -11,6 +11,7 @@ from dataclasses import dataclass, field, fields, is_dataclass
 from pathlib import Path
 from typing import Any, Mapping
 
+import numpy as np
 import yaml
 
 from .errors import SimulationModelError
@@ -18,8 +19,9 @@ from .errors import SimulationModelError
 NODE_NAME = "mujoco_sim"
 
 
-def _finite(name: str, value: Any, low: float = -math.inf, high: float = math.inf, *,
-            low_open: bool = False) -> float:
+def finite_number(name: str, value: Any, low: float = -math.inf, high: float = math.inf, *,
+                  low_open: bool = False) -> float:
+    """``value`` as a float, or SimulationModelError naming ``name`` and the bound it breaks."""
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise SimulationModelError(f"{name} must be a finite number, got {value!r}")
     if value < low or value > high or (low_open and value == low):
@@ -29,11 +31,15 @@ def _finite(name: str, value: Any, low: float = -math.inf, high: float = math.in
     return float(value)
 
 
-def _triple(name: str, value: Any) -> tuple[float, float, float]:
+def friction_triple(name: str, value: Any) -> tuple[float, float, float]:
+    """MuJoCo friction [sliding, torsional, rolling] from 1 to 3 numbers >= 0 (missing ones:
+    MuJoCo's defaults)."""
     values = [value] if isinstance(value, (int, float)) and not isinstance(value, bool) else value
+    if isinstance(values, np.ndarray):
+        values = values.tolist()
     if not isinstance(values, (list, tuple)) or not 1 <= len(values) <= 3:
         raise SimulationModelError(f"{name} must be 1 to 3 numbers [sliding, torsional, rolling], got {value!r}")
-    out = [_finite(f"{name}[{i}]", v, 0.0) for i, v in enumerate(values)]
+    out = [finite_number(f"{name}[{i}]", v, 0.0) for i, v in enumerate(values)]
     defaults = (1.0, 0.005, 0.0001)  # MuJoCo's defaults for the missing ones
     return tuple(out + list(defaults[len(out):]))  # type: ignore[return-value]
 
@@ -61,10 +67,10 @@ class ArmServoSettings:
     effort_limit: float = 0.0
 
     def __post_init__(self) -> None:
-        _finite("arm_servo.effort_limit", self.effort_limit, 0.0)
-        _finite("arm_servo.bandwidth_hz", self.bandwidth_hz, 0.0, low_open=True)
-        _finite("arm_servo.damping_ratio", self.damping_ratio, 0.0, low_open=True)
-        _finite("arm_servo.armature", self.armature, 0.0)
+        finite_number("arm_servo.effort_limit", self.effort_limit, 0.0)
+        finite_number("arm_servo.bandwidth_hz", self.bandwidth_hz, 0.0, low_open=True)
+        finite_number("arm_servo.damping_ratio", self.damping_ratio, 0.0, low_open=True)
+        finite_number("arm_servo.armature", self.armature, 0.0)
 
 
 @dataclass(frozen=True)
@@ -83,12 +89,12 @@ class GripperSettings:
     stall_timeout: float = 1.0
 
     def __post_init__(self) -> None:
-        _finite("gripper.bandwidth_hz", self.bandwidth_hz, 0.0, low_open=True)
-        _finite("gripper.damping_ratio", self.damping_ratio, 0.0, low_open=True)
-        _finite("gripper.armature", self.armature, 0.0)
-        _finite("gripper.goal_tolerance", self.goal_tolerance, 0.0)
-        _finite("gripper.stall_velocity_threshold", self.stall_velocity_threshold, 0.0)
-        _finite("gripper.stall_timeout", self.stall_timeout, 0.0)
+        finite_number("gripper.bandwidth_hz", self.bandwidth_hz, 0.0, low_open=True)
+        finite_number("gripper.damping_ratio", self.damping_ratio, 0.0, low_open=True)
+        finite_number("gripper.armature", self.armature, 0.0)
+        finite_number("gripper.goal_tolerance", self.goal_tolerance, 0.0)
+        finite_number("gripper.stall_velocity_threshold", self.stall_velocity_threshold, 0.0)
+        finite_number("gripper.stall_timeout", self.stall_timeout, 0.0)
 
 
 @dataclass(frozen=True)
@@ -108,12 +114,12 @@ class FingertipSettings:
     def __post_init__(self) -> None:
         if self.condim not in (1, 3, 4, 6):
             raise SimulationModelError(f"contact.fingertip.condim must be 1, 3, 4 or 6, got {self.condim!r}")
-        object.__setattr__(self, "friction", _triple("contact.fingertip.friction", list(self.friction)))
-        _finite("contact.fingertip.margin", self.margin, 0.0, 0.01)
+        object.__setattr__(self, "friction", friction_triple("contact.fingertip.friction", self.friction))
+        finite_number("contact.fingertip.margin", self.margin, 0.0, 0.01)
         if len(self.solref) != 2:
             raise SimulationModelError(f"contact.fingertip.solref must be [timeconst, dampratio], got {self.solref!r}")
-        _finite("contact.fingertip.solref[0]", self.solref[0], 0.0, low_open=True)
-        _finite("contact.fingertip.solref[1]", self.solref[1], 0.0, low_open=True)
+        finite_number("contact.fingertip.solref[0]", self.solref[0], 0.0, low_open=True)
+        finite_number("contact.fingertip.solref[1]", self.solref[1], 0.0, low_open=True)
         object.__setattr__(self, "solref", (float(self.solref[0]), float(self.solref[1])))
 
 
@@ -131,7 +137,7 @@ class ContactSettings:
     def __post_init__(self) -> None:
         if self.cone not in ("elliptic", "pyramidal"):
             raise SimulationModelError(f"contact.cone must be 'elliptic' or 'pyramidal', got {self.cone!r}")
-        _finite("contact.impratio", self.impratio, 1.0)
+        finite_number("contact.impratio", self.impratio, 1.0)
         if isinstance(self.noslip_iterations, bool) or not isinstance(self.noslip_iterations, int) \
                 or self.noslip_iterations < 0:
             raise SimulationModelError(f"contact.noslip_iterations must be an integer >= 0, got "
@@ -155,12 +161,12 @@ class SimulationSettings:
     contact: ContactSettings = field(default_factory=ContactSettings)
 
     def __post_init__(self) -> None:
-        _finite("timestep", self.timestep, 0.0002, 0.002)
+        finite_number("timestep", self.timestep, 0.0002, 0.002)
         if self.integrator not in ("Euler", "RK4", "implicit", "implicitfast"):
             raise SimulationModelError(f"integrator must be one of Euler, RK4, implicit, implicitfast, got "
                                        f"{self.integrator!r}")
-        _finite("speed_factor", self.speed_factor, 0.0, 100.0, low_open=True)
-        _finite("camera_rate", self.camera_rate, 0.0, 60.0)
+        finite_number("speed_factor", self.speed_factor, 0.0, 100.0, low_open=True)
+        finite_number("camera_rate", self.camera_rate, 0.0, 60.0)
         for name in ("arm_group", "gripper_group"):
             if not isinstance(getattr(self, name), str):
                 raise SimulationModelError(f"{name} must be a group name (a string)")

@@ -79,6 +79,7 @@ class SimulatorStatus:
     behind_real_time: bool
     lag: float
     camera_frames: int
+    camera_frame_time: float  # s: median time to render a frame (last 50)
     message: str
 
 
@@ -472,6 +473,10 @@ class MujocoSimulator:
             self.model.actuator_forcerange[index.gripper_actuator] = (-bound, bound)
 
     def _step_once(self) -> None:
+        if self._camera_enabled and self.settings.camera_rate > 0 and self.time + 1e-9 >= self._next_frame:
+            # the frame of this instant, rendered in the camera's thread while the physics goes on
+            self._next_frame = self.time + 1.0 / self.settings.camera_rate
+            self._capture_locked()
         self._apply_controls()
         mujoco.mj_step(self.model, self.data)
         self._steps += 1
@@ -479,9 +484,6 @@ class MujocoSimulator:
         index = self._built.index
         self._gripper.update(float(self.data.qpos[index.gripper_qpos]), float(self.data.qvel[index.gripper_dof]),
                              self.time)
-        if self._camera_enabled and self.settings.camera_rate > 0 and self.time + 1e-9 >= self._next_frame:
-            self._next_frame = self.time + 1.0 / self.settings.camera_rate
-            self._capture_locked()
 
     def step(self, steps: int = 1) -> None:
         """Advance ``steps`` physics steps now, as fast as the CPU allows. While start()'s thread
@@ -602,8 +604,9 @@ class MujocoSimulator:
     def status(self) -> SimulatorStatus:
         with self._lock:
             frames = self._camera.frames if self._camera is not None else 0
+            frame_time = self._camera.frame_seconds if self._camera is not None else 0.0
             return SimulatorStatus(self.time, self._steps, self._paused, self._running, self._speed, self._rtf,
-                                   self._behind, self._lag, frames, self._message)
+                                   self._behind, self._lag, frames, frame_time, self._message)
 
     # ------------------------------------------------------------------ camera
     def _camera_worker(self) -> CameraWorker:

@@ -125,21 +125,17 @@ def ascii_ply() -> str:
         "3 {} {} {}\n".format(*f) for f in FACES)
 
 
-def test_a_mesh_format_mujoco_cannot_read_is_named(tmp_path):
-    """PLY loads in the RobotModel (Coal reads it through assimp); MuJoCo has no PLY decoder."""
-    (tmp_path / "part.ply").write_text(ascii_ply())
-    robot = two_link_robot(tmp_path, '<mesh filename="part.ply"/>')
-    with pytest.raises(SimulationModelError, match=r"link 'arm_link': collision mesh 'part.ply' is a .ply file; "
-                                                   r"MuJoCo reads STL, OBJ, MSH meshes only"):
-        build_model(robot, SimScene())
-
-
-def test_an_unreadable_mesh_is_named(tmp_path):
-    """An ASCII STL: the planning side reads it, MuJoCo decodes binary STL only."""
-    (tmp_path / "part.stl").write_text(ascii_stl())
-    robot = two_link_robot(tmp_path, '<mesh filename="part.stl"/>')
-    with pytest.raises(SimulationModelError, match=r"link 'arm_link': MuJoCo cannot read collision mesh "
-                                                   r"'part.stl'.*ASCII file"):
+@pytest.mark.parametrize("name,content,problem", [
+    # PLY loads in the RobotModel (Coal reads it through assimp); MuJoCo has no PLY decoder
+    ("part.ply", ascii_ply(), r"link 'arm_link': collision mesh 'part.ply' is a .ply file; MuJoCo reads STL, "
+                              r"OBJ, MSH meshes only"),
+    # an ASCII STL: the planning side reads it, MuJoCo decodes binary STL only
+    ("part.stl", ascii_stl(), r"link 'arm_link': MuJoCo cannot read collision mesh 'part.stl'.*ASCII file"),
+])
+def test_a_mesh_mujoco_cannot_read_is_named(tmp_path, name, content, problem):
+    (tmp_path / name).write_text(content)
+    robot = two_link_robot(tmp_path, f'<mesh filename="{name}"/>')
+    with pytest.raises(SimulationModelError, match=problem):
         build_model(robot, SimScene())
 
 
