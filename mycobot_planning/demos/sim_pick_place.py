@@ -257,3 +257,42 @@ def run_sim_pick_place(robot: RobotModel, params: PickPlaceParameters | None = N
     if solution is None:
         return SimPickPlaceResult(None, message="planning found no solution")
     return execute_in_simulation(sim, solution_steps(solution), params, close_position=close_position)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m mycobot_planning.demos.sim_pick_place [--seed N] [--object-xy X Y]
+    [--close-position P]``: plan the seeds' pick and place, execute it in physics, print each
+    step and the verdict; exit 0 only when the simulator says it held."""
+    import argparse
+
+    parser = argparse.ArgumentParser(prog="python -m mycobot_planning.demos.sim_pick_place",
+                                     description="The seeds' pick and place in the MuJoCo twin (ROS-free).")
+    parser.add_argument("--seed", type=int, default=0, help="random seed of the planning (default 0)")
+    parser.add_argument("--object-xy", type=float, nargs=2, metavar=("X", "Y"),
+                        help="where the cylinder stands (default: the seed's object_pose)")
+    parser.add_argument("--close-position", type=float, default=None,
+                        help="close the gripper here instead of the planned close pose (a bad grasp)")
+    args = parser.parse_args(argv)
+    params = PickPlaceParameters()
+    if args.object_xy:
+        params = params.with_changes(object_pose=[args.object_xy[0], args.object_xy[1], 0.0, 0.0, 0.0, 0.0])
+    result = run_sim_pick_place(RobotModel.mycobot(), params, seed=args.seed, close_position=args.close_position,
+                                camera=False)
+    for step in result.steps:
+        grip = ""
+        if step.gripper is not None:
+            g = step.gripper
+            grip = (f"; gripper at {g.position:.3f} (reached_goal {g.reached_goal}, stalled {g.stalled}, "
+                    f"touching {', '.join(g.contacts) or 'nothing'})")
+        print(f"{step.name:28s} {step.duration:5.2f} s, tracking error {step.max_tracking_error * 1000:4.1f} mrad"
+              f"{grip}{'' if step.ok else '  FAILED: ' + step.message}")
+    if result.outcome is not None:
+        print("Figures: " + ", ".join(f"{k} {v}" for k, v in result.outcome.figures().items()))
+    print(("SUCCESS: " if result.success else "FAILED: ") + result.message)
+    return 0 if result.success else 1
+
+
+if __name__ == "__main__":
+    import sys
+
+    sys.exit(main())
