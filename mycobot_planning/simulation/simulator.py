@@ -491,7 +491,7 @@ class MujocoSimulator:
         if isinstance(steps, bool) or not isinstance(steps, int) or steps < 0:
             raise SimulationError(f"steps must be an integer >= 0, got {steps!r}")
         with self._lock:
-            if self._thread is not None and self._thread.is_alive() and not self._paused:
+            if self._running_in_background() and not self._paused:
                 raise SimulationError("the simulation is running in real time: pause() it before stepping by hand")
             for _ in range(steps):
                 self._step_once()
@@ -512,22 +512,46 @@ class MujocoSimulator:
         return bool(done(self))
 
     # ------------------------------------------------------------------ real time
+    def _speed_or_default(self, speed_factor: float | None) -> float:
+        speed = self.settings.speed_factor if speed_factor is None else speed_factor
+        if isinstance(speed, bool) or not isinstance(speed, (int, float)) or not (math.isfinite(speed)
+                                                                                  and 0 < speed <= 100):
+            raise SimulationError(f"speed_factor must be within (0, 100], got {speed_factor!r}")
+        return float(speed)
+
+    def _running_in_background(self) -> bool:
+        return self._thread is not None and self._thread.is_alive()
+
     def run_realtime(self, duration: float, speed_factor: float | None = None) -> SimulatorStatus:
         """Step ``duration`` simulated seconds paced to the wall clock x ``speed_factor``
         (default the settings' speed_factor), in this thread; returns the status afterwards."""
+        speed = self._speed_or_default(speed_factor)
+        if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration >= 0):
+            raise SimulationError(f"duration must be a number of seconds >= 0, got {duration!r}")
+        if self._running_in_background():
+            raise SimulationError("the simulation already runs in real time (start()); stop() it first")
         self._stop.clear()
-        self._loop(self.time + duration, speed_factor)
+        self._loop(self.time + duration, speed)
         return self.status()
 
     def start(self, speed_factor: float | None = None) -> None:
-        """Run in real time in a background thread until stop() (pause() holds it)."""
+        """Run in real time in a background thread until stop() (pause() holds it). Errors that
+        stop the thread are logged and left in the status message."""
+        speed = self._speed_or_default(speed_factor)
         with self._lock:
-            if self._thread is not None and self._thread.is_alive():
+            if self._running_in_background():
                 return
             self._stop.clear()
-            self._thread = threading.Thread(target=self._loop, args=(math.inf, speed_factor),
+            self._thread = threading.Thread(target=self._guarded_loop, args=(math.inf, speed),
                                             name="mujoco_sim", daemon=True)
             self._thread.start()
+
+    def _guarded_loop(self, end_time: float, speed: float) -> None:
+        try:
+            self._loop(end_time, speed)
+        except Exception as exc:  # noqa: BLE001 - a background thread has no caller to raise to
+            self._message = f"stopped: {exc}"
+            _LOG.error("the simulation stopped: %s", exc)
 
     def stop(self) -> None:
         self._stop.set()
@@ -546,13 +570,12 @@ class MujocoSimulator:
             self._paused = False
             self._message = "running"
 
-    def _loop(self, end_time: float, speed_factor: float | None) -> None:
+    def _loop(self, end_time: float, speed: float) -> None:
         """Step so that simulated time follows the wall clock x speed factor. Behind means more
         than BEHIND_THRESHOLD late, or (over a full RTF_WINDOW) slower than 95 % of the speed
         factor; it is logged once when it starts and once when it ends, and is in the status."""
-        self._speed = float(speed_factor or self.settings.speed_factor)
-        if not (math.isfinite(self._speed) and 0 < self._speed <= 100):
-            raise SimulationError(f"speed_factor must be within (0, 100], got {speed_factor!r}")
+        self._speed = speed
+        self._behind = False
         self._running = True
         self._message = "running"
         wall0, sim0 = time.perf_counter(), self.time
