@@ -128,6 +128,9 @@ class MujocoSimulator:
         self._gripper = GripperGoalTracker(self.gripper_joint, gj.lower, gj.upper, gj.max_velocity,
                                            effort if effort > 0 else math.inf, self.settings.gripper)
         self._arm_limits = np.array([[robot.joint(n).lower, robot.joint(n).upper] for n in self.arm_joints])
+        # velocity feed-forward: the target moves kv/kp x the commanded velocity ahead (settings.py)
+        gains = np.array([index.gains[n] for n in self.arm_joints])
+        self._feedforward = gains[:, 1] / gains[:, 0] if self.settings.arm_servo.velocity_feedforward else None
         self._trajectory: TimedTrajectory | None = None
         self._trajectory_start = 0.0
         self._trajectory_columns: np.ndarray | None = None
@@ -460,11 +463,7 @@ class MujocoSimulator:
     def _apply_controls(self) -> None:
         index = self._built.index
         q, qd = self._arm_reference()
-        ctrl = q
-        if self.settings.arm_servo.velocity_feedforward:
-            gains = np.array([index.gains[n] for n in self.arm_joints])
-            ctrl = q + gains[:, 1] / gains[:, 0] * qd
-        self.data.ctrl[index.arm_actuators] = ctrl
+        self.data.ctrl[index.arm_actuators] = q + self._feedforward * qd if self._feedforward is not None else q
         self.data.ctrl[index.gripper_actuator] = self._gripper.advance(self.timestep)
         bound = self._gripper.effort_bound()
         limited = math.isfinite(bound)
