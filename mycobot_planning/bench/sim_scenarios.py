@@ -22,14 +22,18 @@ over the runs that placed, ``slip_mm`` max over the runs that carried the cylind
 
 Summary keys (a contract, keep them stable): real_time_factor, step_us, camera_hz,
 pick_place_success, pick_place_runs, place_error_mm_median, place_error_mm_max, slip_mm_max,
-plus camera_frame_ms, realtime_behind, the failures' messages, the spread of per-repeat
-medians and the machine.
+plus camera_frame_ms, realtime_behind, the same two speeds in process CPU time (step_cpu_us,
+real_time_factor_cpu: all our threads, the camera's and Mesa's included, so less sensitive to
+other load on the machine; on an idle machine the camera renders beside the physics and the
+wall-clock factor is higher), the 1-minute load average while measuring, the failures'
+messages, the spread of per-repeat medians and the machine.
 
 Register in scenarios.SCENARIOS as "sim".
 """
 from __future__ import annotations
 
 import math
+import os
 import time
 
 import numpy as np
@@ -64,13 +68,13 @@ def _motions(model: RobotModel) -> list:
     return out
 
 
-def _follow(sim: MujocoSimulator, motions: list, duration: float, batch: int | None = None) -> list[float]:
-    """Follow the motions in turn for ``duration`` simulated seconds; the wall time of every
-    ``batch`` steps (or of the whole when None)."""
-    times: list[float] = []
+def _follow(sim: MujocoSimulator, motions: list, duration: float, batch: int | None = None) -> list[tuple[float, float]]:
+    """Follow the motions in turn for ``duration`` simulated seconds; (wall, process CPU) time of
+    every ``batch`` steps (or of the whole when None)."""
+    times: list[tuple[float, float]] = []
     end = sim.time + duration
     k = 0
-    started = time.perf_counter()
+    started, cpu = time.perf_counter(), time.process_time()
     while sim.time < end - 1e-9:
         if not sim.trajectory_active:
             sim.follow_trajectory(motions[k % len(motions)])
@@ -78,25 +82,25 @@ def _follow(sim: MujocoSimulator, motions: list, duration: float, batch: int | N
         if batch is None:
             sim.step(10)
             continue
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         sim.step(batch)
-        times.append(time.perf_counter() - t0)
+        times.append((time.perf_counter() - t0, time.process_time() - c0))
     if batch is None:
         sim.wait_for_frame()
-        times.append(time.perf_counter() - started)
+        times.append((time.perf_counter() - started, time.process_time() - cpu))
     return times
 
 
 def _measure_speed(model: RobotModel, motions: list) -> dict[str, float]:
     with MujocoSimulator(model, camera=False) as sim:
-        batches = _follow(sim, motions, 10.0, batch=500)
-        step_us = float(np.median(batches)) / 500 * 1e6
+        batches = np.array(_follow(sim, motions, 10.0, batch=500))
+        step_us, step_cpu_us = np.median(batches, axis=0) / 500 * 1e6
     with MujocoSimulator(model) as sim:
         sim.set_camera_rate(10.0)
         sim.capture()  # the camera thread's start-up (GL context, shaders) is not what we measure
         duration = 4.0
-        wall = _follow(sim, motions, duration)[0]
-        rtf = duration / wall
+        wall, cpu = _follow(sim, motions, duration)[0]
+        rtf, rtf_cpu = duration / wall, duration / cpu
     with MujocoSimulator(model) as sim:
         sim.set_camera_rate(10.0)
         frames0 = sim.status().camera_frames
@@ -107,8 +111,10 @@ def _measure_speed(model: RobotModel, motions: list) -> dict[str, float]:
         status = sim.status()
         camera_hz = (status.camera_frames - frames0) / wall
         frame_ms = status.camera_frame_time * 1e3
-    return {"step_us": round(step_us, 2), "real_time_factor": round(rtf, 3), "camera_hz": round(camera_hz, 2),
-            "camera_frame_ms": round(frame_ms, 1), "realtime_behind": bool(status.behind_real_time)}
+    return {"step_us": round(float(step_us), 2), "real_time_factor": round(rtf, 3), "camera_hz": round(camera_hz, 2),
+            "camera_frame_ms": round(frame_ms, 1), "realtime_behind": bool(status.behind_real_time),
+            "step_cpu_us": round(float(step_cpu_us), 2), "real_time_factor_cpu": round(rtf_cpu, 3),
+            "load_average": round(os.getloadavg()[0], 2)}
 
 
 def _pick_place_runs(model: RobotModel, seed: int) -> list[dict]:
@@ -157,6 +163,9 @@ def bench_sim(repeat: int, seed: int) -> None:
         "place_error_mm_max": round(float(np.max(placed)), 2) if placed else None,
         "slip_mm_max": round(float(np.max(slips)), 2) if slips else None,
         "camera_frame_ms": round(float(np.median([s["camera_frame_ms"] for s in speeds])), 1),
+        "step_cpu_us": round(float(np.median([s["step_cpu_us"] for s in speeds])), 2),
+        "real_time_factor_cpu": round(float(np.median([s["real_time_factor_cpu"] for s in speeds])), 3),
+        "load_average": round(float(np.median([s["load_average"] for s in speeds])), 2),
         "realtime_behind": any(s["realtime_behind"] for s in speeds),
         "failures": [f"run {r['run']} at {r['object_xy']}: {r['message']}" for r in runs if not r["success"]],
     }
