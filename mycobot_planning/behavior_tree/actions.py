@@ -9,7 +9,19 @@ from .blackboard import EMPTY
 from .condition_node import ConditionNode
 from .decorators import _ScriptPort, entry_key_of
 from .exceptions import BehaviorTreeRuntimeError
-from .ports import ANY, ANY_VALUE, STRING, UINT, ConversionError, bidirectional_port, input_port, strip_blackboard_pointer
+from .ports import (
+    ANY,
+    ANY_VALUE,
+    STRING,
+    UINT,
+    ConversionError,
+    bidirectional_port,
+    input_port,
+    parse_bool,
+    parse_double,
+    parse_int,
+    strip_blackboard_pointer,
+)
 from .scripting import Environment, script_truth
 from .tree_node import NodeConfig
 
@@ -63,7 +75,8 @@ class ScriptConditionNode(ConditionNode):
 
 class SetBlackboardNode(SyncActionNode):
     """Writes ``value`` (a literal, or the value of another entry ``{key}``) into the entry
-    named by ``output_key`` (a key name, not ``{key}``)."""
+    named by ``output_key`` (a key name, not ``{key}``). A literal written to an entry that
+    has a type, or holds a number or a bool, is converted to it."""
 
     @classmethod
     def provided_ports(cls):
@@ -91,13 +104,19 @@ class SetBlackboardNode(SyncActionNode):
             value = value_text
         if value is EMPTY:
             return FAILURE
-        if destination is not None and destination.type.name != STRING.name and isinstance(value, str) \
-                and destination.type.strongly_typed:
+        if destination is not None and isinstance(value, str):
             try:
-                value = destination.type.from_string(value)
+                if destination.type.strongly_typed and destination.type.name != STRING.name:
+                    value = destination.type.from_string(value)
+                elif isinstance(destination.value, bool):
+                    value = parse_bool(value)
+                elif isinstance(destination.value, int):
+                    value = parse_int(value, -(2 ** 63), 2 ** 63 - 1)
+                elif isinstance(destination.value, float):
+                    value = parse_double(value)
             except ConversionError as exc:
-                raise BehaviorTreeRuntimeError(f"SetBlackboard: can't convert string [{value}] to type "
-                                               f"[{destination.type.name}]: {exc}") from None
+                raise BehaviorTreeRuntimeError(f"SetBlackboard: can't convert string [{value}] to the type of "
+                                               f"[{output_key}]: {exc}") from None
         blackboard.set(output_key, value)
         return SUCCESS
 

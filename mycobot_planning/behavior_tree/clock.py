@@ -69,6 +69,13 @@ class WakeUpSignal:
             if self._deadline is None or when < self._deadline:
                 self._deadline = when
 
+    def clear_due(self, clock: Clock) -> None:
+        """Forget the wake-ups a tick about to start answers: those asked for before it."""
+        self.event.clear()
+        with self._lock:
+            if self._deadline is not None and self._deadline <= clock.now():
+                self._deadline = None
+
     def consume(self, clock: Clock) -> bool:
         """True (and cleared) if a wake-up was asked for by now; never waits."""
         if self.event.is_set():

@@ -1,7 +1,8 @@
 """Tree: an instantiated behavior tree and its tick loop (BT.CPP's Tree in bt_factory.h).
 
 ``tick_exactly_once`` ticks the root once; ``tick_once`` ticks again at once while a node asks
-for it (an async Sequence yielding between children, a ThreadedAction finishing);
+for it during the tick (an async Sequence yielding between children, a ThreadedAction finishing;
+a wake-up asked for before a tick is answered by that tick);
 ``tick_while_running`` loops until the root completes, sleeping between ticks until the period
 ends or a node wakes the tree up. A completed root is reset so the tree can run again.
 An error raised by a node halts the whole tree before it reaches the caller: nothing is left
@@ -123,6 +124,7 @@ class Tree:
         status = IDLE
         try:
             while status is IDLE or (option is TickOption.WHILE_RUNNING and status is RUNNING):
+                self._wake_up.clear_due(self.clock)
                 status = root.execute_tick()
                 while (option is not TickOption.EXACTLY_ONCE and status is RUNNING
                        and self._wake_up.consume(self.clock)):
