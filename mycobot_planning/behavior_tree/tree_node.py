@@ -21,14 +21,13 @@ from .basic_types import (
     SUCCESS,
     NodeStatus,
     NodeType,
-    PortDirection,
     PostCond,
     PreCond,
 )
 from .blackboard import EMPTY, Blackboard
 from .clock import SystemClock, WakeUpSignal
 from .exceptions import BehaviorTreeRuntimeError, LogicError, PortError, ScriptError
-from .ports import ANY, ConversionError, PortInfo, PortType, is_blackboard_pointer, remapped_key
+from .ports import ANY, ConversionError, PortInfo, remapped_key
 from .scripting import Environment, Script, script_truth
 
 _MISSING: Any = object()
