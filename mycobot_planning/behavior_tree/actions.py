@@ -22,7 +22,7 @@ from .ports import (
     parse_int,
     strip_blackboard_pointer,
 )
-from .scripting import Environment, script_truth
+from .scripting import script_truth
 from .tree_node import NodeConfig
 
 
@@ -53,7 +53,7 @@ class ScriptNode(SyncActionNode):
         self._script = _ScriptPort(self, "code")
 
     def tick(self) -> NodeStatus:
-        self._script.current()(Environment(self.config.blackboard, self.config.enums))
+        self._script.run()
         return SUCCESS
 
 
@@ -69,8 +69,7 @@ class ScriptConditionNode(ConditionNode):
         self._script = _ScriptPort(self, "code")
 
     def tick(self) -> NodeStatus:
-        result = self._script.current()(Environment(self.config.blackboard, self.config.enums))
-        return SUCCESS if script_truth(result) else FAILURE
+        return SUCCESS if script_truth(self._script.run()) else FAILURE
 
 
 class SetBlackboardNode(SyncActionNode):

@@ -18,197 +18,100 @@ def _idle_child(node: ControlNode) -> LogicError:
     return LogicError(f"[{node.name}]: a child should not return IDLE")
 
 
-class SequenceNode(ControlNode):
+class _OrderedControl(ControlNode):
+    """Children in order: ADVANCE moves on to the next child, STOP ends the execution with that
+    status, RUNNING is resumed at the same child next tick. Sequence and Fallback are the two
+    mirror images (BT.CPP's SequenceNode and FallbackNode)."""
+
+    ADVANCE = SUCCESS
+    STOP = FAILURE
+    #: keep the index after STOP: the next tick resumes at the child that stopped
+    MEMORY = False
+
+    def __init__(self, name: str, config: NodeConfig | None = None, make_async: bool = False):
+        super().__init__(name, config)
+        self._current = 0
+        self._skipped = 0
+        self._async = make_async
+
+    def halt(self) -> None:
+        if not self.MEMORY:  # BT.CPP's SequenceWithMemory keeps its place when halted too
+            self._current = 0
+            self._skipped = 0
+        ControlNode.halt(self)
+
+    def tick(self) -> NodeStatus:
+        children = self.children
+        count = len(children)
+        advance, stop = self.ADVANCE, self.STOP
+        if not is_status_active(self._status):
+            self._skipped = 0
+        self.set_status(RUNNING)
+        while self._current < count:
+            child = children[self._current]
+            previous = child._status
+            status = child.execute_tick()
+            if status is RUNNING:
+                return RUNNING
+            if status is stop:
+                if self.MEMORY:
+                    for index in range(self._current, count):
+                        self.halt_child(index)
+                else:
+                    self.reset_children()
+                    self._current = 0
+                return stop
+            if status is advance:
+                self._current += 1
+                if self._async and self._wake_up is not None and previous is IDLE and self._current < count:
+                    # return the flow between children, so that the tree can be interrupted
+                    self.emit_wake_up_signal()
+                    return RUNNING
+            elif status is SKIPPED:
+                self._current += 1
+                self._skipped += 1
+            else:
+                raise _idle_child(self)
+        all_skipped = self._skipped == count
+        if self._current == count:
+            self.reset_children()
+            self._current = 0
+            self._skipped = 0
+        return SKIPPED if all_skipped else advance
+
+
+class SequenceNode(_OrderedControl):
     """Children in order while they succeed; a RUNNING child is ticked again next time (the
     ones before it are not); a FAILURE resets the sequence to its first child. The async
     variant returns RUNNING after each child that succeeded at once, so that the tree can be
     interrupted between children."""
 
-    def __init__(self, name: str, config: NodeConfig | None = None, make_async: bool = False):
-        super().__init__(name, config)
-        self._current = 0
-        self._skipped = 0
-        self._async = make_async
 
-    def halt(self) -> None:
-        self._current = 0
-        self._skipped = 0
-        ControlNode.halt(self)
-
-    def tick(self) -> NodeStatus:
-        children = self.children
-        count = len(children)
-        if not is_status_active(self._status):
-            self._skipped = 0
-        self.set_status(RUNNING)
-        while self._current < count:
-            child = children[self._current]
-            previous = child._status
-            status = child.execute_tick()
-            if status is RUNNING:
-                return RUNNING
-            if status is FAILURE:
-                self.reset_children()
-                self._current = 0
-                return FAILURE
-            if status is SUCCESS:
-                self._current += 1
-                if (self._async and self._wake_up is not None and previous is IDLE
-                        and self._current < count):
-                    self.emit_wake_up_signal()
-                    return RUNNING
-            elif status is SKIPPED:
-                self._current += 1
-                self._skipped += 1
-            else:
-                raise _idle_child(self)
-        all_skipped = self._skipped == count
-        if self._current == count:
-            self.reset_children()
-            self._current = 0
-            self._skipped = 0
-        return SKIPPED if all_skipped else SUCCESS
-
-
-class SequenceWithMemoryNode(ControlNode):
+class SequenceWithMemoryNode(_OrderedControl):
     """A Sequence that does not start over after a FAILURE: the next tick resumes at the child
-    that failed (the children after it are halted)."""
+    that failed (the children after it are halted). Like BT.CPP's, it returns the flow after
+    each child that succeeded at once."""
+
+    MEMORY = True
 
     def __init__(self, name: str, config: NodeConfig | None = None):
-        super().__init__(name, config)
-        self._current = 0
-        self._skipped = 0
-
-    def tick(self) -> NodeStatus:
-        children = self.children
-        count = len(children)
-        if not is_status_active(self._status):
-            self._skipped = 0
-        self.set_status(RUNNING)
-        while self._current < count:
-            child = children[self._current]
-            previous = child._status
-            status = child.execute_tick()
-            if status is RUNNING:
-                return RUNNING
-            if status is FAILURE:
-                for index in range(self._current, count):
-                    self.halt_child(index)
-                return FAILURE
-            if status is SUCCESS:
-                self._current += 1
-                if self._wake_up is not None and previous is IDLE and self._current < count:
-                    self.emit_wake_up_signal()
-                    return RUNNING
-            elif status is SKIPPED:
-                self._current += 1
-                self._skipped += 1
-            else:
-                raise _idle_child(self)
-        all_skipped = self._skipped == count
-        if self._current == count:
-            self.reset_children()
-            self._current = 0
-            self._skipped = 0
-        return SKIPPED if all_skipped else SUCCESS
-
-    def halt(self) -> None:
-        # BT.CPP keeps the index on halt too: a halted SequenceWithMemory resumes where it was.
-        ControlNode.halt(self)
+        super().__init__(name, config, make_async=True)
 
 
-class ReactiveSequenceNode(ControlNode):
-    """Every tick starts again from the first child (conditions are re-checked); a child that
-    is RUNNING halts every other child; FAILURE halts all."""
-
-    def __init__(self, name: str, config: NodeConfig | None = None):
-        super().__init__(name, config)
-        self._running_child = -1
-
-    def tick(self) -> NodeStatus:
-        all_skipped = True
-        if self._status is IDLE:
-            self._running_child = -1
-        self.set_status(RUNNING)
-        children = self.children
-        for index, child in enumerate(children):
-            status = child.execute_tick()
-            all_skipped = all_skipped and status is SKIPPED
-            if status is RUNNING:
-                for other in range(len(children)):
-                    if other != index:
-                        self.halt_child(other)
-                if self._running_child == -1:
-                    self._running_child = index
-                return RUNNING
-            if status is FAILURE:
-                self.reset_children()
-                return FAILURE
-            if status is SKIPPED:
-                self.halt_child(index)
-            elif status is not SUCCESS:
-                raise _idle_child(self)
-        self.reset_children()
-        return SKIPPED if all_skipped else SUCCESS
-
-    def halt(self) -> None:
-        self._running_child = -1
-        ControlNode.halt(self)
-
-
-class FallbackNode(ControlNode):
+class FallbackNode(_OrderedControl):
     """Children in order until one succeeds; a RUNNING child is ticked again next time; all
     failing is FAILURE. The async variant yields after each child that failed at once."""
 
-    def __init__(self, name: str, config: NodeConfig | None = None, make_async: bool = False):
-        super().__init__(name, config)
-        self._current = 0
-        self._skipped = 0
-        self._async = make_async
-
-    def tick(self) -> NodeStatus:
-        children = self.children
-        count = len(children)
-        if not is_status_active(self._status):
-            self._skipped = 0
-        self.set_status(RUNNING)
-        while self._current < count:
-            child = children[self._current]
-            previous = child._status
-            status = child.execute_tick()
-            if status is RUNNING:
-                return RUNNING
-            if status is SUCCESS:
-                self.reset_children()
-                self._current = 0
-                return SUCCESS
-            if status is FAILURE:
-                self._current += 1
-                if (self._async and self._wake_up is not None and previous is IDLE
-                        and self._current < count):
-                    self.emit_wake_up_signal()
-                    return RUNNING
-            elif status is SKIPPED:
-                self._current += 1
-                self._skipped += 1
-            else:
-                raise _idle_child(self)
-        all_skipped = self._skipped == count
-        if self._current == count:
-            self.reset_children()
-            self._current = 0
-            self._skipped = 0
-        return SKIPPED if all_skipped else FAILURE
-
-    def halt(self) -> None:
-        self._current = 0
-        self._skipped = 0
-        ControlNode.halt(self)
+    ADVANCE = FAILURE
+    STOP = SUCCESS
 
 
-class ReactiveFallbackNode(ControlNode):
-    """Every tick starts again from the first child; a RUNNING child halts the others; the first
-    SUCCESS halts all and succeeds."""
+class _ReactiveControl(ControlNode):
+    """Every tick starts again from the first child; a RUNNING child halts every other child;
+    STOP halts all. ReactiveSequence and ReactiveFallback are the mirror images."""
+
+    ADVANCE = SUCCESS
+    STOP = FAILURE
 
     def __init__(self, name: str, config: NodeConfig | None = None):
         super().__init__(name, config)
@@ -220,6 +123,7 @@ class ReactiveFallbackNode(ControlNode):
             self._running_child = -1
         self.set_status(RUNNING)
         children = self.children
+        advance, stop = self.ADVANCE, self.STOP
         for index, child in enumerate(children):
             status = child.execute_tick()
             all_skipped = all_skipped and status is SKIPPED
@@ -230,19 +134,32 @@ class ReactiveFallbackNode(ControlNode):
                 if self._running_child == -1:
                     self._running_child = index
                 return RUNNING
-            if status is SUCCESS:
+            if status is stop:
                 self.reset_children()
-                return SUCCESS
+                return stop
             if status is SKIPPED:
-                self.halt_child(index)
-            elif status is not FAILURE:
+                self.halt_child(index)  # so that it can be skipped again
+            elif status is not advance:
                 raise _idle_child(self)
         self.reset_children()
-        return SKIPPED if all_skipped else FAILURE
+        return SKIPPED if all_skipped else advance
 
     def halt(self) -> None:
         self._running_child = -1
         ControlNode.halt(self)
+
+
+class ReactiveSequenceNode(_ReactiveControl):
+    """Every tick starts again from the first child (conditions are re-checked); a child that
+    is RUNNING halts every other child; FAILURE halts all."""
+
+
+class ReactiveFallbackNode(_ReactiveControl):
+    """Every tick starts again from the first child; a RUNNING child halts the others; the first
+    SUCCESS halts all and succeeds."""
+
+    ADVANCE = FAILURE
+    STOP = SUCCESS
 
 
 def threshold(value: int, children: int) -> int:

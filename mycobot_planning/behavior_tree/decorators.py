@@ -58,121 +58,103 @@ class InverterNode(DecoratorNode):
         raise LogicError(f"[{self.name}]: a child should not return IDLE")
 
 
-class ForceSuccessNode(DecoratorNode):
+class _ForcedStatus(DecoratorNode):
+    """A completed child is FORCED, whatever it answered."""
+
+    FORCED = SUCCESS
+
+    def tick(self) -> NodeStatus:
+        self.set_status(RUNNING)
+        status = self.child.execute_tick()
+        if is_status_completed(status):
+            self.reset_child()
+            return self.FORCED
+        return status
+
+
+class ForceSuccessNode(_ForcedStatus):
     """A completed child is SUCCESS, whatever it answered."""
 
-    def tick(self) -> NodeStatus:
-        self.set_status(RUNNING)
-        status = self.child.execute_tick()
-        if is_status_completed(status):
-            self.reset_child()
-            return SUCCESS
-        return status
 
-
-class ForceFailureNode(DecoratorNode):
+class ForceFailureNode(_ForcedStatus):
     """A completed child is FAILURE, whatever it answered."""
 
+    FORCED = FAILURE
+
+
+class _CountedLoop(DecoratorNode):
+    """Ticks the child again while it answers COUNTED, up to the port's number of times (-1:
+    forever), within one tick while it answers at once (returning the flow, with a wake-up,
+    between two such ticks); the other completed status ends it at once. Repeat counts
+    successes, RetryUntilSuccessful failures."""
+
+    PORT = "num_cycles"
+    COUNTED = SUCCESS
+    #: read the port again after each counted answer (BT.CPP's RetryNode does, RepeatNode not)
+    REREAD = False
+
+    def __init__(self, name: str, config: NodeConfig | None = None):
+        super().__init__(name, config)
+        self._count = 0
+
+    def halt(self) -> None:
+        self._count = 0
+        DecoratorNode.halt(self)
+
     def tick(self) -> NodeStatus:
+        limit = self.get_input(self.PORT)
+        do_loop = self._count < limit or limit == -1
+        counted = self.COUNTED
         self.set_status(RUNNING)
-        status = self.child.execute_tick()
-        if is_status_completed(status):
-            self.reset_child()
-            return FAILURE
-        return status
+        while do_loop:
+            previous = self.child._status
+            status = self.child.execute_tick()
+            if status is counted:
+                self._count += 1
+                if self.REREAD:
+                    limit = self.get_input(self.PORT)
+                do_loop = self._count < limit or limit == -1
+                self.reset_child()
+                if self._wake_up is not None and previous is IDLE and do_loop:
+                    self.emit_wake_up_signal()
+                    return RUNNING
+            elif status is SUCCESS or status is FAILURE:
+                self._count = 0
+                self.reset_child()
+                return status
+            elif status is RUNNING:
+                return RUNNING
+            elif status is SKIPPED:
+                self.reset_child()
+                return SKIPPED
+            else:
+                raise LogicError(f"[{self.name}]: a child should not return IDLE")
+        self._count = 0
+        return counted
 
 
-class RepeatNode(DecoratorNode):
-    """Ticks a succeeding child up to ``num_cycles`` times (-1: forever) within one tick
-    while it answers at once; a FAILURE stops and fails."""
+class RepeatNode(_CountedLoop):
+    """Ticks a succeeding child up to ``num_cycles`` times (-1: forever); a FAILURE stops and
+    fails."""
 
     @classmethod
     def provided_ports(cls):
         return (input_port("num_cycles", INT, description="Repeat a successful child up to N times. "
                                                           "Use -1 to create an infinite loop."),)
 
-    def __init__(self, name: str, config: NodeConfig | None = None):
-        super().__init__(name, config)
-        self._count = 0
 
-    def tick(self) -> NodeStatus:
-        cycles = self.get_input("num_cycles")
-        do_loop = self._count < cycles or cycles == -1
-        self.set_status(RUNNING)
-        while do_loop:
-            previous = self.child._status
-            status = self.child.execute_tick()
-            if status is SUCCESS:
-                self._count += 1
-                do_loop = self._count < cycles or cycles == -1
-                self.reset_child()
-                if self._wake_up is not None and previous is IDLE and do_loop:
-                    self.emit_wake_up_signal()
-                    return RUNNING
-            elif status is FAILURE:
-                self._count = 0
-                self.reset_child()
-                return FAILURE
-            elif status is RUNNING:
-                return RUNNING
-            elif status is SKIPPED:
-                self.reset_child()
-                return SKIPPED
-            else:
-                raise LogicError(f"[{self.name}]: a child should not return IDLE")
-        self._count = 0
-        return SUCCESS
-
-    def halt(self) -> None:
-        self._count = 0
-        DecoratorNode.halt(self)
-
-
-class RetryNode(DecoratorNode):
+class RetryNode(_CountedLoop):
     """Ticks a failing child again, up to ``num_attempts`` attempts in all (-1: forever); the
     first SUCCESS succeeds."""
+
+    PORT = "num_attempts"
+    COUNTED = FAILURE
+    REREAD = True
 
     @classmethod
     def provided_ports(cls):
         return (input_port("num_attempts", INT, description="Execute again a failing child up to N times. "
                                                             "Use -1 to create an infinite loop."),)
-
-    def __init__(self, name: str, config: NodeConfig | None = None):
-        super().__init__(name, config)
-        self._tries = 0
-
-    def halt(self) -> None:
-        self._tries = 0
-        DecoratorNode.halt(self)
-
-    def tick(self) -> NodeStatus:
-        attempts = self.get_input("num_attempts")
-        do_loop = self._tries < attempts or attempts == -1
-        self.set_status(RUNNING)
-        while do_loop:
-            previous = self.child._status
-            status = self.child.execute_tick()
-            if status is SUCCESS:
-                self._tries = 0
-                self.reset_child()
-                return SUCCESS
-            if status is FAILURE:
-                self._tries += 1
-                attempts = self.get_input("num_attempts")
-                do_loop = self._tries < attempts or attempts == -1
-                self.reset_child()
-                if self._wake_up is not None and previous is IDLE and do_loop:
-                    self.emit_wake_up_signal()
-                    return RUNNING
-            elif status is RUNNING:
-                return RUNNING
-            elif status is SKIPPED:
-                self.reset_child()
-                return SKIPPED
-            else:
-                raise LogicError(f"[{self.name}]: a child should not return IDLE")
-        self._tries = 0
-        return FAILURE
 
 
 class KeepRunningUntilFailureNode(DecoratorNode):
@@ -311,6 +293,11 @@ class _ScriptPort:
     def current(self) -> Script:
         return self.load(self._node.get_input(self._port))
 
+    def run(self) -> Any:
+        """Run the script on the node's blackboard; its last statement's value."""
+        config = self._node.config
+        return self.current()(Environment(config.blackboard, config.enums))
+
 
 class PreconditionNode(DecoratorNode):
     """Ticks the child if the script ``if`` is true, else answers ``else``; once the child runs,
@@ -327,11 +314,10 @@ class PreconditionNode(DecoratorNode):
         self._children_running = False
 
     def tick(self) -> NodeStatus:
-        script = self._script.current()
+        self._script.current()  # loaded on every tick (the script may come from the blackboard)
         else_status = self.get_input("else")
         if not self._children_running:
-            env = Environment(self.config.blackboard, self.config.enums)
-            self._children_running = script_truth(script(env))
+            self._children_running = script_truth(self._script.run())
             if not self._children_running:
                 return else_status
         status = self.child.execute_tick()

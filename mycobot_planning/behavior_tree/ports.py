@@ -9,6 +9,7 @@ refused when it is loaded, not become a different number.
 """
 from __future__ import annotations
 
+import enum
 import json
 import math
 import re
@@ -350,18 +351,17 @@ class PortInfo:
     @property
     def default_string(self) -> str:
         """The default as the XML would write it ("" when there is none)."""
+        text = self.default_text()
+        if text is not None:
+            return text
+        return str(self.default) if self.has_default else ""
+
+    def default_text(self) -> str | None:
+        """The default as text that converts back to the same value (None when there is no
+        default or it has no such text: then ``get_input`` hands out the object itself)."""
         if not self.has_default:
-            return ""
-        value = self.default
-        if isinstance(value, str):
-            return value
-        if isinstance(value, bool):
-            return "true" if value else "false"
-        if isinstance(value, NodeStatus):
-            return value.name
-        if isinstance(value, (list, tuple)):
-            return ";".join(_plain_string(v) for v in value)
-        return _plain_string(value)
+            return None
+        return _literal(self.default)
 
     @property
     def is_required(self) -> bool:
@@ -370,12 +370,27 @@ class PortInfo:
         return self.direction is not PortDirection.OUTPUT and not self.has_default
 
 
-def _plain_string(value: Any) -> str:
+def _literal(value: Any) -> str | None:
+    if isinstance(value, str):
+        return value
     if isinstance(value, bool):
         return "true" if value else "false"
-    if hasattr(value, "name") and isinstance(getattr(value, "name"), str) and isinstance(value, int):
-        return value.name  # enum members by name
-    return repr(value) if isinstance(value, float) else str(value)
+    if isinstance(value, enum.Enum):
+        return value.name
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        return repr(value)
+    if isinstance(value, Pose):
+        return ";".join(repr(float(v)) for v in [*value.position, *value.orientation])
+    if isinstance(value, PoseStamped):
+        pose = _literal(value.pose)
+        return f"{value.frame_id};{pose}" if value.frame_id else pose
+    if isinstance(value, (list, tuple)):
+        parts = [_literal(v) for v in value]
+        if all(p is not None and ";" not in p for p in parts):
+            return ";".join(parts)
+    return None
 
 
 def input_port(name: str, type: PortType = ANY, default: Any = _NO_DEFAULT, description: str = "",

@@ -492,7 +492,9 @@ class XMLParser:
                 if name in port_remap:
                     continue
                 if port.has_default:
-                    text = port.default_string
+                    text = port.default_text()
+                    if text is None:
+                        continue  # an object default: get_input hands it out as it is
                     if port.direction is not PortDirection.OUTPUT:
                         config.input_ports[name] = text
                     if port.direction is not PortDirection.INPUT and is_blackboard_pointer(text):

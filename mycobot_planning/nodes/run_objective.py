@@ -89,7 +89,6 @@ def main(argv: list[str] | None = None) -> int:
         _emit({"objective": name, "status": "REFUSED", "error": message, "blackboard": {}})
         return EXIT_REFUSED
 
-    print(f"run_objective: running objective '{name}'", file=sys.stderr, flush=True)
     cancel = threading.Event()
 
     def on_signal(signum: int, frame: Any) -> None:
@@ -97,6 +96,7 @@ def main(argv: list[str] | None = None) -> int:
         tree.emit_wake_up_signal()
 
     previous = {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
+    print(f"run_objective: running objective '{name}'", file=sys.stderr, flush=True)
     try:
         while True:
             status = tree.tick_once()

@@ -166,3 +166,29 @@ def test_pose_stamped_values_go_through_the_blackboard():
     bb.create_entry("goal", POSE_STAMPED)
     bb.set("goal", "world;1;2;3;0;0;0;1")
     assert isinstance(bb.get("goal"), PoseStamped) and bb.get("goal").pose.position == [1.0, 2.0, 3.0]
+
+
+def test_defaults_that_are_objects_reach_the_node():
+    from interfaces_py.msgs import Pose
+
+    seen = []
+
+    class Offset(SyncActionNode):
+        @classmethod
+        def provided_ports(cls):
+            return (input_port("offset", POSE, Pose(position=[0.0, 0.0, 0.1])),
+                    input_port("options", ANY, {"mode": "fast"}), input_port("axes", VECTOR_INT, [1, 2]))
+
+        def tick(self):
+            seen.append((self.get_input("offset"), self.get_input("options"), self.get_input("axes")))
+            return NodeStatus.SUCCESS
+
+    factory = BehaviorTreeFactory()
+    factory.register_node_type(Offset, "Offset")
+    tree = factory.create_tree_from_text('<root BTCPP_format="4"><BehaviorTree ID="M"><Offset/></BehaviorTree></root>')
+    assert tree.tick_once() is NodeStatus.SUCCESS
+    offset, options, axes = seen[0]
+    assert offset.position == [0.0, 0.0, 0.1] and options == {"mode": "fast"} and axes == [1, 2]
+    model = factory.write_tree_nodes_model_xml()
+    assert 'name="offset" type="geometry_msgs::msg::Pose" default="0.0;0.0;0.1;0.0;0.0;0.0;1.0"' in model
+    assert 'name="axes" type="std::vector&lt;int&gt;" default="1;2"' in model
