@@ -48,7 +48,7 @@ from .ports import (
     strip_blackboard_pointer,
 )
 from .scripting import parse_script
-from .tree import Tree
+from .tree import Subtree, Tree
 from .tree_node import NodeConfig, TreeNode
 
 if TYPE_CHECKING:
@@ -347,12 +347,11 @@ class XMLParser:
     def _create_subtree(self, tree_id: str, tree_path: str, prefix: str, tree: Tree, blackboard: Blackboard,
                         parent: TreeNode | None, stack: list[tuple[str, XmlElement]]) -> None:
         element = self._tree_roots[tree_id]
-        from .tree import Subtree
         subtree = Subtree(blackboard, tree_path, tree_id)
         tree.subtrees.append(subtree)
         self._create_recursively(element.children[0], parent, subtree, prefix, tree, stack)
 
-    def _create_recursively(self, element: XmlElement, parent: TreeNode | None, subtree: Any, prefix: str,
+    def _create_recursively(self, element: XmlElement, parent: TreeNode | None, subtree: Subtree, prefix: str,
                             tree: Tree, stack: list[tuple[str, XmlElement]]) -> None:
         node = self._create_node(element, subtree.blackboard, parent, prefix, tree)
         subtree.nodes.append(node)
@@ -368,7 +367,7 @@ class XMLParser:
             return
         self._create_subtree_instance(element, node, subtree, tree, stack)
 
-    def _create_subtree_instance(self, element: XmlElement, node: TreeNode, subtree: Any, tree: Tree,
+    def _create_subtree_instance(self, element: XmlElement, node: TreeNode, subtree: Subtree, tree: Tree,
                                  stack: list[tuple[str, XmlElement]]) -> None:
         subtree_id = element.get("ID")
         for index, (tree_id, _) in enumerate(stack):
