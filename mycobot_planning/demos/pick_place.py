@@ -14,9 +14,9 @@ import yaml
 
 from interfaces_py.msgs import CollisionObject
 
-from mycobot_planning.core.planning_scene import PlanningScene
-from mycobot_planning.core.robot_model import RobotModel
-from mycobot_planning.core.robot_state import RobotState
+from mycobot_planning.core.planning_scene.planning_scene import PlanningScene
+from mycobot_planning.core.robot_model.robot_model import RobotModel
+from mycobot_planning.core.robot_state.robot_state import RobotState
 from mycobot_planning.task.containers import SerialContainer
 from mycobot_planning.task.geometry import PoseStamped, Vector3Stamped
 from mycobot_planning.task.solvers import CartesianPath, JointInterpolationPlanner, PipelinePlanner

@@ -1,5 +1,5 @@
 """Execution through ros2_control's controller actions, as moveit_simple_controller_manager does:
-the ControllerBus of core/execution.py over control_msgs FollowJointTrajectory and GripperCommand
+the ControllerBus of core/trajectory_execution/ over control_msgs FollowJointTrajectory and GripperCommand
 action clients, one per controller of moveit_controllers.yaml.
 
 The execution monitor reads controller states (status, goal id, when last heard); here they come

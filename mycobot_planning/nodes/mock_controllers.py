@@ -20,10 +20,10 @@ from std_srvs.srv import Trigger
 from trajectory_msgs.msg import JointTrajectory
 
 from interfaces_py.ros_conversions import duration_to_seconds
-from mycobot_planning.core.controllers_config import ControllerConfig, load_controllers_config
-from mycobot_planning.core.robot_config import RobotConfig
-from mycobot_planning.core.robot_model import RobotModel
-from mycobot_planning.core.trajectory_limits import DEFAULT_LIMIT_TOLERANCE
+from mycobot_planning.core.trajectory_execution.controllers_config import ControllerConfig, load_controllers_config
+from mycobot_planning.core.robot_model.robot_config import RobotConfig
+from mycobot_planning.core.robot_model.robot_model import RobotModel
+from mycobot_planning.core.trajectory_processing.trajectory_limits import DEFAULT_LIMIT_TOLERANCE
 from mycobot_planning.mock_control.joint_trajectory_follower import (
     ControllerStatus,
     FollowerState,

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 from std_msgs.msg import String
 
-from mycobot_planning.core.controllers_config import ControllerConfig
+from mycobot_planning.core.trajectory_execution.controllers_config import ControllerConfig
 from mycobot_planning.hardware.driver import MODEL_DEFAULTS, DriverConfig, DriverCore
 from mycobot_planning.hardware.follower import MeasuredTrajectoryFollower
 from mycobot_planning.nodes.mock_controllers import MockControllerManager

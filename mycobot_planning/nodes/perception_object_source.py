@@ -15,9 +15,9 @@ from interfaces_py.clients import PlanningSceneInterface, RpcError
 from interfaces_py.msgs import CollisionObject, Pose
 from interfaces_py.perception_client import DEFAULT_PERCEPTION_SERVER, PerceptionClient, PerceptionResult
 from mycobot_planning.core.errors import PlanningError
-from mycobot_planning.core.planning_scene import PlanningScene
-from mycobot_planning.core.robot_model import RobotModel
-from mycobot_planning.core.robot_state import RobotState
+from mycobot_planning.core.planning_scene.planning_scene import PlanningScene
+from mycobot_planning.core.robot_model.robot_model import RobotModel
+from mycobot_planning.core.robot_state.robot_state import RobotState
 from mycobot_planning.core.transforms import matrix_to_rpy
 from mycobot_planning.nodes.node_runtime import ParameterSpec
 from mycobot_planning.nodes.perception_setup import detection_lines

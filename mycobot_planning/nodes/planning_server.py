@@ -33,11 +33,11 @@ from mycobot_planning.capabilities.move_group_capabilities import (
     RequestError,
     goal_from_parameters,
 )
-from mycobot_planning.core.planning_pipeline import PlanningPipeline
-from mycobot_planning.core.robot_config import RobotConfig
-from mycobot_planning.core.robot_model import RobotModel
+from mycobot_planning.core.planning_interface.planning_pipeline import PlanningPipeline
+from mycobot_planning.core.robot_model.robot_config import RobotConfig
+from mycobot_planning.core.robot_model.robot_model import RobotModel
 from mycobot_planning.core.trajectory_execution import ExecutionSettings, load_controllers
-from mycobot_planning.core.trajectory_limits import DEFAULT_LIMIT_TOLERANCE
+from mycobot_planning.core.trajectory_processing.trajectory_limits import DEFAULT_LIMIT_TOLERANCE
 from mycobot_planning.nodes.controller_bus import ActionControllerBus
 from mycobot_planning.nodes.move_group import MoveGroupFace
 from mycobot_planning.nodes.node_runtime import Parameters, ParameterSpec, load_yaml_file, run_node
@@ -140,7 +140,7 @@ class PlanningServer(Node):
                                        self._planning_defaults(), log=self._log,
                                        context_factory=self._planning_context)
         # One spare planning context, built in the background: the first plan that arrives while
-        # another runs then starts at once (see core/planning_contexts.py).
+        # another runs then starts at once (see core/planning_interface/planning_contexts.py).
         threading.Thread(target=self.core.contexts.prepare, name="spare planning context", daemon=True).start()
         self._goal_last_set: str | None = None
         self._params.on_change(self._on_params)

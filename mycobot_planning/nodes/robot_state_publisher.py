@@ -6,7 +6,7 @@
   ``/joint_states`` message, at most ``publish_frequency`` times per second.
 
 Parameters: ``robot_description`` (URDF text; empty: the package's myCobot 280),
-``publish_frequency`` (Hz). The transforms come from core/tf_tree.py.
+``publish_frequency`` (Hz). The transforms come from core/robot_state/tf_tree.py.
 """
 from __future__ import annotations
 
@@ -21,9 +21,9 @@ from std_msgs.msg import String
 from tf2_msgs.msg import TFMessage
 
 from mycobot_planning.core.errors import StateError
-from mycobot_planning.core.robot_model import RobotModel
-from mycobot_planning.core.robot_state import RobotState
-from mycobot_planning.core.tf_tree import Transform, joint_transforms
+from mycobot_planning.core.robot_model.robot_model import RobotModel
+from mycobot_planning.core.robot_state.robot_state import RobotState
+from mycobot_planning.core.robot_state.tf_tree import Transform, joint_transforms
 from mycobot_planning.nodes.node_runtime import Parameters, ParameterSpec, run_node
 from mycobot_planning.paths import config_file
 

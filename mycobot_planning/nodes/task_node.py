@@ -28,8 +28,8 @@ from interfaces_py.msgs import (
 )
 from interfaces_py.ros_conversions import joint_trajectory_to_msg
 from mycobot_planning.core.errors import PlanningError
-from mycobot_planning.core.planning_scene import PlanningScene
-from mycobot_planning.core.robot_model import RobotModel
+from mycobot_planning.core.planning_scene.planning_scene import PlanningScene
+from mycobot_planning.core.robot_model.robot_model import RobotModel
 from mycobot_planning.nodes.node_runtime import Parameters, ParameterSpec, run_node
 from mycobot_planning.nodes.task_ros_interface import TaskRosInterface
 from mycobot_planning.nodes.task_topics import TaskIntrospection

@@ -36,8 +36,8 @@ from interfaces_py.msgs import MessageError, MoveItErrorCode, TaskSolution
 from interfaces_py.msgs import PlanningScene as PlanningSceneMsg
 from interfaces_py.mtc_conversions import task_solution_to_msg
 from mycobot_planning.core.errors import PlanningError
-from mycobot_planning.core.planning_scene import PlanningScene
-from mycobot_planning.core.robot_model import RobotModel
+from mycobot_planning.core.planning_scene.planning_scene import PlanningScene
+from mycobot_planning.core.robot_model.robot_model import RobotModel
 from mycobot_planning.nodes.task_topics import TaskIntrospection
 from mycobot_planning.paths import package_share_dirs
 

@@ -20,7 +20,7 @@ from interfaces_py.background_spin import BackgroundSpin
 from interfaces_py.json_rpc import BAD_REQUEST, JsonRpcServer, RpcError
 from interfaces_py.msgs import MessageError
 from interfaces_py.ros_conversions import joint_trajectory_from_msg
-from mycobot_planning.core.robot_model import RobotModel
+from mycobot_planning.core.robot_model.robot_model import RobotModel
 from mycobot_planning.nodes.node_runtime import Parameters, ParameterSpec, run_node
 from mycobot_planning.nodes.task_topics import SOLUTION_QOS, STATISTICS_QOS, TASK_SUFFIXES, parse_task_topic
 from mycobot_planning.paths import package_share_dirs

@@ -8,7 +8,7 @@
   fraction, velocity/acceleration scaling), MTC's defaults (step 0.01 m, jump threshold 1.5).
 * :class:`JointInterpolationPlanner`: a straight line in joint space, checked every
   ``max_step`` (the core's 0.01 rad; MTC's 0.1 rad lets a link sweep through thin objects, see
-  core/joint_interpolation.py).
+  core/planners/joint_interpolation/joint_interpolation.py).
 
 Each planner answers two questions: plan to a goal *state* (the joints of a group in the goal
 scene) and plan the link ``link`` (with the rigid ``offset`` of the ik frame) to a world pose.
@@ -37,16 +37,16 @@ from typing import TYPE_CHECKING, Any, Callable, Mapping
 
 import numpy as np
 
-from ..core.cartesian_path import compute_cartesian_path
-from ..core.cartesian_precision import CartesianPrecision
+from ..core.planners.cartesian.cartesian_path import compute_cartesian_path
+from ..core.planners.cartesian.cartesian_precision import CartesianPrecision
 from ..core.errors import PlanningError
-from ..core.joint_interpolation import DEFAULT_MAX_STEP, interpolate_joint_path
-from ..core.kinematic_constraints import ConstraintError, PathConstraints, dense_violation
-from ..core.trajectory_validator import validate_trajectory
-from ..core.planning_interface import JointGoal, MotionPlanRequest, PlanningFailure, PoseGoal, goal_states
-from ..core.planning_pipeline import PlanningPipeline
-from ..core.planning_scene import PlanningScene
-from ..core.robot_trajectory import TimedTrajectory
+from ..core.planners.joint_interpolation.joint_interpolation import DEFAULT_MAX_STEP, interpolate_joint_path
+from ..core.kinematic_constraints.kinematic_constraints import ConstraintError, PathConstraints, dense_violation
+from ..core.trajectory_processing.trajectory_validator import validate_trajectory
+from ..core.planning_interface.planning_interface import JointGoal, MotionPlanRequest, PlanningFailure, PoseGoal, goal_states
+from ..core.planning_interface.planning_pipeline import PlanningPipeline
+from ..core.planning_scene.planning_scene import PlanningScene
+from ..core.robot_trajectory.robot_trajectory import TimedTrajectory
 from ..core.trajectory_processing.cartesian_speed_limit import limit_cartesian_link_speed
 from ..core.transforms import inverse
 from .errors import PropertyError, TaskError
@@ -56,7 +56,7 @@ from .properties import PropertyMap
 from .trajectories import time_path
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ..core.robot_model import RobotModel
+    from ..core.robot_model.robot_model import RobotModel
     from .task import TaskContext
 
 __all__ = ["CartesianPath", "JointInterpolationPlanner", "MultiPlanner", "PipelinePlanner", "PlanResult", "PlannerInterface",

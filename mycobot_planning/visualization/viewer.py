@@ -32,8 +32,8 @@ import numpy as np
 from interfaces_py.msgs import JointTrajectory, PlanningScene as PlanningSceneMsg
 from interfaces_py.msgs import TaskDescription, TaskSolution, TaskStatistics
 
-from ..core.robot_model import RobotModel
-from ..core.robot_state import RobotState
+from ..core.robot_model.robot_model import RobotModel
+from ..core.robot_state.robot_state import RobotState
 from .geometry import object_shapes, robot_link_shapes
 from .playback import SceneObjects, Timeline, joint_vector
 from .task_tree import TaskRegistry, TaskTree
