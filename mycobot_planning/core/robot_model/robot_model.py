@@ -623,9 +623,12 @@ class RobotModel:
         return name in self._child_joints
 
     def frame_id(self, name: str) -> int:
-        """Pinocchio frame id of a link or frame; 'world' is the model root when not a link."""
-        if self.pin_model.existFrame(name):
-            return self.pin_model.getFrameId(name)
+        """Pinocchio frame id of a link (its body frame); 'world' is the model root when not a link.
+
+        Link and joint names are separate namespaces in URDF and MoveIt (the SO-100 has a link
+        and a joint both named 'gripper'), so a link is looked up among body frames only."""
+        if self.pin_model.existFrame(name, pin.FrameType.BODY):
+            return self.pin_model.getFrameId(name, pin.FrameType.BODY)
         if name == "world" or any(vj.parent_frame == name for vj in self.srdf.virtual_joints):
             return 0
         raise RobotModelError(f"unknown link or frame '{name}' in robot '{self.name}'")
