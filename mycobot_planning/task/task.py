@@ -36,8 +36,8 @@ __all__ = ["Task", "TaskContext"]
 
 #: The module that gives a Task its ROS side when a script hands it a node: loaded by name, as
 #: pluginlib loads a plugin, so that this package never imports rclpy (see
-#: nodes/task_ros_interface.py).
-ROS_INTERFACE_MODULE = "mycobot_planning.nodes.task_ros_interface"
+#: ros/task/task_ros_interface.py).
+ROS_INTERFACE_MODULE = "mycobot_planning.ros.task.task_ros_interface"
 
 
 def ros_interface(node: Any) -> Any:

@@ -20,7 +20,7 @@ import mycobot_planning
 ROOT = Path(mycobot_planning.__file__).parent
 PACKAGE = "mycobot_planning"
 #: Layers the function-import and private-name rules cover (the cycle rule covers the package).
-CHECKED_LAYERS = ("core", "capabilities", "task")
+CHECKED_LAYERS = ("core", "capabilities", "task", "ros")
 
 #: Imports inside a function that are lazy for a reason other than a cycle: (module, imported
 #: module) -> why.
@@ -31,6 +31,8 @@ LAZY_IMPORTS: dict[tuple[str, str], str] = {}
 PRIVATE_IMPORTS = {
     (f"{PACKAGE}.core.planning_scene.planning_scene", f"{PACKAGE}.core.collision_detection.collision._frozen"):
         "collision.py is being reworked on another branch; make the helper public once that has merged",
+    (f"{PACKAGE}.ros.controllers.controller_actions", f"{PACKAGE}.ros.controllers.mock_controllers._Controller"):
+        "the actions type their controller as the mock's; goes with the controller manager over plants",
 }
 
 

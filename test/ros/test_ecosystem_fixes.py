@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from mycobot_planning.core.planning_interface.planning_pipeline import PlanningPipeline
-from mycobot_planning.nodes.workflow_runtime import PLANNING_SPECS
+from mycobot_planning.ros.workflow_runtime import PLANNING_SPECS
 from ros_testing import REPO, NodeProcess, ros_env, use_session_domain
 
 ROS2 = [sys.executable, "-m", "mycobot_planning.ros2cli"]

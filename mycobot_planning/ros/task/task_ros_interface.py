@@ -9,7 +9,7 @@ pluginlib loads a plugin) the first time it is given a node, and calls :class:`T
   settings it carries (``robot_description_planning.*``, ``robot_description_kinematics.*``);
 * the current scene for CurrentState: move_group's ``/get_planning_scene``;
 * introspection: MTC's topics (``/description``, ``/statistics``, ``/solution``) and our task
-  viewer's (``<node>/task/...``), through nodes.task_topics.TaskIntrospection;
+  viewer's (``<node>/task/...``), through ros.task.task_topics.TaskIntrospection;
 * execution: move_group's ``/execute_task_solution`` action, as MTC's Task::execute.
 
 The script's node usually is not spinning: each call spins it until its answer arrives. A node
@@ -38,7 +38,7 @@ from interfaces_py.mtc_conversions import task_solution_to_msg
 from mycobot_planning.core.errors import PlanningError
 from mycobot_planning.core.planning_scene.planning_scene import PlanningScene
 from mycobot_planning.core.robot_model.robot_model import RobotModel
-from mycobot_planning.nodes.task_topics import TaskIntrospection
+from mycobot_planning.ros.task.task_topics import TaskIntrospection
 from mycobot_planning.paths import package_share_dirs
 
 __all__ = ["TaskRosInterface", "MtcIntrospection", "parameter_tree"]

@@ -1,6 +1,6 @@
 """Objects from perception for task nodes: ask the perception_server, put the answer in the scene.
 
-The full story: docs/nodes.md, section mycobot_planning.nodes.perception_object_source.
+The full story: docs/nodes.md, section mycobot_planning.ros.perception.perception_object_source.
 """
 from __future__ import annotations
 
@@ -19,8 +19,8 @@ from mycobot_planning.core.planning_scene.planning_scene import PlanningScene
 from mycobot_planning.core.robot_model.robot_model import RobotModel
 from mycobot_planning.core.robot_state.robot_state import RobotState
 from mycobot_planning.core.transforms import matrix_to_rpy
-from mycobot_planning.nodes.node_runtime import ParameterSpec
-from mycobot_planning.nodes.perception_setup import detection_lines
+from mycobot_planning.ros.node_runtime import ParameterSpec
+from mycobot_planning.ros.perception.perception_setup import detection_lines
 
 __all__ = [
     "PerceivedObjects",
@@ -125,7 +125,7 @@ class PerceivedObjects:
 
 
 class PerceptionObjectSource:
-    """Takes a task node's object from the perception_server (see docs/nodes.md (mycobot_planning.nodes.perception_object_source))."""
+    """Takes a task node's object from the perception_server (see docs/nodes.md (mycobot_planning.ros.perception.perception_object_source))."""
 
     def __init__(self, node: Node, *, server: str | None = None, timeout: float | None = None) -> None:
         self.node = node
@@ -205,7 +205,7 @@ class PerceptionObjectSource:
 
     def setup_planning_scene(self, params: Any, force: bool = False) -> Any:
         """Detect, update the planning_server's scene, and return ``params`` (PickPlaceParameters)
-        pointing at the detected cylinder and support surface (see docs/nodes.md (mycobot_planning.nodes.perception_object_source)).
+        pointing at the detected cylinder and support surface (see docs/nodes.md (mycobot_planning.ros.perception.perception_object_source)).
         ValueError when perception or the scene update fails (the task is not built)."""
         key = (tuple(params.object_dimensions), params.world_frame, params.object_name, params.table_name,
                self._server)

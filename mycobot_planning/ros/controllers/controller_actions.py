@@ -29,7 +29,7 @@ from interfaces_py.ros_conversions import duration_to_seconds, seconds_to_durati
 from mycobot_planning.mock_control.joint_trajectory_follower import ControllerStatus, FollowerState, TrajectoryCommand
 
 if TYPE_CHECKING:  # pragma: no cover
-    from mycobot_planning.nodes.mock_controllers import MockControllerManager, _Controller
+    from mycobot_planning.ros.controllers.mock_controllers import MockControllerManager, _Controller
 
 #: s between two checks of a running goal (and two feedback messages): the controller rate is
 #: 100 Hz; feedback at 50 Hz is what JTC's default action_monitor_rate (20 Hz) allows and more.

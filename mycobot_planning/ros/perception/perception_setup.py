@@ -1,6 +1,6 @@
 """ROS-free helpers of the perception nodes: parameters ⇄ camera and scene, and cloud frames.
 
-The full story: docs/nodes.md, section mycobot_planning.nodes.perception_setup.
+The full story: docs/nodes.md, section mycobot_planning.ros.perception.perception_setup.
 """
 from __future__ import annotations
 
@@ -108,7 +108,7 @@ def scene_parameters_given(values: Mapping[str, Any]) -> bool:
 
 def scene_from_parameters(values: Mapping[str, Any], file_scene: GroundTruthScene | None) -> GroundTruthScene:
     """The ground-truth scene: ``file_scene`` unless the flat parameters describe one (see the
-    docs/nodes.md (mycobot_planning.nodes.perception_setup)); ``scene_frame_id`` names its frame either way."""
+    docs/nodes.md (mycobot_planning.ros.perception.perception_setup)); ``scene_frame_id`` names its frame either way."""
     frame = str(values.get("scene_frame_id") or "").strip()
     if not frame:
         raise PerceptionError("scene: scene_frame_id must not be empty")

@@ -1,6 +1,6 @@
 """The shared base of the task nodes (modular, fallbacks_move_to, ik_clearance_cost, mtc_node, ...).
 
-The full story: docs/nodes.md, section mycobot_planning.nodes.task_node.
+The full story: docs/nodes.md, section mycobot_planning.ros.task.task_node.
 """
 from __future__ import annotations
 
@@ -30,9 +30,9 @@ from interfaces_py.ros_conversions import joint_trajectory_to_msg
 from mycobot_planning.core.errors import PlanningError
 from mycobot_planning.core.planning_scene.planning_scene import PlanningScene
 from mycobot_planning.core.robot_model.robot_model import RobotModel
-from mycobot_planning.nodes.node_runtime import Parameters, ParameterSpec, run_node
-from mycobot_planning.nodes.task_ros_interface import TaskRosInterface
-from mycobot_planning.nodes.task_topics import TaskIntrospection
+from mycobot_planning.ros.node_runtime import Parameters, ParameterSpec, run_node
+from mycobot_planning.ros.task.task_ros_interface import TaskRosInterface
+from mycobot_planning.ros.task.task_topics import TaskIntrospection
 from mycobot_planning.task import InitStageException, Task, TaskError
 
 __all__ = [
@@ -135,7 +135,7 @@ def display_trajectory(task: Task, solution=None) -> JointTrajectory:
 
 # ---------------------------------------------------------------------------- the node
 class TaskNode(Node):
-    """Base class of task nodes; subclasses implement :meth:`build_task` (see docs/nodes.md (mycobot_planning.nodes.task_node)).
+    """Base class of task nodes; subclasses implement :meth:`build_task` (see docs/nodes.md (mycobot_planning.ros.task.task_node)).
 
     Public API for subclasses and tests:
 

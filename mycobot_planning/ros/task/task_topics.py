@@ -1,17 +1,21 @@
 """Task introspection topics: how a node shows its tasks to the task viewer (MTC's introspection).
 
-The full story: docs/nodes.md, section mycobot_planning.nodes.task_topics.
+The full story: docs/nodes.md, section mycobot_planning.ros.task.task_topics.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Iterable
 
+from moveit_task_constructor_msgs.msg import Solution, TaskDescription as MtcDescription
+from moveit_task_constructor_msgs.msg import TaskStatistics as MtcStatistics
+from moveit_task_constructor_msgs.srv import GetSolution
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import String
 
 from interfaces_py.msgs import TaskDescription, TaskSolution, TaskStatistics
+from interfaces_py.mtc_conversions import task_description_to_msg, task_solution_to_msg, task_statistics_to_msg
 
 if TYPE_CHECKING:  # pragma: no cover
     from mycobot_planning.task import Task
@@ -75,17 +79,13 @@ def parse_task_topic(topic: str) -> tuple[str, str] | None:
 
 
 class TaskIntrospection:
-    """Publishes a node's tasks on the three task topics (see docs/nodes.md (mycobot_planning.nodes.task_topics)), and on MTC's
+    """Publishes a node's tasks on the three task topics (see docs/nodes.md (mycobot_planning.ros.task.task_topics)), and on MTC's
     own introspection interface (moveit_task_constructor_msgs on ``/description``,
     ``/statistics``, ``/solution``, and the ``/get_solution`` service), as an MTC task with the
     default namespace does, so RViz's Motion Planning Tasks panel shows our tasks."""
 
     def __init__(self, node: Node, name: str | None = None) -> None:
         """``name``: the topic prefix (default: the node's fully qualified name)."""
-        from moveit_task_constructor_msgs.msg import Solution, TaskDescription as MtcDescription
-        from moveit_task_constructor_msgs.msg import TaskStatistics as MtcStatistics
-        from moveit_task_constructor_msgs.srv import GetSolution
-
         self.topics = task_topics(name or node.get_fully_qualified_name())
         self._node = node
         self._description = node.create_publisher(String, self.topics.description, DESCRIPTION_QOS)
@@ -109,20 +109,14 @@ class TaskIntrospection:
         return response
 
     def publish_description(self, msg: TaskDescription) -> None:
-        from interfaces_py.mtc_conversions import task_description_to_msg
-
         self._description.publish(String(data=msg.to_json()))
         self._mtc_description.publish(task_description_to_msg(msg))
 
     def publish_statistics(self, msg: TaskStatistics) -> None:
-        from interfaces_py.mtc_conversions import task_statistics_to_msg
-
         self._statistics.publish(String(data=msg.to_json()))
         self._mtc_statistics.publish(task_statistics_to_msg(msg))
 
     def publish_solution(self, msg: TaskSolution, solution_id: int = 0) -> None:
-        from interfaces_py.mtc_conversions import task_solution_to_msg
-
         self._solution.publish(String(data=msg.to_json()))
         mtc = task_solution_to_msg(msg, solution_id)
         self._solutions[int(solution_id)] = mtc

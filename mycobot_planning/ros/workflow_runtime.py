@@ -29,7 +29,7 @@ from interfaces_py.background_spin import BackgroundSpin
 from interfaces_py.clients import MoveGroupClient, PlanResult, RpcError
 from interfaces_py.msgs import MoveItErrorCode, RobotTrajectory
 from mycobot_planning.core.planning_interface.planning_pipeline import PlanningPipeline
-from mycobot_planning.nodes.node_runtime import Parameters, ParameterSpec
+from mycobot_planning.ros.node_runtime import Parameters, ParameterSpec
 from mycobot_planning.paths import use_fast_discovery
 
 __all__ = ["WorkflowFailed", "WorkflowNode", "run_workflow", "PLANNING_SPECS"]
