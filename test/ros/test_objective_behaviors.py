@@ -16,7 +16,7 @@ from mycobot_planning.ros.objectives.ros_behaviors import ROS_BEHAVIORS
 MODEL_FILE = config_dir() / "groot" / "tree_nodes_model.xml"
 LIBRARY = config_dir() / "objectives"
 WORKSHOP = ["Open Gripper", "Close Gripper", "Look at Table", "Take Snapshot", "Pick Object", "Place Object",
-            "3 Waypoints Pick and Place", "My Pick and Place", "My Transform Pose", "Pick with Recovery"]
+            "3 Waypoints Pick and Place", "My Pick and Place", "My Transform Pose", "Pick with Recovery", "Request Teleoperation"]
 
 
 def factory() -> BehaviorTreeFactory:

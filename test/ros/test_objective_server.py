@@ -18,6 +18,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import String
 from std_srvs.srv import Trigger
 
+from interfaces_py.json_rpc import JsonRpcClient
 from mycobot_planning.behavior_tree.behaviors import WaypointStore
 from mycobot_planning.paths import config_dir, config_file
 from mycobot_planning.ros.objectives.objective_client import ObjectiveClient
@@ -41,23 +42,27 @@ def system():
         "perception": NodeProcess("mycobot_planning.nodes.perception_server",
                                   ["--ros-args", "--params-file", str(config_file("perception_server.yaml"))]),
         "objectives": NodeProcess("mycobot_planning.nodes.objective_server"),
+        "viewer": NodeProcess("mycobot_planning.nodes.task_viewer", ["--ros-args", "-p", "port:=0"]),
     }
     probe = client = None
     try:
         for key, text in (("controllers", "controller_manager ready"), ("server", "planning_server ready"),
                           ("camera", "camera_simulator ready"), ("perception", "perception_server ready"),
-                          ("objectives", "objective_server ready")):
+                          ("objectives", "objective_server ready"), ("viewer", "task_viewer: open http")):
             assert procs[key].wait_for_output(text, 60), procs[key].output()
         probe = ProbeNode("objective_server_test")
         probe.listen_to_joint_states()
         statuses = probe.collect(ObjectiveServerStatus, "/objective_server/status", LATCHED)
         prompts = probe.collect(OperatorPrompt, "/objective_server/operator_prompt", LATCHED)
+        rpc = JsonRpcClient(probe.node, "/task_viewer")
         probe.spin_in_background()
         probe.wait_for_move_group(30.0)
         client = ObjectiveClient()
         assert client.wait_for_server(20.0)
         assert wait_until(lambda: bool(probe.joints()), 10)
-        yield {"probe": probe, "client": client, "statuses": statuses, "prompts": prompts, "procs": procs}
+        assert rpc.wait_for_server(30.0)
+        yield {"probe": probe, "client": client, "statuses": statuses, "prompts": prompts, "procs": procs,
+               "viewer": rpc}
     finally:
         if client is not None:
             client.close()
@@ -303,3 +308,40 @@ def test_run_objective_via_the_server_prints_one_json_line(system):
                              cwd=REPO, env=ros_env(), capture_output=True, text=True, timeout=120)
     assert refused.returncode == 2
     assert json.loads(refused.stdout.strip().splitlines()[-1])["status"] == "REFUSED"
+
+
+def test_the_viewer_panel_runs_an_objective_answers_the_prompt_and_stops(system):
+    """The task viewer's Objectives panel, clicked as the page does, against the real server."""
+    viewer, probe = system["viewer"], system["probe"]
+
+    def panel() -> dict:
+        return viewer.call("get_state", timeout=15.0)["objectives"]
+
+    assert wait_until(lambda: "Pick with Recovery" in panel()["objectives"], 30)
+    run(system, "Look at Table")
+    viewer.call("objectives_click", {"button": "run", "objective": "Pick with Recovery"})
+    assert wait_until(lambda: panel()["prompt"] is not None, 60), panel()
+    shown = panel()
+    assert shown["prompt"]["prompt"] == "Please move to the pick pose"
+    assert shown["status"]["status"] == "Running" and shown["status"]["objective"] == "Pick with Recovery"
+
+    def lines() -> dict:
+        return {line["label"]: line for line in panel()["tree"]}
+
+    # the running tree with live statuses (tree_state comes at most every 0.1 s): the failed
+    # first attempt and the waiting prompt inside the Request Teleoperation SubTree
+    assert wait_until(lambda: lines()["Move to pick pose (MoveToPose)"]["last"] == "FAILURE", 10), lines()
+    assert lines()["RequestTeleoperation"]["status"] == "RUNNING"
+    assert lines()["Request Teleoperation"]["status"] == "RUNNING"
+    viewer.call("objectives_click", {"button": "waypoint", "waypoint": "Pick"})
+    assert wait_until(lambda: at_waypoint(probe, "Pick"), 60)
+    viewer.call("objectives_click", {"button": "continue"})
+    assert wait_until(lambda: panel()["status"]["status"] == "Success", 60), panel()
+    assert panel()["prompt"] is None
+    # Stop: a running objective is canceled
+    run(system, "Look at Table")
+    start = arm(probe)
+    viewer.call("objectives_click", {"button": "run", "objective": "3 Waypoints Pick and Place"})
+    assert wait_until(lambda: max(abs(a - b) for a, b in zip(arm(probe), start)) > 0.05, 60)
+    viewer.call("objectives_click", {"button": "stop"})
+    assert wait_until(lambda: panel()["status"]["status"] == "Cancelled", 30), panel()
