@@ -92,6 +92,14 @@ def run(system, name: str = "", xml: str = "", **overrides):
     return status, result
 
 
+def start_objective(system, name: str) -> tuple[threading.Thread, dict]:
+    """Run an objective in a thread; its (status, result) land in the dict as it ends."""
+    outcome: dict = {}
+    worker = threading.Thread(target=lambda: outcome.update(zip(("status", "result"), run(system, name))))
+    worker.start()
+    return worker, outcome
+
+
 #: objective -> the waypoint the arm ends at (None: no arm motion to check)
 SHIPPED = {
     "Look at Table": "Look at Table",
@@ -142,9 +150,7 @@ def test_pick_with_recovery_asks_the_operator_who_moves_the_arm_and_continues(sy
     run(system, "Look at Table")
     with probe.lock:
         seen = len(system["prompts"])
-    outcome: dict = {}
-    worker = threading.Thread(target=lambda: outcome.update(zip(("status", "result"), run(system, "Pick with Recovery"))))
-    worker.start()
+    worker, outcome = start_objective(system, "Pick with Recovery")
     try:
         def open_prompt():
             with probe.lock:
@@ -181,9 +187,7 @@ def test_the_operator_fail_fails_the_objective(system):
     probe = system["probe"]
     with probe.lock:
         seen = len(system["prompts"])
-    outcome: dict = {}
-    worker = threading.Thread(target=lambda: outcome.update(zip(("status", "result"), run(system, "Pick with Recovery"))))
-    worker.start()
+    worker, outcome = start_objective(system, "Pick with Recovery")
     try:
         assert wait_until(lambda: any(p.active for p in system["prompts"][seen:]), 60)
         answer = probe.call(AnswerOperatorPrompt, "/objective_server/answer_operator_prompt",
@@ -200,10 +204,7 @@ def test_the_operator_fail_fails_the_objective(system):
 def test_cancel_mid_motion_stops_the_arm_and_reports_cancelled(system):
     probe = system["probe"]
     run(system, "Look at Table")
-    outcome: dict = {}
-    worker = threading.Thread(target=lambda: outcome.update(
-        zip(("status", "result"), run(system, "3 Waypoints Pick and Place"))))
-    worker.start()
+    worker, outcome = start_objective(system, "3 Waypoints Pick and Place")
     start = arm(probe)
     try:
         assert wait_until(lambda: max(abs(a - b) for a, b in zip(arm(probe), start)) > 0.05, 60), "the arm never moved"
@@ -229,9 +230,7 @@ def test_canceling_the_goal_also_cancels(system):
     probe = system["probe"]
     run(system, "Look at Table")
     client = system["client"]
-    outcome: dict = {}
-    worker = threading.Thread(target=lambda: outcome.update(zip(("status", "result"), run(system, "Pick Object"))))
-    worker.start()
+    worker, outcome = start_objective(system, "Pick Object")
     start = arm(probe)
     try:
         assert wait_until(lambda: max(abs(a - b) for a, b in zip(arm(probe), start)) > 0.05, 60)
@@ -345,3 +344,44 @@ def test_the_viewer_panel_runs_an_objective_answers_the_prompt_and_stops(system)
     assert wait_until(lambda: max(abs(a - b) for a, b in zip(arm(probe), start)) > 0.05, 60)
     viewer.call("objectives_click", {"button": "stop"})
     assert wait_until(lambda: panel()["status"]["status"] == "Cancelled", 30), panel()
+
+
+def test_a_new_goal_cancels_the_running_objective(system):
+    probe = system["probe"]
+    run(system, "Look at Table")
+    start_positions = arm(probe)
+    worker, outcome = start_objective(system, "3 Waypoints Pick and Place")
+    try:
+        assert wait_until(lambda: max(abs(a - b) for a, b in zip(arm(probe), start_positions)) > 0.05, 60)
+        second = ObjectiveClient()
+        try:
+            assert second.wait_for_server(10.0)
+            status, result = second.run("", '<root BTCPP_format="4"><BehaviorTree ID="Home Again">'
+                                        '<MoveToWaypoint waypoint_name="Home"/></BehaviorTree></root>')
+        finally:
+            second.close()
+    finally:
+        worker.join(60)
+    assert outcome["status"] == GoalStatus.STATUS_ABORTED
+    assert outcome["result"].error_code.val == C.PREEMPTED
+    assert "preempted by a new objective" in outcome["result"].error_message
+    assert result.error_code.val == C.SUCCESS, result.error_message
+    assert at_waypoint(probe, "Home")
+
+
+def test_a_failure_halts_the_motion_running_beside_it_and_the_arm_rests(system):
+    probe = system["probe"]
+    run(system, "Look at Table")
+    xml = ('<root BTCPP_format="4"><BehaviorTree ID="Race"><Parallel success_count="-1" failure_count="1">'
+           '<MoveToWaypoint name="long move" waypoint_name="Place" velocity_scale_factor="0.3"/>'
+           '<Sequence><WaitForDuration delay_duration="1.0"/><AlwaysFailure name="fails"/></Sequence>'
+           '</Parallel></BehaviorTree></root>')
+    start_positions = arm(probe)
+    status, result = run(system, xml=xml)
+    assert result.error_code.val == C.FAILURE and "failed at" in result.error_message
+    moved = max(abs(a - b) for a, b in zip(arm(probe), start_positions))
+    assert moved > 0.01, "the motion never started"
+    assert not at_waypoint(probe, "Place")  # halted on the way
+    before = arm(probe)
+    time.sleep(0.5)
+    assert max(abs(a - b) for a, b in zip(arm(probe), before)) < 1e-3

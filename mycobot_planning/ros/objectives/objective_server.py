@@ -387,13 +387,15 @@ class ObjectiveServer(Node):
                 tree.sleep(self.params.get("tick_period"))
         except BehaviorTreeException as exc:
             self.behavior_context.stop_arm()
+            self.wait_for_rest()
             return self._finish(run, goal_handle, S.FAILURE, C.FAILURE, f"error while running (tree halted): {exc}")
         finally:
             unsubscribe()
             self.behavior_context.objective_name = ""
         if status is NodeStatus.SUCCESS:
             return self._finish(run, goal_handle, S.SUCCESS, C.SUCCESS, "")
-        self.behavior_context.stop_arm()
+        self.behavior_context.stop_arm()  # the halted behaviors canceled their goals; make sure
+        self.wait_for_rest()
         where = f" (failed at {run.failed_node})" if run.failed_node else ""
         return self._finish(run, goal_handle, S.FAILURE, C.FAILURE, f"objective '{run.name}' ended {status.name}{where}")
 

@@ -460,6 +460,11 @@ def _apply_request(objects: list[CollisionObject] = (), attached: list[AttachedC
 
 
 class _ApplyBehavior(RosBehavior):
+    """A planning scene change through move_group's /apply_planning_scene."""
+
+    def apply(self, objects: list[CollisionObject] = (), attached: list[AttachedCollisionObject] = ()) -> PendingCall:
+        return self.service(ApplyPlanningScene, APPLY_PLANNING_SCENE_SERVICE, _apply_request(objects, attached))
+
     def finish(self, call: PendingCall) -> NodeStatus:
         return SUCCESS if call.result.success else self.fail("move_group refused the planning scene change")
 
@@ -501,7 +506,7 @@ class AddCollisionBox(_ApplyBehavior):
         obj.primitives = [SolidPrimitive(type=SolidPrimitive.BOX, dimensions=[float(v) for v in size])]
         obj.primitive_poses = [PoseMsg()]
         obj.primitive_poses[0].orientation.w = 1.0
-        return self.service(ApplyPlanningScene, APPLY_PLANNING_SCENE_SERVICE, _apply_request([obj]))
+        return self.apply([obj])
 
 
 class ResetPlanningSceneObjects(_ApplyBehavior):
@@ -526,7 +531,7 @@ class ResetPlanningSceneObjects(_ApplyBehavior):
         removals = [CollisionObject(id=i, operation=CollisionObject.REMOVE) for i in ids]
         for obj in removals:
             obj.header.frame_id = "world"
-        return self.service(ApplyPlanningScene, APPLY_PLANNING_SCENE_SERVICE, _apply_request(removals))
+        return self.apply(removals)
 
 
 class AttachObject(_ApplyBehavior):
@@ -543,7 +548,7 @@ class AttachObject(_ApplyBehavior):
                                            touch_links=list(self.get_input("touch_links")))
         attached.object.id = self.get_input("object_id")
         attached.object.operation = CollisionObject.ADD
-        return self.service(ApplyPlanningScene, APPLY_PLANNING_SCENE_SERVICE, _apply_request(attached=[attached]))
+        return self.apply(attached=[attached])
 
 
 class DetachObject(_ApplyBehavior):
@@ -557,7 +562,7 @@ class DetachObject(_ApplyBehavior):
         attached = AttachedCollisionObject()
         attached.object.id = self.get_input("object_id")
         attached.object.operation = CollisionObject.REMOVE
-        return self.service(ApplyPlanningScene, APPLY_PLANNING_SCENE_SERVICE, _apply_request(attached=[attached]))
+        return self.apply(attached=[attached])
 
 
 # --------------------------------------------------------------------------------- perception
@@ -610,7 +615,7 @@ class GetPointCloud(RosBehavior):
         return SUCCESS
 
 
-class ClearSnapshot(RosBehavior):
+class ClearSnapshot(_ApplyBehavior):
     DESCRIPTION = "Removes the objects the last DetectObjects added from move_group's planning scene."
 
     @classmethod
@@ -622,10 +627,7 @@ class ClearSnapshot(RosBehavior):
         if not ids:
             return SUCCESS
         removals = [CollisionObject(id=i, operation=CollisionObject.REMOVE) for i in ids]
-        return self.service(ApplyPlanningScene, APPLY_PLANNING_SCENE_SERVICE, _apply_request(removals))
-
-    def finish(self, call: PendingCall) -> NodeStatus:
-        return SUCCESS if call.result.success else self.fail("move_group refused to remove the snapshot's objects")
+        return self.apply(removals)
 
 
 class DetectObjects(ThreadedAction):
