@@ -11,6 +11,7 @@ from mycobot_planning.behavior_tree.behaviors import CORE_BEHAVIORS
 from mycobot_planning.behavior_tree.objectives import library_files, load_objective, tree_ids_of
 from mycobot_planning.paths import config_dir
 from mycobot_planning.ros.objectives.objective_server import register_behaviors, tree_nodes_model_xml
+from mycobot_planning.ros.objectives.mtc_behaviors import MTC_BEHAVIORS
 from mycobot_planning.ros.objectives.ros_behaviors import ROS_BEHAVIORS
 
 MODEL_FILE = config_dir() / "groot" / "tree_nodes_model.xml"
@@ -27,7 +28,7 @@ def factory() -> BehaviorTreeFactory:
 
 def test_every_behavior_is_described_and_so_is_every_port():
     f = factory()
-    for _, registration_id, _ in (*CORE_BEHAVIORS, *ROS_BEHAVIORS):
+    for _, registration_id, _ in (*CORE_BEHAVIORS, *ROS_BEHAVIORS, *MTC_BEHAVIORS):
         manifest = f.manifests[registration_id]
         assert manifest.description, registration_id
         assert all(p.description for p in manifest.ports.values()), registration_id
@@ -42,7 +43,9 @@ def test_the_issue_s_behaviors_are_all_there():
             "AddCollisionBox", "ResetPlanningSceneObjects", "AttachObject", "DetachObject", "GetPointCloud",
             "ClearSnapshot", "DetectObjects", "RetrieveWaypoint", "SaveCurrentState", "LogMessage",
             "WaitForDuration", "ForEach", "WaitForUserTrajectoryApproval", "RequestTeleoperation",
-            "PlanAndExecuteTaskNode"} <= ids
+            "PlanAndExecuteTaskNode", "InitializeMTCTask", "SetupMTCCurrentState", "SetupMTCPlanToPose",
+            "SetupMTCPlanToRobotState", "SetupMTCMoveAlongFrameAxis", "SetupMTCSetCollisionRule", "PlanMTCTask",
+            "ExecuteMTCSolution"} <= ids
 
 
 def test_the_shipped_groot2_model_is_the_current_one():

@@ -385,3 +385,49 @@ def test_a_failure_halts_the_motion_running_beside_it_and_the_arm_rests(system):
     before = arm(probe)
     time.sleep(0.5)
     assert max(abs(a - b) for a, b in zip(arm(probe), before)) < 1e-3
+
+
+def test_mtc_behaviors_plan_and_execute_a_task_over_move_group(system):
+    """InitializeMTCTask (the model from move_group) → CurrentState → MoveTo the Pick waypoint's
+    joint state → MoveRelative 2-3 cm up along world z (a lift) → plan → execute through
+    /execute_task_solution."""
+    from mycobot_planning.core.robot_model.robot_model import RobotModel
+    from mycobot_planning.core.robot_state.robot_state import RobotState
+
+    probe = system["probe"]
+    run(system, "Look at Table")
+    xml = ('<root BTCPP_format="4"><BehaviorTree ID="MTC Up"><Sequence>'
+           '<InitializeMTCTask task_id="up" task="{task}"/>'
+           '<SetupMTCCurrentState task="{task}"/>'
+           '<RetrieveWaypoint waypoint_name="Pick" waypoint_joint_state="{pick}"/>'
+           '<SetupMTCPlanToRobotState task="{task}" joint_state="{pick}"/>'
+           '<SetupMTCMoveAlongFrameAxis task="{task}" hand_frame="link6_flange" axis_frame="world" axis_z="1.0" '
+           'min_distance="0.02" max_distance="0.03"/>'
+           '<PlanMTCTask task="{task}" solution="{solution}"/>'
+           '<ExecuteMTCSolution solution="{solution}"/>'
+           '</Sequence></BehaviorTree></root>')
+    status, result = run(system, xml=xml)
+    assert result.error_code.val == C.SUCCESS, result.error_message
+    model = RobotModel.mycobot()
+
+    def flange(positions):
+        state = RobotState(model)
+        state.set_joint_positions(dict(zip(ARM, positions)))
+        return state.frame_pose("link6_flange")[:3, 3]
+
+    reached, pick = flange(arm(probe)), flange(WAYPOINTS.get("Pick").positions)
+    assert 0.019 <= reached[2] - pick[2] <= 0.031, (reached, pick)
+    assert abs(reached[0] - pick[0]) < 0.005 and abs(reached[1] - pick[1]) < 0.005
+
+
+def test_a_task_that_cannot_be_planned_fails_naming_the_stage(system):
+    xml = ('<root BTCPP_format="4"><BehaviorTree ID="MTC Far"><Sequence>'
+           '<InitializeMTCTask task="{task}"/><SetupMTCCurrentState task="{task}"/>'
+           '<SetupMTCPlanToPose name="reach far" task="{task}" target_pose="world;0.9;0;0.2;0;0;0;1"/>'
+           '<PlanMTCTask task="{task}" solution="{solution}"/><ExecuteMTCSolution solution="{solution}"/>'
+           '</Sequence></BehaviorTree></root>')
+    before = arm(system["probe"])
+    status, result = run(system, xml=xml)
+    assert result.error_code.val == C.FAILURE and "PlanMTCTask" in result.error_message
+    assert max(abs(a - b) for a, b in zip(arm(system["probe"]), before)) < 1e-3
+    assert "reach far" in system["procs"]["objectives"].output()  # explainFailure names the stage

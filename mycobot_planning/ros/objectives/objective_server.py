@@ -74,6 +74,7 @@ from interfaces_py.msgs import Pose
 from mycobot_planning.paths import config_dir
 
 from ..node_runtime import ParameterSpec, Parameters
+from .mtc_behaviors import MTC_BEHAVIORS
 from .ros_behaviors import ROS_BEHAVIORS, joint_constraints
 from .ros_calls import PendingGoal
 from .ros_context import LATCHED, RosBehaviorContext
@@ -91,7 +92,7 @@ def default_waypoints_file() -> str:
 def register_behaviors(factory: BehaviorTreeFactory, context: RosBehaviorContext) -> None:
     """Every behavior the server offers: the ROS-free ones and the ROS ones."""
     register_core_behaviors(factory, context)
-    for cls, registration_id, subcategory in ROS_BEHAVIORS:
+    for cls, registration_id, subcategory in (*ROS_BEHAVIORS, *MTC_BEHAVIORS):
         factory.register_node_type(cls, registration_id, context, metadata={"subcategory": subcategory})
 
 

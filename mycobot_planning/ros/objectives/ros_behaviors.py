@@ -577,23 +577,10 @@ class GetPointCloud(RosBehavior):
 
     def start(self) -> PendingCall | NodeStatus:
         call = PendingCall(self.emit_wake_up_signal)
-        node = self.context.node
-        subscription = None
-
-        def on_cloud(msg: PointCloud2) -> None:
-            call.resolve(msg)
-
-        subscription = node.create_subscription(PointCloud2, self.get_input("topic_name"), on_cloud, 1,
-                                                callback_group=self.context.group)
-        self._subscription = subscription
+        self._unsubscribe = self.context.next_message(PointCloud2, self.get_input("topic_name"), call.resolve)
         self._deadline = self.now() + float(self.get_input("message_timeout_sec"))
         self.wake_up_at(self._deadline)
         return call
-
-    def _unsubscribe(self) -> None:
-        subscription, self._subscription = getattr(self, "_subscription", None), None
-        if subscription is not None:
-            self.context.node.destroy_subscription(subscription)
 
     def on_running(self) -> NodeStatus:
         if self._call is not None and not self._call.done and self.now() >= self._deadline:
@@ -601,10 +588,7 @@ class GetPointCloud(RosBehavior):
             self._call = None
             return self.fail(f"no point cloud on {self.get_input('topic_name')} within "
                              f"{self.get_input('message_timeout_sec')} s")
-        status = super().on_running()
-        if status is not RUNNING:
-            self._unsubscribe()
-        return status
+        return super().on_running()
 
     def on_halted(self) -> None:
         self._unsubscribe()

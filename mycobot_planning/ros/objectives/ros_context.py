@@ -7,6 +7,7 @@ reaches into another node. Clients are made once per name and shared by every tr
 from __future__ import annotations
 
 import threading
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -83,6 +84,7 @@ class RosBehaviorContext(BehaviorContext):
         self._lock = threading.Lock()
         self._actions: dict[str, Any] = {}
         self._services: dict[str, Any] = {}
+        self._topics: dict[str, tuple[Any, list[Callable[[Any], None]]]] = {}
         self._joint_state: JointState | None = None
         self._perception: Any = None
         self.detected_object_ids: list[str] = []
@@ -169,6 +171,33 @@ class RosBehaviorContext(BehaviorContext):
             if client is None:
                 client = self._services[name] = self.node.create_client(srv_type, name, callback_group=self.group)
             return client
+
+    def next_message(self, msg_type: Any, topic: str, deliver: Callable[[Any], None]) -> Callable[[], None]:
+        """``deliver(msg)`` with the next message on ``topic``; returns the cancel. Subscriptions
+        are made once per topic and kept: destroying one while the executor waits on it races
+        (rclpy's InvalidHandle)."""
+        with self._lock:
+            entry = self._topics.get(topic)
+            if entry is None:
+                waiting: list[Callable[[Any], None]] = []
+
+                def on_message(msg: Any) -> None:
+                    with self._lock:
+                        ready, waiting[:] = list(waiting), []
+                    for callback in ready:
+                        callback(msg)
+
+                subscription = self.node.create_subscription(msg_type, topic, on_message, 1,
+                                                             callback_group=self.group)
+                entry = self._topics[topic] = (subscription, waiting)
+            entry[1].append(deliver)
+
+        def cancel() -> None:
+            with self._lock:
+                if deliver in entry[1]:
+                    entry[1].remove(deliver)
+
+        return cancel
 
     def perception(self) -> PerceptionClient:
         with self._lock:
