@@ -76,3 +76,32 @@ def test_every_shipped_objective_loads_with_the_behaviors(path):
 def test_the_workshop_s_objectives_are_shipped():
     names = [name for path in library_files([LIBRARY]) for name in tree_ids_of(path)]
     assert sorted(names) == sorted(WORKSHOP)
+
+
+def test_parameter_overrides_become_typed_blackboard_values():
+    from geometry_msgs.msg import PoseStamped as PoseStampedMsg
+    from mycobot_objective_msgs.msg import BehaviorParameter, BehaviorParameterDescription as D
+    from sensor_msgs.msg import JointState
+
+    from mycobot_planning.behavior_tree import PoseStamped
+    from mycobot_planning.behavior_tree.behaviors import JointStateValue
+    from mycobot_planning.ros.objectives.objective_server import _override_value
+
+    def parameter(kind, **values):
+        p = BehaviorParameter(**values)
+        p.description.name, p.description.type = "x", kind
+        return p
+
+    assert _override_value(parameter(D.TYPE_STRING, string_value="hi")) == "hi"
+    assert _override_value(parameter(D.TYPE_DOUBLE, double_value=0.5)) == 0.5
+    assert _override_value(parameter(D.TYPE_INT, int_value=7)) == 7
+    assert _override_value(parameter(D.TYPE_BOOL, bool_value=True)) is True
+    pose = PoseStampedMsg()
+    pose.header.frame_id = "base_link"
+    pose.pose.position.z, pose.pose.orientation.w = 0.3, 1.0
+    value = _override_value(parameter(D.TYPE_POSE, pose_value=pose))
+    assert isinstance(value, PoseStamped) and value.frame_id == "base_link" and value.pose.position == [0, 0, 0.3]
+    joints = _override_value(parameter(D.TYPE_JOINT_STATE, joint_state_value=JointState(name=["a"], position=[0.2])))
+    assert isinstance(joints, JointStateValue) and joints.as_dict() == {"a": 0.2}
+    with pytest.raises(ValueError, match="unknown type 9"):
+        _override_value(parameter(9))

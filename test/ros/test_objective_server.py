@@ -303,6 +303,12 @@ def test_run_objective_via_the_server_prints_one_json_line(system):
     record = json.loads(out.stdout.strip().splitlines()[-1])
     assert record["objective"] == "My Transform Pose" and record["status"] == "SUCCESS"
     assert record["blackboard"]["output_pose"]["pose"]["position"] == [0.0, 1.0, 1.0]
+    from_file = subprocess.run([PYTHON, "-m", "mycobot_planning.nodes.run_objective", "--server", "--set", "who=x",
+                                str(config_dir() / "objectives" / "my_transform_pose.xml")],
+                               cwd=REPO, env=ros_env(), capture_output=True, text=True, timeout=120)
+    record = json.loads(from_file.stdout.strip().splitlines()[-1])
+    assert from_file.returncode == 0 and record["status"] == "SUCCESS", from_file.stderr
+    assert record["blackboard"]["who"] == "x"  # --set reached the root blackboard
     refused = subprocess.run([PYTHON, "-m", "mycobot_planning.nodes.run_objective", "No Such Objective", "--server"],
                              cwd=REPO, env=ros_env(), capture_output=True, text=True, timeout=120)
     assert refused.returncode == 2

@@ -485,7 +485,11 @@ class ObjectiveServer(Node):
         return True, "moved"
 
     def close(self) -> None:
+        """Shutdown: the running objective is canceled (its tree halted, the arm stopped) and
+        given a few seconds to end before the node goes."""
         with self._lock:
             run = self._run
         if run is not None:
             self._request_cancel(run, "the objective_server is shutting down")
+            if self._run_lock.acquire(timeout=5.0):
+                self._run_lock.release()
