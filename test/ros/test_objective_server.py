@@ -81,6 +81,12 @@ def at_waypoint(probe, name: str, tolerance: float = 0.03) -> bool:
     return all(abs(a - b) < tolerance for a, b in zip(arm(probe), WAYPOINTS.get(name).positions))
 
 
+def assert_at_rest(probe) -> None:
+    before = arm(probe)
+    time.sleep(0.5)
+    assert max(abs(a - b) for a, b in zip(arm(probe), before)) < 1e-3, "the arm still moves"
+
+
 def last_status(system) -> ObjectiveServerStatus:
     with system["probe"].lock:
         return system["statuses"][-1]
@@ -217,9 +223,7 @@ def test_cancel_mid_motion_stops_the_arm_and_reports_cancelled(system):
     assert "canceled by /cancel_objective" in result.error_message and "arm stopped" in result.error_message
     assert last_status(system).objective_status == "Cancelled"
     # at rest, and not where the motion was going
-    before = arm(probe)
-    time.sleep(0.5)
-    assert max(abs(a - b) for a, b in zip(arm(probe), before)) < 1e-3
+    assert_at_rest(probe)
     assert not at_waypoint(probe, "Transfer")
     # nothing to cancel any more
     again = probe.call(CancelObjective, "/cancel_objective", CancelObjective.Request())
@@ -283,9 +287,7 @@ def test_a_behavior_failing_mid_tree_leaves_the_arm_at_rest(system):
     assert result.error_code.val == C.FAILURE
     assert "failed at" in result.error_message
     assert at_waypoint(system["probe"], "Home")
-    before = arm(system["probe"])
-    time.sleep(0.3)
-    assert max(abs(a - b) for a, b in zip(arm(system["probe"]), before)) < 1e-3
+    assert_at_rest(system["probe"])
 
 
 def test_parameter_overrides_reach_the_root_blackboard(system):
@@ -388,9 +390,7 @@ def test_a_failure_halts_the_motion_running_beside_it_and_the_arm_rests(system):
     moved = max(abs(a - b) for a, b in zip(arm(probe), start_positions))
     assert moved > 0.01, "the motion never started"
     assert not at_waypoint(probe, "Place")  # halted on the way
-    before = arm(probe)
-    time.sleep(0.5)
-    assert max(abs(a - b) for a, b in zip(arm(probe), before)) < 1e-3
+    assert_at_rest(probe)
 
 
 def test_mtc_behaviors_plan_and_execute_a_task_over_move_group(system):
