@@ -187,6 +187,7 @@ class ObjectiveServer(Node):
         self._lock = threading.Lock()
         self._run_lock = threading.Lock()
         self._run: _Run | None = None
+        self._latest_goal: Any = None
         self._last_state = 0.0
         self._status_pub = self.create_publisher(ObjectiveServerStatus, "~/status", LATCHED)
         self._state_pub = self.create_publisher(String, "~/tree_state", LATCHED)
@@ -264,9 +265,11 @@ class ObjectiveServer(Node):
 
     # ------------------------------------------------------------------ do_objective
     def _accepted(self, goal_handle: Any) -> None:
-        """A new goal cancels the running objective (MoveIt Pro: one objective at a time)."""
+        """A new goal cancels the running objective (MoveIt Pro: one objective at a time), and
+        any goal accepted before it that has not started yet."""
         with self._lock:
             run = self._run
+            self._latest_goal = goal_handle
         if run is not None:
             self._request_cancel(run, "preempted by a new objective")
         goal_handle.execute()
@@ -299,6 +302,11 @@ class ObjectiveServer(Node):
         with self._run_lock:  # the previous objective, canceled in _accepted, ends first
             with self._lock:
                 self._run = run
+                superseded = self._latest_goal is not goal_handle
+            if superseded:  # a newer goal came while this one waited for the previous to end
+                with self._lock:
+                    self._run = None
+                return self._finish(run, goal_handle, S.CANCELLED, C.PREEMPTED, "preempted by a new objective")
             try:
                 return self._run_objective(run, goal)
             except Exception as exc:  # a defect, not the objective's fault: say so, keep serving
