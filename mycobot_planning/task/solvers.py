@@ -46,7 +46,7 @@ from ..core.trajectory_validator import validate_trajectory
 from ..core.planning_interface import JointGoal, MotionPlanRequest, PlanningFailure, PoseGoal, goal_states
 from ..core.planning_pipeline import PlanningPipeline
 from ..core.planning_scene import PlanningScene
-from ..core.robot_trajectory import TimedTrajectory
+from ..core.robot_trajectory import DEFAULT_MAX_WAYPOINT_DISTANCE, TimedTrajectory, limit_waypoint_distance
 from ..core.trajectory_processing.cartesian_speed_limit import limit_cartesian_link_speed
 from ..core.transforms import inverse
 from .errors import PropertyError, TaskError
@@ -98,6 +98,10 @@ class PlannerInterface:
         p.declare("max_acceleration_scaling_factor", 1.0, "scale down max acceleration by this factor", type=float)
         p.declare("timeout", math.inf, "upper bound of the planning time (s); the stage's timeout applies too",
                   type=float)
+        p.declare("max_waypoint_distance", DEFAULT_MAX_WAYPOINT_DISTANCE,
+                  "largest joint motion (rad, or m) between consecutive waypoints of the trajectories this planner "
+                  "gives a stage (MTC's JointInterpolationPlanner max_step, 0.1): sparser ones get exact samples "
+                  "of their own timing in between", type=float)
 
     @property
     def properties(self) -> PropertyMap:
@@ -149,6 +153,16 @@ class PlannerInterface:
     def init(self, robot_model: "RobotModel") -> None:
         """Check the configuration (ValueError naming the property); the owning stage reports it."""
         self._scaling()
+        if not float(self._properties["max_waypoint_distance"]) > 0.0:
+            raise ValueError(f"max_waypoint_distance must be > 0, got {self._properties['max_waypoint_distance']}")
+
+    def dense(self, trajectory: TimedTrajectory | None) -> TimedTrajectory | None:
+        """``trajectory`` with waypoints at most ``max_waypoint_distance`` apart per joint, its
+        timing unchanged (what the stages publish, execute and validate; see
+        core.robot_trajectory.limit_waypoint_distance)."""
+        if trajectory is None:
+            return None
+        return limit_waypoint_distance(trajectory, float(self._properties["max_waypoint_distance"]))
 
     def _memoized(self, context: "TaskContext | None", scene: PlanningScene, parts: tuple,
                   compute: Callable[[], PlanResult]) -> PlanResult:
