@@ -238,8 +238,9 @@ class PlanningComponent:
                                  parameters, started)
         pipeline = self._moveit._pipelines.get(parameters.planning_pipeline)
         if pipeline is None:
+            hint = "" if parameters.planning_pipeline else "; set plan_request_params.planning_pipeline, e.g. to ompl"
             return self._failure(MoveItErrorCode.FAILURE, "No planning pipeline available for name "
-                                 f"'{parameters.planning_pipeline}' (loaded: {sorted(self._moveit._pipelines)})",
+                                 f"'{parameters.planning_pipeline}' (loaded: {sorted(self._moveit._pipelines)}){hint}",
                                  parameters, started)
         scene = self._scene(planning_scene)
         if isinstance(scene, MotionPlanResponse):
