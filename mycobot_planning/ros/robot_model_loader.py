@@ -6,15 +6,9 @@ MTC's ``Task.loadRobotModel(node)`` and MoveItPy both build their robot from
 ``robot_description_planning.*`` and the IK settings of ``robot_description_kinematics.*``. A
 node started with those parameters (a launch file's usual way) uses its own; a script node
 without them reads them from ``/move_group``, as RViz and pymoveit2 do.
-
-:class:`NodeWaiter` is how a script's node waits for an answer: the node usually is not spinning,
-so the wait spins it until the future is done; a node an executor already spins (another thread,
-e.g. rclcpp's background executor or MoveItPy's) is only waited on.
 """
 from __future__ import annotations
 
-import threading
-import time
 from typing import Any
 
 import rclpy
@@ -25,12 +19,10 @@ from rclpy.node import Node
 from interfaces_py import names
 from mycobot_planning.core.robot_model import RobotModel
 from mycobot_planning.paths import package_share_dirs
+from mycobot_planning.ros.node_waiter import SERVER_TIMEOUT, NodeWaiter
 
-__all__ = ["KINEMATICS_PREFIX", "PLANNING_PREFIX", "SERVER_TIMEOUT", "NodeWaiter", "load_robot_model",
-           "parameter_tree"]
+__all__ = ["KINEMATICS_PREFIX", "PLANNING_PREFIX", "load_robot_model", "parameter_tree"]
 
-#: s to wait for move_group's parameters and services
-SERVER_TIMEOUT = 10.0
 PLANNING_PREFIX = "robot_description_planning"
 KINEMATICS_PREFIX = "robot_description_kinematics"
 
@@ -47,43 +39,6 @@ def parameter_tree(flat: dict[str, Any], prefix: str) -> dict[str, Any]:
             node = node.setdefault(part, {})
         node[leaf] = value
     return tree
-
-
-class NodeWaiter:
-    """Waits for a node's futures, spinning the node only when no executor spins it already."""
-
-    def __init__(self, node: Node) -> None:
-        if not isinstance(node, Node):
-            raise TypeError(f"expected an rclpy Node, got {type(node).__name__}")
-        self.node = node
-        self._spun_by: Any = None  # the executor our own spinning left the node in
-
-    def wait(self, future: Any, timeout: float) -> Any:
-        """The future's result once done (TimeoutError after ``timeout`` s, the future cancelled)."""
-        executor = self.node.executor
-        if executor is None or executor is self._spun_by:
-            # (spin_until_future_complete leaves the node's executor set to the one it used)
-            rclpy.spin_until_future_complete(self.node, future, timeout_sec=timeout)
-            self._spun_by = self.node.executor
-        else:
-            done = threading.Event()
-            future.add_done_callback(lambda _f: done.set())
-            done.wait(timeout)
-        if not future.done():
-            future.cancel()
-            raise TimeoutError(f"no answer within {timeout:g} s")
-        return future.result()
-
-    def call(self, client: Any, request: Any, what: str, timeout: float) -> Any:
-        """A service call's response; TimeoutError saying what was being done and which service."""
-        started = time.monotonic()
-        if not client.wait_for_service(timeout_sec=timeout):
-            raise TimeoutError(f"{what}: no server answers on {client.srv_name} within {timeout:g} s "
-                               "(is the planning_server running?)")
-        try:
-            return self.wait(client.call_async(request), max(0.1, timeout - (time.monotonic() - started)))
-        except TimeoutError as exc:
-            raise TimeoutError(f"{what}: {exc}") from None
 
 
 def _own_parameters(node: Node, wanted: list[str]) -> dict[str, Any]:

@@ -39,7 +39,8 @@ from mycobot_planning.core.planning_scene_monitor import PlanningSceneMonitor as
 from mycobot_planning.core.planning_scene_monitor import RequestError
 from mycobot_planning.core.robot_model import RobotModel as CoreRobotModel
 from mycobot_planning.core.trajectory_validator import validate_trajectory
-from mycobot_planning.ros.robot_model_loader import NodeWaiter, load_robot_model
+from mycobot_planning.ros.node_waiter import SERVER_TIMEOUT, NodeWaiter
+from mycobot_planning.ros.robot_model_loader import load_robot_model
 
 from .core.controller_manager import ExecutionStatus
 from .core.planning_scene import PlanningScene
@@ -54,8 +55,6 @@ __all__ = ["LockedPlanningSceneContextManagerRO", "LockedPlanningSceneContextMan
 _LOGGER = rclpy.logging.get_logger("moveit_py")
 #: the pipelines the core plans with (MoveIt's pipeline names)
 KNOWN_PIPELINES = (OMPL_PIPELINE_ID, PILZ_PIPELINE_ID, JOINT_INTERPOLATION_PIPELINE_ID)
-#: s to wait for move_group's execute_trajectory action server
-SERVER_TIMEOUT = 10.0
 
 
 class LockedPlanningSceneContextManagerRO:
@@ -352,27 +351,12 @@ class MoveItPy:
         return self._send(goal, timed.duration)
 
     def _send(self, goal: Any, duration: float) -> ExecutionStatus:
-        waiter = NodeWaiter(self._node)
-        if not self._execute_client.wait_for_server(timeout_sec=SERVER_TIMEOUT):
-            return ExecutionStatus(MoveItErrorCode(
-                MoveItErrorCode.COMMUNICATION_FAILURE,
-                f"no {names.EXECUTE_TRAJECTORY_ACTION} action server answers within {SERVER_TIMEOUT:g} s "
-                "(is the planning_server running?)", "moveit_py"))
-        try:
-            handle = waiter.wait(self._execute_client.send_goal_async(goal), SERVER_TIMEOUT)
-        except TimeoutError:
-            handle = None
-        if handle is None or not handle.accepted:
-            return ExecutionStatus(MoveItErrorCode(MoveItErrorCode.COMMUNICATION_FAILURE,
-                                                   "the execute_trajectory goal was not accepted", "moveit_py"))
-        wait = 2.0 * duration + 30.0
-        try:
-            result = waiter.wait(handle.get_result_async(), wait)
-        except TimeoutError:
-            handle.cancel_goal_async()
-            return ExecutionStatus(MoveItErrorCode(MoveItErrorCode.TIMED_OUT,
-                                                   f"execute_trajectory gave no result within {wait:.0f} s", "moveit_py"))
-        code = result.result.error_code
+        result, failure = NodeWaiter(self._node).run_goal(self._execute_client, goal, 2.0 * duration + 30.0,
+                                                          SERVER_TIMEOUT, "moveit_py")
+        if failure is not None:
+            _LOGGER.error(f"Execution failed: {failure.message}")
+            return ExecutionStatus(failure)
+        code = result.error_code
         status = ExecutionStatus(MoveItErrorCode(code.val, code.message, code.source))
         if status:
             _LOGGER.info(f"Completed trajectory execution with status {status.status}")
