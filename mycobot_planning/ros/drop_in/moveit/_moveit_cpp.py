@@ -171,6 +171,15 @@ class PlanningSceneMonitor:
     def clear_octomap(self) -> None:
         """Nothing to clear: octomaps are not supported."""
 
+    def new_planning_scene_message(self, scene: PlanningSceneRos) -> bool:
+        """Apply a moveit_msgs/PlanningScene (a diff, or a full scene replacing this one)."""
+        try:
+            self._core.apply_planning_scene(planning_scene_from_msg(scene))
+            return True
+        except (ConversionError, RequestError) as exc:
+            _LOGGER.error(f"planning scene message refused: {exc}")
+            return False
+
     def process_collision_object(self, collision_object_msg: Any, color_msg: Any = None) -> None:
         with self.read_write() as scene:
             scene.apply_collision_object(collision_object_msg, color_msg)
