@@ -45,6 +45,7 @@ from mycobot_planning.ros.drop_in.moveit.utils import (
     ros_arguments,
     ros_params_file,
 )
+from mycobot_planning.ros.drop_in import rclcpp
 from mycobot_planning.ros.drop_in.moveit.task_constructor import stages as mtc_stages
 from ros_testing import REPO, use_session_domain
 
@@ -346,6 +347,29 @@ def test_bad_calls_are_refused_as_moveit_refuses_them(moveit: MoveItPy) -> None:
     arm.set_goal_state(configuration_name="ready")
     stale = arm.plan()
     assert not stale and stale.error_code.val == MoveItErrorCode.ROBOT_STATE_STALE
+
+
+# ---------------------------------------------------------------------------- rclcpp
+def test_rclcpp_nodes_take_node_options_and_are_spun_in_the_background(moveit: MoveItPy) -> None:
+    """py_binding_tools' rclcpp on rclpy: init() reuses a context rclpy already has (here
+    MoveItPy's), NodeOptions work as keywords and attributes, nodes are spun by rclcpp's executor
+    (a script never spins), shutdown() leaves a context it did not make alone."""
+    rclcpp.init()
+    try:
+        options = rclcpp.NodeOptions(automatically_declare_parameters_from_overrides=True)
+        options.arguments = ["--ros-args", "-p", "answer:=42"]
+        node = rclcpp.Node("rclcpp_options_test", options)
+        assert node.name == "rclcpp_options_test" and node.get_parameter("answer").value == 42
+        assert node.executor is not None  # added to rclcpp's background executor
+        plain = rclcpp.Node("rclcpp_plain_test")
+        assert not plain.has_parameter("answer")
+        with pytest.raises(AttributeError):
+            rclcpp.NodeOptions(no_such_option=True)
+        with pytest.raises(TypeError, match="NodeOptions"):
+            rclcpp.Node("bad", {"automatically_declare_parameters_from_overrides": True})  # type: ignore[arg-type]
+    finally:
+        rclcpp.shutdown()
+    assert rclpy.ok()
 
 
 # ---------------------------------------------------------------------------- parameters and the hook
