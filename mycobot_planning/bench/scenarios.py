@@ -20,6 +20,7 @@ from .perception_scenarios import bench_perception
 from .pick_place_scenarios import PICK_PLACE_SCENARIOS
 from .robots_scenarios import bench_robots
 from .robustness import bench_robustness
+from .sim_scenarios import SIM_SCENARIOS
 from .ros_scenarios import ROS_SCENARIOS
 from .task_scenarios import TASK_SCENARIOS
 from .time_parameterization_scenarios import TIME_PARAMETERIZATION_SCENARIOS
@@ -248,4 +249,5 @@ SCENARIOS: dict[str, Callable[..., None]] = {
     **VIEWER_SCENARIOS,
     **TIME_PARAMETERIZATION_SCENARIOS,
     **OBJECTIVES_SCENARIOS,
+    **SIM_SCENARIOS,
 }
