@@ -311,13 +311,21 @@ def limit_waypoint_distance(trajectory: TimedTrajectory, max_distance: float = D
         return trajectory
     times = trajectory.times
     positions = trajectory.positions
-    velocities, accelerations = trajectory.velocities, trajectory.accelerations
+    steps = np.abs(np.diff(positions, axis=0))
+    if steps.max() <= max_distance:
+        return trajectory
+    first = True
     for _ in range(64):  # each round splits every too-long interval; a few rounds suffice
-        gaps = np.max(np.abs(np.diff(positions, axis=0)), axis=1)
+        gaps = steps.max(axis=1)
         bad = np.nonzero(gaps > max_distance)[0]
         if bad.size == 0:
             break
-        pieces = np.ceil(gaps[bad] / max_distance).astype(int)  # >= 2 each
+        travel = gaps[bad]
+        if first and trajectory.interpolation == "cubic":
+            travel = np.maximum(travel, _cubic_travel_bound(trajectory, bad))
+        first = False
+        # >= 2 each; the factor keeps a travel of exactly k steps from ending a rounding error above
+        pieces = np.ceil(travel / max_distance * (1.0 + 1e-9)).astype(int)
         inner = pieces - 1
         interval = np.repeat(bad, inner)
         rank = np.arange(int(inner.sum())) - np.repeat(np.cumsum(inner) - inner, inner) + 1
@@ -325,11 +333,29 @@ def limit_waypoint_distance(trajectory: TimedTrajectory, max_distance: float = D
         added = times[interval] + fraction * (times[interval + 1] - times[interval])
         times = np.union1d(times, added)
         positions, velocities, accelerations = trajectory._interpolate(times)
-    if len(times) == len(trajectory):
-        return trajectory
+        steps = np.abs(np.diff(positions, axis=0))
     return TimedTrajectory(trajectory.joint_names, times, positions, velocities, accelerations,
                            interpolation=trajectory.interpolation, path=trajectory.path,
                            waypoint_times=trajectory.waypoint_times)
+
+
+def _cubic_travel_bound(trajectory: TimedTrajectory, intervals: np.ndarray) -> np.ndarray:
+    """Per interval, the largest distance any joint can travel on it: its peak speed (at an end,
+    or where the constant-jerk piece's velocity parabola turns) times the interval's length.
+    Splitting an interval into ceil(bound / max_distance) equal times then keeps every part
+    within max_distance in one pass, also where the speed changes along the interval."""
+    t = trajectory.times
+    h = (t[intervals + 1] - t[intervals])[:, None]
+    v0, v1 = trajectory.velocities[intervals], trajectory.velocities[intervals + 1]
+    a0 = trajectory.accelerations[intervals]
+    jerk = 2.0 * (v1 - v0 - a0 * h) / (h * h)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        turn = np.where(jerk != 0.0, -a0 / jerk, -1.0)
+    inside = (turn > 0.0) & (turn < h)
+    turn = np.where(inside, turn, 0.0)
+    peak = np.maximum(np.abs(v0), np.abs(v1))
+    peak = np.where(inside, np.maximum(peak, np.abs(v0 + turn * (a0 + 0.5 * jerk * turn))), peak)
+    return (peak * h).max(axis=1)
 
 
 def densify_joint_trajectory(trajectory: JointTrajectory, max_distance: float = DEFAULT_MAX_WAYPOINT_DISTANCE

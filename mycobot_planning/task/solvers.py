@@ -172,7 +172,8 @@ class PlannerInterface:
         settings, group, start state, target and collision scene give the same answer, so a
         task repeating a module from the same state (the modular demo) plans it once. The scene
         is identified by its compiled collision content, shared by scene copies until one of
-        them changes; scenes without it are never reused.
+        them changes; scenes without it are never reused. The result is kept dense (see
+        :meth:`dense`), so a reused answer is not made dense again.
         """
         identity = collision_identity(scene)
         if context is None or identity is None or not context.reuse_plans:
@@ -183,6 +184,7 @@ class PlannerInterface:
         result = cache.get(key)
         if result is None:
             result = compute()
+            result.trajectory = self.dense(result.trajectory)
             if len(cache) < context.plan_cache_size:
                 cache[key] = result
         return result
