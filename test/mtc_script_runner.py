@@ -25,7 +25,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from task_helpers import assert_solution_valid, spacing_problems, waypoint_spacing  # noqa: E402
 
-from mycobot_planning.nodes.task_topics import MTC_SOLUTION_TOPIC  # noqa: E402
+from mycobot_planning.ros.task.task_topics import MTC_SOLUTION_TOPIC  # noqa: E402
 from mycobot_planning.ros.drop_in.runner import run_script  # noqa: E402
 
 #: s; MTC_SCRIPT_MAX_SLEEP overrides (a test that looks at what the script shows while it sleeps)

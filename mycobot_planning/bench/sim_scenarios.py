@@ -41,7 +41,7 @@ import numpy as np
 from mycobot_planning.simulation import MujocoSimulator  # first: sets MUJOCO_GL before mujoco loads
 from mycobot_planning.core import PlanningScene, RobotModel, RobotState
 from mycobot_planning.core.planning_interface import MotionPlanRequest, NamedGoal
-from mycobot_planning.core.planning_pipeline import PlanningPipeline
+from mycobot_planning.core import PlanningPipeline
 from mycobot_planning.demos.pick_place import PickPlaceParameters
 from mycobot_planning.demos.sim_pick_place import run_sim_pick_place
 

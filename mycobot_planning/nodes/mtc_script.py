@@ -5,7 +5,12 @@ from __future__ import annotations
 
 import sys
 
-from mycobot_planning.ros.drop_in.runner import main
+from mycobot_planning.ros.drop_in.runner import run_command_line
+
+
+def main(args: list[str] | None = None) -> int:
+    return run_command_line(args)
+
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -17,7 +17,7 @@ from rcl_interfaces.srv import GetParameters, ListParameters
 from rclpy.node import Node
 
 from interfaces_py import names
-from mycobot_planning.core.robot_model import RobotModel
+from mycobot_planning.core.robot_model.robot_model import RobotModel
 from mycobot_planning.paths import package_share_dirs
 from mycobot_planning.ros.node_waiter import SERVER_TIMEOUT, NodeWaiter
 

@@ -21,14 +21,14 @@ from __future__ import annotations
 from collections import defaultdict
 from typing import TYPE_CHECKING, Iterable, Iterator
 
-from ..core.robot_trajectory import DEFAULT_MAX_WAYPOINT_DISTANCE
+from ..core.robot_trajectory.robot_trajectory import DEFAULT_MAX_WAYPOINT_DISTANCE
 from .errors import InitStageException, TaskError
 from .stage import Connecting, Stage
 from .storage import BACKWARD, CONNECT, END_IF_MASK, FORWARD, GENERATE, PROPAGATE_BACKWARDS, PROPAGATE_FORWARDS, READS_END, READS_START, START_IF_MASK, UNKNOWN, WRITES_NEXT_START, WRITES_PREV_END, GENERATOR_KEY, Interface, InterfaceState, Priority, SolutionBase, SolutionSequence, SubTrajectory, WrappedSolution, flow_symbol_end, flow_symbol_start, interface_text, invert, update_state_priorities
 from .trajectories import merge_trajectories
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ..core.robot_model import RobotModel
+    from ..core.robot_model.robot_model import RobotModel
 
 __all__ = ["Alternatives", "ContainerBase", "Fallbacks", "Merger", "ParallelContainerBase", "SerialContainer", "WrapperBase"]
 

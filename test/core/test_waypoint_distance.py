@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from interfaces_py.msgs import JointTrajectory, JointTrajectoryPoint
-from mycobot_planning.core.robot_trajectory import (
+from mycobot_planning.core.robot_trajectory.robot_trajectory import (
     DEFAULT_MAX_WAYPOINT_DISTANCE,
     TimedTrajectory,
     densify_joint_trajectory,

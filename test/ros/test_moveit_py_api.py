@@ -22,8 +22,8 @@ from moveit_msgs.msg import CollisionObject
 from shape_msgs.msg import SolidPrimitive
 
 from interfaces_py.msgs import MoveItErrorCode
-from mycobot_planning.core.robot_model import RobotModel as CoreRobotModel
-from mycobot_planning.core.trajectory_validator import validate_trajectory
+from mycobot_planning.core.robot_model.robot_model import RobotModel as CoreRobotModel
+from mycobot_planning.core.trajectory_processing.trajectory_validator import validate_trajectory
 from mycobot_planning.paths import config_file, example_robot_data_dir
 from mycobot_planning.ros import drop_in
 from mycobot_planning.ros.drop_in.moveit.core import robot_state as robot_state_module

@@ -12,9 +12,9 @@ import pytest
 
 from mycobot_planning.simulation import CommandError, MujocoSimulator, SceneObject, SimulationError, SpawnError
 from mycobot_planning.core import PlanningScene, RobotState
-from mycobot_planning.core.controllers_config import load_controllers_config
+from mycobot_planning.core.trajectory_execution.controllers_config import load_controllers_config
 from mycobot_planning.core.planning_interface import MotionPlanRequest, NamedGoal
-from mycobot_planning.core.planning_pipeline import PlanningPipeline
+from mycobot_planning.core import PlanningPipeline
 from mycobot_planning.core.robot_trajectory import TimedTrajectory
 from mycobot_planning.paths import config_file
 

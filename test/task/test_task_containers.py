@@ -289,7 +289,7 @@ def test_connect_keeps_the_arm_trajectory_when_the_gripper_does_not_move(mycobot
     """A lone moving group is merged without re-checking or re-timing: the merged trajectory is
     the arm's, state for state (dense: waypoints at most 0.1 rad apart), with the gripper held
     where it was."""
-    from mycobot_planning.core.robot_trajectory import limit_waypoint_distance
+    from mycobot_planning.core.robot_trajectory.robot_trajectory import limit_waypoint_distance
     from mycobot_planning.task.trajectories import merge_trajectories, single_point, time_path
 
     start = scene_at(mycobot, "home")

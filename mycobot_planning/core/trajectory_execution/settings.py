@@ -7,8 +7,8 @@ from dataclasses import dataclass
 from interfaces_py.msgs import MoveItErrorCode
 
 from ..errors import PlanningError
-from ..robot_trajectory import DEFAULT_MAX_WAYPOINT_DISTANCE
-from ..trajectory_limits import DEFAULT_LIMIT_TOLERANCE
+from ..robot_trajectory.robot_trajectory import DEFAULT_MAX_WAYPOINT_DISTANCE
+from ..trajectory_processing.trajectory_limits import DEFAULT_LIMIT_TOLERANCE
 
 SOURCE = "trajectory_execution"
 

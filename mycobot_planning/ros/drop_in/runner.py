@@ -26,7 +26,8 @@ PlanningSceneInterface) unchanged, against the running planning_server. A --para
 ROS parameters file or a plain YAML of parameters (e.g. a MoveItPy configuration)."""
 
 
-def main(argv: Sequence[str] | None = None) -> int:
+def run_command_line(argv: Sequence[str] | None = None) -> int:
+    """mtc_script's command line: usage, a missing script (exit 2), or the script run."""
     args = list(sys.argv[1:] if argv is None else argv)
     if not args or args[0] in ("-h", "--help"):
         print(USAGE, file=sys.stdout if args else sys.stderr)

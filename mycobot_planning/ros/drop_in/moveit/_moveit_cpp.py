@@ -33,15 +33,16 @@ from interfaces_py.background_spin import BackgroundSpin
 from interfaces_py.moveit_conversions import attached_object_from_msg, planning_scene_from_msg
 from interfaces_py.msgs import MoveItErrorCode
 from interfaces_py.ros_message_reading import ConversionError, collision_object_from_msg
-from mycobot_planning.core.pilz import PILZ_PIPELINE_ID
-from mycobot_planning.core.planning_pipeline import JOINT_INTERPOLATION_PIPELINE_ID, OMPL_PIPELINE_ID, PlanningPipeline
-from mycobot_planning.core.planning_scene_monitor import PlanningSceneMonitor as CoreSceneMonitor
-from mycobot_planning.core.planning_scene_monitor import RequestError
-from mycobot_planning.core.robot_model import RobotModel as CoreRobotModel
-from mycobot_planning.core.trajectory_validator import validate_trajectory
+from mycobot_planning.core.planners.pilz.common import PILZ_PIPELINE_ID
+from mycobot_planning.core.planning_interface.planning_pipeline import JOINT_INTERPOLATION_PIPELINE_ID, OMPL_PIPELINE_ID, PlanningPipeline
+from mycobot_planning.core.planning_scene.planning_scene_monitor import PlanningSceneMonitor as CoreSceneMonitor
+from mycobot_planning.core.planning_scene.planning_scene_monitor import RequestError
+from mycobot_planning.core.robot_model.robot_model import RobotModel as CoreRobotModel
+from mycobot_planning.core.trajectory_processing.trajectory_validator import validate_trajectory
 from mycobot_planning.ros.node_waiter import SERVER_TIMEOUT, NodeWaiter
 from mycobot_planning.ros.robot_model_loader import load_robot_model
 
+from ._planning_component import PlanningComponent
 from .core.controller_manager import ExecutionStatus
 from .core.planning_scene import PlanningScene
 from .core.robot_model import RobotModel, robot_model
@@ -319,9 +320,7 @@ class MoveItPy:
     def get_planning_scene_monitor(self) -> PlanningSceneMonitor:
         return self._monitor
 
-    def get_planning_component(self, planning_component_name: str) -> Any:
-        from ._planning_component import PlanningComponent  # noqa: PLC0415 - the two refer to each other
-
+    def get_planning_component(self, planning_component_name: str) -> PlanningComponent:
         return PlanningComponent(planning_component_name, self)
 
     def get_trajectory_execution_manager(self) -> None:

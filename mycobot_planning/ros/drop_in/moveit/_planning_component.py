@@ -11,7 +11,7 @@ joint) with their timing unchanged.
 from __future__ import annotations
 
 import time
-from typing import Any, Callable, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Sequence
 
 import numpy as np
 import rclpy.logging
@@ -21,19 +21,21 @@ from interfaces_py.msgs import MoveItErrorCode
 from interfaces_py.pose_conversion import PoseError, pose_matrix
 from interfaces_py.ros_message_reading import ConversionError
 from mycobot_planning.core.errors import PlanningError
-from mycobot_planning.core.kinematic_constraints import ConstraintError
-from mycobot_planning.core.planning_interface import JointGoal, MotionPlanRequest, PoseGoal
-from mycobot_planning.core.planning_scene import PlanningScene as CorePlanningScene
-from mycobot_planning.core.robot_state import RobotState as CoreRobotState
-from mycobot_planning.core.robot_trajectory import limit_waypoint_distance
+from mycobot_planning.core.kinematic_constraints.kinematic_constraints import ConstraintError
+from mycobot_planning.core.planning_interface.planning_interface import JointGoal, MotionPlanRequest, PoseGoal
+from mycobot_planning.core.planning_scene.planning_scene import PlanningScene as CorePlanningScene
+from mycobot_planning.core.robot_state.robot_state import RobotState as CoreRobotState
+from mycobot_planning.core.robot_trajectory.robot_trajectory import limit_waypoint_distance
 from mycobot_planning.task.path_constraints import as_path_constraints
 
-from ._moveit_cpp import MoveItPy
 from .core.kinematic_constraints import joint_goal_constraints, pose_goal_constraints
 from .core.planning_interface import MotionPlanResponse
 from .core.planning_scene import PlanningScene
 from .core.robot_state import RobotState, core_state
 from .core.robot_trajectory import RobotTrajectory, path_length
+
+if TYPE_CHECKING:  # pragma: no cover - MoveItPy hands itself to the components it makes
+    from ._moveit_cpp import MoveItPy
 
 __all__ = ["MultiPipelinePlanRequestParameters", "PlanRequestParameters", "PlanningComponent"]
 

@@ -8,7 +8,7 @@ from geometry_msgs.msg import Pose
 from moveit_msgs.msg import Constraints, JointConstraint, OrientationConstraint, PositionConstraint
 from shape_msgs.msg import SolidPrimitive
 
-from mycobot_planning.core.kinematic_constraints import ConstraintError
+from mycobot_planning.core.kinematic_constraints.kinematic_constraints import ConstraintError
 from mycobot_planning.task.path_constraints import as_path_constraints
 
 from .robot_model import JointModelGroup

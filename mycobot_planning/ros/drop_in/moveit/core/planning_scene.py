@@ -24,8 +24,8 @@ from interfaces_py.moveit_conversions import (
 from interfaces_py.msgs import AttachedCollisionObject, MessageError, PlanningScene as PlanningSceneMsg
 from interfaces_py.ros_message_reading import ConversionError, collision_object_from_msg
 from mycobot_planning.core.errors import PlanningError
-from mycobot_planning.core.planning_scene import PlanningScene as CorePlanningScene
-from mycobot_planning.core.trajectory_validator import validate_trajectory
+from mycobot_planning.core.planning_scene.planning_scene import PlanningScene as CorePlanningScene
+from mycobot_planning.core.trajectory_processing.trajectory_validator import validate_trajectory
 
 from .kinematic_constraints import constraints_satisfied
 from .robot_model import RobotModel, core_model, robot_model

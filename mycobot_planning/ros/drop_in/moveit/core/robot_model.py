@@ -7,7 +7,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from mycobot_planning.core.robot_model import RobotModel as CoreRobotModel
+from mycobot_planning.core.robot_model.robot_model import RobotModel as CoreRobotModel
 from mycobot_planning.paths import package_share_dirs
 
 __all__ = ["JointModelGroup", "RobotModel", "VariableBounds", "core_model", "robot_model"]

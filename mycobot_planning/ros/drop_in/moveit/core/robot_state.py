@@ -18,8 +18,8 @@ from interfaces_py.msgs import Pose
 from interfaces_py.pose_conversion import PoseError, pose_matrix
 from interfaces_py.ros_conversions import pose_to_msg
 from mycobot_planning.core.errors import PlanningError
-from mycobot_planning.core.kinematics import IKSolver
-from mycobot_planning.core.robot_state import RobotState as CoreRobotState
+from mycobot_planning.core.kinematics.ik_solver import IKSolver
+from mycobot_planning.core.robot_state.robot_state import RobotState as CoreRobotState
 
 from .robot_model import JointModelGroup, RobotModel, core_model, robot_model
 

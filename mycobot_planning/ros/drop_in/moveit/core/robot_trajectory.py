@@ -9,9 +9,9 @@ from moveit_msgs.msg import RobotTrajectory as RobotTrajectoryMsg
 
 from interfaces_py.moveit_conversions import robot_trajectory_from_msg, robot_trajectory_to_msg
 from interfaces_py.msgs import JointTrajectory, RobotTrajectory as RobotTrajectoryData
-from mycobot_planning.core.planning_interface import time_group_path
-from mycobot_planning.core.robot_state import RobotState as CoreRobotState
-from mycobot_planning.core.robot_trajectory import (
+from mycobot_planning.core.planning_interface.planning_interface import time_group_path
+from mycobot_planning.core.robot_state.robot_state import RobotState as CoreRobotState
+from mycobot_planning.core.robot_trajectory.robot_trajectory import (
     TimedTrajectory,
     joint_trajectory_to_timed,
     limit_waypoint_distance,
