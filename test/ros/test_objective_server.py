@@ -4,6 +4,7 @@ processes; Pick with Recovery with a scripted operator; cancel mid-motion; bad o
 as results; run_objective --server."""
 from __future__ import annotations
 
+import html
 import json
 import subprocess
 import threading
@@ -15,7 +16,6 @@ from moveit_msgs.msg import MoveItErrorCodes
 from mycobot_objective_msgs.msg import ObjectiveServerStatus, OperatorPrompt
 from mycobot_objective_msgs.srv import AnswerOperatorPrompt, CancelObjective
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from std_msgs.msg import String
 from std_srvs.srv import Trigger
 
 from interfaces_py.json_rpc import JsonRpcClient
@@ -468,3 +468,50 @@ def test_goals_queued_behind_the_running_one_are_superseded_by_the_newest(system
     assert "preempted by a new objective" in outcomes["second"][1].error_message
     assert outcomes["third"][1].error_code.val == C.SUCCESS, outcomes["third"][1].error_message
     assert at_waypoint(probe, "Home")
+
+
+def test_plan_validate_and_execute_a_trajectory_and_a_cartesian_path(system):
+    """PlanToJointGoal → ValidateTrajectory → ExecuteTrajectory (move_group's /execute_trajectory),
+    the scene behaviors around them; then PlanCartesianPath 2 cm down and its execution."""
+    probe = system["probe"]
+    run(system, "Look at Table")
+    xml = ('<root BTCPP_format="4"><BehaviorTree ID="Plan Then Execute"><Sequence>'
+           '<RetrieveWaypoint waypoint_name="Pre Pick" waypoint_joint_state="{goal}"/>'
+           '<PlanToJointGoal joint_goal="{goal}" joint_trajectory_msg="{trajectory}"/>'
+           '<ValidateTrajectory joint_trajectory_msg="{trajectory}"/>'
+           '<ExecuteTrajectory joint_trajectory_msg="{trajectory}"/>'
+           '<AddCollisionBox object_id="bt_box" pose="world;0.3;-0.3;0.05;0;0;0;1" dimensions="0.05;0.05;0.1"/>'
+           '<GetCurrentPlanningScene planning_scene_msg="{scene}"/>'
+           '<Script code="boxed := true"/>'
+           '<ResetPlanningSceneObjects/>'
+           '</Sequence></BehaviorTree></root>')
+    status, result = run(system, xml=xml)
+    assert result.error_code.val == C.SUCCESS, result.error_message
+    assert at_waypoint(probe, "Pre Pick")
+    from moveit_msgs.msg import PlanningSceneComponents
+    from moveit_msgs.srv import GetPlanningScene
+
+    request = GetPlanningScene.Request()
+    request.components.components = PlanningSceneComponents.WORLD_OBJECT_NAMES
+    scene = probe.call(GetPlanningScene, "/get_planning_scene", request).scene
+    assert [o.id for o in scene.world.collision_objects] == []  # reset removed the box (and the snapshot's)
+
+    from mycobot_planning.core.robot_model.robot_model import RobotModel
+    from mycobot_planning.core.robot_state.robot_state import RobotState
+    from mycobot_planning.core.transforms import matrix_to_quat
+
+    model = RobotModel.mycobot()
+    state = RobotState(model)
+    state.set_joint_positions(dict(zip(ARM, arm(probe))))
+    start = state.frame_pose("link6_flange")
+    target = [float(v) for v in start[:3, 3] - [0.0, 0.0, 0.02]]
+    path = json.dumps([{"header": {"frame_id": "world"},
+                        "pose": {"position": target, "orientation": [float(q) for q in matrix_to_quat(start[:3, :3])]}}])
+    xml = ('<root BTCPP_format="4"><BehaviorTree ID="Down"><Sequence>'
+           f'<PlanCartesianPath path="json:{html.escape(path)}" joint_trajectory_msg="{{down}}" fraction="{{fraction}}"/>'
+           '<ExecuteTrajectory joint_trajectory_msg="{down}"/></Sequence></BehaviorTree></root>')
+    status, result = run(system, xml=xml)
+    assert result.error_code.val == C.SUCCESS, result.error_message
+    assert system["client"].tree_state()["blackboard"]["fraction"] == 1.0
+    state.set_joint_positions(dict(zip(ARM, arm(probe))))
+    assert abs(state.frame_pose("link6_flange")[2, 3] - target[2]) < 0.003

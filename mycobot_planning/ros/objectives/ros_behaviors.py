@@ -12,7 +12,8 @@ from typing import Any
 from action_msgs.msg import GoalStatus
 from control_msgs.action import GripperCommand
 from geometry_msgs.msg import Pose as PoseMsg
-from moveit_msgs.action import ExecuteTrajectory, MoveGroup
+from moveit_msgs.action import ExecuteTrajectory as ExecuteTrajectoryAction
+from moveit_msgs.action import MoveGroup
 from moveit_msgs.msg import (
     AttachedCollisionObject,
     CollisionObject,
@@ -347,8 +348,8 @@ class ExecuteTrajectory(RosBehavior):
                                                                    "trajectory_msgs/JointTrajectory"),)
 
     def start(self) -> PendingCall | NodeStatus:
-        goal = ExecuteTrajectory.Goal(trajectory=_robot_trajectory(self.get_input("joint_trajectory_msg")))
-        return self.goal(ExecuteTrajectory, EXECUTE_TRAJECTORY_ACTION, goal)
+        goal = ExecuteTrajectoryAction.Goal(trajectory=_robot_trajectory(self.get_input("joint_trajectory_msg")))
+        return self.goal(ExecuteTrajectoryAction, EXECUTE_TRAJECTORY_ACTION, goal)
 
     def finish(self, call: PendingCall) -> NodeStatus:
         code = call.result.error_code
