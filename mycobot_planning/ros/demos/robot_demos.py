@@ -19,6 +19,7 @@ from typing import Callable
 
 import rclpy
 from rclpy.context import Context
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
@@ -167,11 +168,14 @@ def arm_ends_at_home(tag: str) -> bool:
     node = Node("demo_home_check", context=context)
     latest: list[JointState] = []
     node.create_subscription(JointState, "/joint_states", latest.append, 10)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
     deadline = time.monotonic() + 10.0
     try:
         while not latest and time.monotonic() < deadline:
-            rclpy.spin_once(node, timeout_sec=0.1)
+            executor.spin_once(timeout_sec=0.1)
     finally:
+        executor.shutdown()
         node.destroy_node()
         rclpy.try_shutdown(context=context)
     if not latest:
