@@ -30,7 +30,6 @@ from mycobot_planning.paths import use_fast_discovery
 from mycobot_planning.ros.task.task_node import EXIT_PLANNING_FAILED
 from mycobot_planning.core.robot_trajectory.robot_trajectory import joint_trajectory_to_timed
 from mycobot_planning.ros.task.task_topics import SOLUTION_QOS, STATISTICS_QOS, task_topics
-from mycobot_planning.paths import config_file
 from ros_testing import PYTHON, REPO, NodeProcess, ProbeNode, robot_processes, ros_env, use_session_domain, wait_until
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
