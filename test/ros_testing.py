@@ -8,8 +8,6 @@ from __future__ import annotations
 
 import contextlib
 import os
-import signal
-import subprocess
 import threading
 import sys
 import time
@@ -26,6 +24,8 @@ from std_srvs.srv import Trigger
 
 from interfaces_py.background_spin import BackgroundSpin
 from mycobot_planning.paths import config_file
+from mycobot_planning.ros.bringup import robot as bringup
+from mycobot_planning.ros.bringup.process import ManagedProcess
 
 REPO = Path(__file__).resolve().parent.parent
 PYTHON = sys.executable
@@ -84,57 +84,24 @@ def use_session_domain() -> None:
     os.environ.update({k: v for k, v in ros_env().items() if k.startswith("ROS_")})
 
 
-class NodeProcess:
+class NodeProcess(ManagedProcess):
     """One node started as `python -m <module> --ros-args ...` (or `python <file.py> ...` when
-    ``module`` names a file), output captured to a log file."""
+    ``module`` names a file) on this session's domain, in a process group of its own, output
+    captured to a log file: the bring-up's process (mycobot_planning.ros.bringup.process)."""
 
     def __init__(self, module: str, args: Iterable[str] = (), name: str | None = None, log_dir: Path | None = None):
-        self.module = module
-        self.name = name or (Path(module).stem if module.endswith(".py") else module.rsplit(".", 1)[-1])
-        log_dir = log_dir or Path(os.environ.get("MYCOBOT_TEST_LOG_DIR", "/tmp/mycobot_test_logs"))
-        log_dir.mkdir(parents=True, exist_ok=True)
-        self.log_path = log_dir / f"{self.name}-{os.getpid()}-{time.monotonic_ns()}.log"
-        self._log = open(self.log_path, "w")
-        self.proc = subprocess.Popen(
-            [PYTHON, *([module] if module.endswith(".py") else ["-m", module]), *args],
-            cwd=REPO,
-            env=ros_env(),
-            stdout=self._log,
-            stderr=subprocess.STDOUT,
-            start_new_session=True,
-        )
-
-    def output(self) -> str:
-        if not self._log.closed:
-            self._log.flush()
-        return self.log_path.read_text(errors="replace")
-
-    def wait_for_output(self, text: str, timeout: float = 20.0) -> bool:
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            if text in self.output():
-                return True
-            if self.proc.poll() is not None:
-                return text in self.output()
-            time.sleep(0.05)
-        return False
-
-    def alive(self) -> bool:
-        return self.proc.poll() is None
+        name = name or (Path(module).stem if module.endswith(".py") else module.rsplit(".", 1)[-1])
+        super().__init__(name, module, list(args), _log_dir(log_dir) / f"{name}-{os.getpid()}-{time.monotonic_ns()}.log")
+        self.start(ros_env(), REPO)
 
     def stop(self, timeout: float = 5.0) -> int | None:
-        if self.proc.poll() is None:
-            try:
-                os.killpg(self.proc.pid, signal.SIGINT)
-                self.proc.wait(timeout)
-            except (ProcessLookupError, subprocess.TimeoutExpired):
-                try:
-                    os.killpg(self.proc.pid, signal.SIGKILL)
-                except ProcessLookupError:
-                    pass
-                self.proc.wait(timeout)
-        self._log.close()
-        return self.proc.returncode
+        """SIGINT to its group, SIGKILL after ``timeout`` s; its exit code."""
+        super().stop(grace=timeout)
+        return self.proc.returncode if self.proc is not None else None
+
+
+def _log_dir(log_dir: Path | None = None) -> Path:
+    return log_dir or Path(os.environ.get("MYCOBOT_TEST_LOG_DIR", "/tmp/mycobot_test_logs"))
 
 
 def wait_until(predicate: Callable[[], bool], timeout: float, period: float = 0.05) -> bool:
@@ -242,27 +209,27 @@ class ProbeNode:
 
 @contextlib.contextmanager
 def robot_processes(*server_params: str, params_file: bool | Path = False,
-                    controllers_file: Path | None = None) -> Iterator[tuple[NodeProcess, NodeProcess]]:
-    """mock_controllers and planning_server on this session's domain, both ready, stopped at exit.
+                    controllers_file: Path | None = None) -> Iterator[tuple[ManagedProcess, ManagedProcess]]:
+    """mock_controllers and planning_server on this session's domain, brought up by the bring-up
+    module (up when ROS discovery shows them and the server has joint states), stopped at exit.
 
     ``server_params`` are ``name:=value`` overrides; ``params_file`` adds config/planning_server.yaml
     (True) or the given file; ``controllers_file``: a params file for mock_controllers."""
     use_session_domain()
-    args = ["--ros-args"] if server_params or params_file else []
+    args: list[str] = []
     if params_file:
         args += ["--params-file", str(config_file("planning_server.yaml") if params_file is True else params_file)]
     for param in server_params:
         args += ["-p", param]
-    controllers = NodeProcess("mycobot_planning.nodes.mock_controllers",
-                              ["--ros-args", "--params-file", str(controllers_file)] if controllers_file else [])
-    server = NodeProcess("mycobot_planning.nodes.planning_server", args)
-    try:
-        assert controllers.wait_for_output("controller_manager ready", 30), controllers.output()
-        assert server.wait_for_output("planning_server ready", 60), server.output()
-        yield controllers, server
-    finally:
-        server.stop()
-        controllers.stop()
+    nodes = [bringup.mock_controllers(["--ros-args", "--params-file", str(controllers_file)] if controllers_file else []),
+             bringup.planning_server(args)]
+    log_dir = _log_dir() / f"robot-{os.getpid()}-{time.monotonic_ns()}"
+    with bringup.Robot(nodes, log_dir, env=ros_env(), cwd=REPO) as robot:
+        try:
+            robot.start(timeout=90.0)
+        except bringup.BringupError as exc:
+            raise AssertionError(str(exc)) from None
+        yield robot["mock_controllers"], robot["planning_server"]
 
 
 #: panda_moveit_config's initial positions of the arm ('ready')
@@ -298,7 +265,7 @@ def panda_parameters(directory: Path) -> tuple[Path, Path]:
 
 
 @contextlib.contextmanager
-def panda_processes(directory: Path) -> Iterator[tuple[NodeProcess, NodeProcess]]:
+def panda_processes(directory: Path) -> Iterator[tuple[ManagedProcess, ManagedProcess]]:
     """The Panda bring-up (mock_controllers and planning_server), ready, stopped at exit."""
     server_file, controllers_file = panda_parameters(directory)
     with robot_processes(params_file=server_file, controllers_file=controllers_file) as processes:

@@ -19,9 +19,7 @@ Register in scenarios.SCENARIOS as "exec_latency" and "scene_update".
 from __future__ import annotations
 
 import os
-import signal
 import subprocess
-import sys
 import tempfile
 import threading
 import time
@@ -31,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from interfaces_py.msgs import CollisionObject, Pose
+from mycobot_planning.ros.bringup import robot as bringup
 
 from .common import emit, machine, spread, stats
 
@@ -50,81 +49,47 @@ def bench_domain_id() -> int:
 
 
 class RobotProcesses:
-    """mock_controllers + planning_server as subprocesses on ``domain``; a context manager that
-    always kills their process groups. Logs go to a temporary folder (kept when start-up fails)."""
-
-    READY = {"mock_controllers": "controller_manager ready", "planning_server": "planning_server ready"}
+    """mock_controllers + planning_server on ``domain``, brought up by the bring-up module
+    (mycobot_planning.ros.bringup); a context manager that always stops their process groups.
+    Logs go to a temporary folder (kept when start-up fails)."""
 
     def __init__(self, domain: int, server_args: list[str] | None = None, timeout: float = 60.0,
                  extra_nodes: dict[str, tuple[list[str], str]] | None = None) -> None:
-        """``extra_nodes``: more nodes of the package, name -> (arguments, the log line that says
-        it is ready), started after the two."""
+        """``extra_nodes``: more nodes of the package, name -> (arguments, a log line to wait for
+        once discovery shows the node: what it must have done before the benchmark runs, "" for
+        nothing), started after the two."""
         self.domain = domain
-        self.server_args = server_args or []
         self.timeout = timeout
-        self.ready = dict(self.READY)
-        self.args: dict[str, list[str]] = {"mock_controllers": [],
-                                           "planning_server": ["--ros-args", *self.server_args] if self.server_args else []}
-        for name, (args, text) in (extra_nodes or {}).items():
-            self.ready[name] = text
-            self.args[name] = list(args)
         self.log_dir = Path(tempfile.mkdtemp(prefix="mycobot_bench_"))
+        self.awaited = {name: text for name, (_, text) in (extra_nodes or {}).items() if text}
+        nodes = [bringup.mock_controllers(), bringup.planning_server(server_args or [])]
+        nodes += [bringup.extra_node(name, args) for name, (args, _) in (extra_nodes or {}).items()]
+        env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+        env.pop("ROS_LOCALHOST_ONLY", None)
+        self.robot = bringup.Robot(nodes, self.log_dir, env=env)
         self.procs: dict[str, subprocess.Popen] = {}
 
-    def env(self) -> dict[str, str]:
-        env = dict(os.environ)
-        env.update({"ROS_DOMAIN_ID": str(self.domain), "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
-                    "PYTHONUNBUFFERED": "1"})
-        env.pop("ROS_LOCALHOST_ONLY", None)
-        return env
-
     def __enter__(self) -> "RobotProcesses":
-        from mycobot_planning.paths import use_fast_discovery
-
-        use_fast_discovery()  # before any context of this process: frequent discovery announcements
-        # this process's own clients join the same domain
-        os.environ.update({k: v for k, v in self.env().items() if k.startswith("ROS_")})
         try:
-            for name, args in self.args.items():
-                log = open(self.log_dir / f"{name}.log", "w")
-                self.procs[name] = subprocess.Popen(
-                    [sys.executable, "-m", f"mycobot_planning.nodes.{name}", *args], env=self.env(),
-                    stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, start_new_session=True)
-                log.close()
-            deadline = time.monotonic() + self.timeout
-            for name, text in self.ready.items():
-                while text not in self.log(name):
-                    if self.procs[name].poll() is not None or time.monotonic() > deadline:
-                        raise RuntimeError(f"{name} did not start; its log ({self.log_dir / (name + '.log')}):\n"
-                                           + self.log(name)[-2000:])
-                    time.sleep(0.05)
+            self.robot.start(self.timeout)
+            self.procs = {name: process.proc for name, process in self.robot.processes.items()}
+            for name, text in self.awaited.items():
+                if not self.robot[name].wait_for_output(text, self.timeout):
+                    raise RuntimeError(f"{name} did not get to '{text}'; its log ({self.log_dir / (name + '.log')}):\n"
+                                       + self.log(name)[-2000:])
+        except bringup.BringupError as exc:
+            self.close()
+            raise RuntimeError(str(exc)) from None
         except BaseException:
             self.close()
             raise
         return self
 
     def log(self, name: str) -> str:
-        try:
-            return (self.log_dir / f"{name}.log").read_text(errors="replace")
-        except OSError:
-            return ""
+        return self.robot[name].output()
 
     def close(self) -> None:
-        for proc in self.procs.values():  # SIGINT to every group first: shutdowns overlap
-            if proc.poll() is None:
-                try:
-                    os.killpg(proc.pid, signal.SIGINT)
-                except ProcessLookupError:
-                    pass
-        for proc in self.procs.values():
-            try:
-                proc.wait(10.0)
-            except subprocess.TimeoutExpired:
-                try:
-                    os.killpg(proc.pid, signal.SIGKILL)
-                except ProcessLookupError:
-                    pass
-                proc.wait(5.0)
+        self.robot.close()
 
     def __exit__(self, *exc: Any) -> None:
         self.close()

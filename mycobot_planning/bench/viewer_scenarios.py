@@ -20,8 +20,6 @@ from __future__ import annotations
 
 import math
 import os
-import subprocess
-import sys
 import tempfile
 import threading
 import time
@@ -91,6 +89,7 @@ def bench_viewer_lag(repeat: int, seed: int) -> None:
     from interfaces_py.json_rpc import JsonRpcClient
     from mycobot_planning.core.robot_model.robot_model import RobotModel
     from mycobot_planning.paths import use_fast_discovery
+    from mycobot_planning.ros.bringup.process import ManagedProcess
 
     use_fast_discovery()
     model = RobotModel.mycobot()
@@ -99,9 +98,10 @@ def bench_viewer_lag(repeat: int, seed: int) -> None:
     phase = rng.uniform(0.0, 2 * math.pi, len(names))
 
     log = tempfile.NamedTemporaryFile("w+", prefix="viewer_lag-", suffix=".log", delete=False)
-    viewer = subprocess.Popen([sys.executable, "-m", "mycobot_planning.nodes.task_viewer", "--ros-args",
-                               "-p", "port:=0"], stdout=log, stderr=subprocess.STDOUT, env=dict(os.environ),
-                              start_new_session=True)
+    log.close()
+    viewer = ManagedProcess("task_viewer", "mycobot_planning.nodes.task_viewer", ["--ros-args", "-p", "port:=0"],
+                            Path(log.name))
+    viewer.start(dict(os.environ))
     context = Context()
     rclpy.init(context=context)
     node = Node("viewer_lag_bench", context=context)
@@ -117,8 +117,8 @@ def bench_viewer_lag(repeat: int, seed: int) -> None:
         rpc = JsonRpcClient(node, "/task_viewer")
         deadline = time.monotonic() + 60.0
         while not url_box or not rpc.wait_for_server(0.5):
-            if viewer.poll() is not None or time.monotonic() > deadline:
-                raise RuntimeError(f"task_viewer did not start: {Path(log.name).read_text()[-2000:]}")
+            if not viewer.running() or time.monotonic() > deadline:
+                raise RuntimeError(f"task_viewer did not start: {viewer.output()[-2000:]}")
             time.sleep(0.1)
         while publisher.get_subscription_count() == 0 and time.monotonic() < deadline:
             time.sleep(0.05)
@@ -194,14 +194,7 @@ def bench_viewer_lag(repeat: int, seed: int) -> None:
         spinner.stop()
         node.destroy_node()
         rclpy.try_shutdown(context=context)
-        if viewer.poll() is None:
-            os.killpg(viewer.pid, 2)
-            try:
-                viewer.wait(10)
-            except subprocess.TimeoutExpired:
-                os.killpg(viewer.pid, 9)
-                viewer.wait(5)
-        log.close()
+        viewer.stop(grace=10.0)
         os.unlink(log.name)
 
 

@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import sys
 
-from mycobot_planning.ros.controllers.mock_controllers import MockControllerManager
+from mycobot_planning.ros.controllers.mock_controllers import mock_controller_manager
 from mycobot_planning.ros.node_runtime import run_node
 
 
 def main(args: list[str] | None = None) -> None:
     # Each running action goal holds an executor thread while it follows its trajectory.
-    sys.exit(run_node(MockControllerManager, args, threads=6))
+    sys.exit(run_node(mock_controller_manager, args, threads=6))
 
 
 if __name__ == "__main__":

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import sys
 
-from mycobot_planning.ros.controllers.mycobot_driver import MyCobotDriver
+from mycobot_planning.ros.controllers.mycobot_driver import mycobot_driver
 from mycobot_planning.ros.node_runtime import run_node
 
 
 def main(args: list[str] | None = None) -> None:
-    sys.exit(run_node(MyCobotDriver, args, threads=6))
+    sys.exit(run_node(mycobot_driver, args, threads=6))
 
 
 if __name__ == "__main__":

@@ -31,8 +31,6 @@ LAZY_IMPORTS: dict[tuple[str, str], str] = {}
 PRIVATE_IMPORTS = {
     (f"{PACKAGE}.core.planning_scene.planning_scene", f"{PACKAGE}.core.collision_detection.collision._frozen"):
         "collision.py is being reworked on another branch; make the helper public once that has merged",
-    (f"{PACKAGE}.ros.controllers.controller_actions", f"{PACKAGE}.ros.controllers.mock_controllers._Controller"):
-        "the actions type their controller as the mock's; goes with the controller manager over plants",
 }
 
 

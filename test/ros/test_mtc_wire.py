@@ -4,6 +4,8 @@
 move_group's execute_task_solution action, as MTC's Task::execute and RViz's panel send it."""
 from __future__ import annotations
 
+import contextlib
+
 
 import numpy as np
 import pytest
@@ -22,7 +24,7 @@ from interfaces_py.action_client import ActionClient
 from interfaces_py.background_spin import BackgroundSpin
 from mycobot_planning.paths import config_file
 from mycobot_planning.demos.pick_place import PickPlaceParameters, expected_place_pose
-from ros_testing import NodeProcess, use_session_domain, wait_until
+from ros_testing import NodeProcess, robot_processes, use_session_domain, wait_until
 
 LATCHED = QoSProfile(depth=2, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
@@ -30,9 +32,7 @@ LATCHED = QoSProfile(depth=2, reliability=ReliabilityPolicy.RELIABLE, durability
 @pytest.fixture(scope="module")
 def wire():
     use_session_domain()
-    mock = NodeProcess("mycobot_planning.nodes.mock_controllers")
-    server = NodeProcess("mycobot_planning.nodes.planning_server",
-                         ["--ros-args", "--params-file", str(config_file("planning_server.yaml"))])
+    robot = contextlib.ExitStack()
     mtc = None
     context = rclpy.Context()
     rclpy.init(context=context)
@@ -58,8 +58,7 @@ def wire():
         return wait_until(predicate, timeout)
 
     try:
-        assert mock.wait_for_output("controller_manager ready", 30), mock.output()
-        assert server.wait_for_output("planning_server ready", 60), server.output()
+        robot.enter_context(robot_processes(params_file=True))
         mtc = NodeProcess("mycobot_planning.nodes.mtc_node",
                           ["--ros-args", "--params-file", str(config_file("mtc_node_params.yaml")),
                            "-p", "execute:=false"])
@@ -73,8 +72,7 @@ def wire():
         rclpy.try_shutdown(context=context)
         if mtc is not None:
             mtc.stop()
-        server.stop()
-        mock.stop()
+        robot.close()
 
 
 def test_description_and_statistics_on_mtc_topics(wire):

@@ -15,6 +15,8 @@ from pathlib import Path
 
 import pytest
 
+from mycobot_planning.ros.bringup import robot as bringup
+from mycobot_planning.ros.bringup.readiness import Readiness
 from ros_testing import PYTHON, REPO, ros_env
 
 SCRIPT = REPO / "scripts" / "robot.sh"
@@ -148,3 +150,22 @@ def test_usage_errors():
     assert "Usage: scripts/robot.sh start|stop|restart|status" in result.stderr
     result = subprocess.run([str(SCRIPT), "--help"], capture_output=True, text=True, timeout=30)
     assert result.returncode == 0 and "after \"--\" is handed to the planning_server" in result.stdout
+
+
+def test_readiness_is_ros_discovery_and_a_node_never_discovered_is_stopped(tmp_path):
+    """The bring-up module itself: a process that runs but never shows the node it should is not
+    up; the start names what discovery lacks and stops the process group."""
+    spec = bringup.extra_node("robot_state_publisher", ready=Readiness(nodes=("/robot_state_publisher",),
+                                                                      services=("/no_such_service",)))
+    robot = bringup.Robot([spec], tmp_path / "logs", env=ros_env(), cwd=REPO)
+    try:
+        with pytest.raises(bringup.BringupError) as failure:
+            robot.start(timeout=8.0)
+        text = str(failure.value)
+        assert "robot_state_publisher not ready after 8 s" in text
+        assert "service /no_such_service" in text and "node /robot_state_publisher" not in text
+        pid = robot["robot_state_publisher"].proc.pid
+        assert gone(pid)
+        assert "robot_state_publisher ready" in (tmp_path / "logs" / "robot_state_publisher.log").read_text()
+    finally:
+        robot.close()

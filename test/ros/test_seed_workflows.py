@@ -36,7 +36,7 @@ from mycobot_planning.demos.seed_scenarios import (
     tool_down_quaternion,
     zigzag_waypoints,
 )
-from ros_testing import NodeProcess, ProbeNode, use_session_domain, wait_until
+from ros_testing import NodeProcess, ProbeNode, robot_processes, use_session_domain, wait_until
 
 ARM = ["link1_to_link2", "link2_to_link3", "link3_to_link4", "link4_to_link5", "link5_to_link6", "link6_to_link6_flange"]
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -151,26 +151,19 @@ class Probe(ProbeNode):
 @pytest.fixture(scope="module")
 def system():
     use_session_domain()
-    controllers = NodeProcess(NODES + "mock_controllers")
-    server = NodeProcess(NODES + "planning_server",
-                         ["--ros-args", "-p", "trajectory_execution.allowed_goal_duration_margin:=3.0"])
-    probe = scene = None
-    try:
-        assert controllers.wait_for_output("controller_manager ready", 60), controllers.output()
-        assert server.wait_for_output("planning_server ready", 60), server.output()
-        probe = Probe()
-        scene = PlanningSceneInterface(timeout=15.0)
-        assert scene.wait_for_server(30.0), server.output()
-        assert wait_until(lambda: scene.call("get_state")["joint_state_received"], 30.0)
-        assert wait_until(lambda: bool(probe.joints()), 30.0)
-        yield {"controllers": controllers, "server": server, "probe": probe, "scene": scene}
-    finally:
-        if scene is not None:
-            scene.close()
-        if probe is not None:
-            probe.close()
-        server.stop()
-        controllers.stop()
+    with robot_processes("trajectory_execution.allowed_goal_duration_margin:=3.0") as (controllers, server):
+        probe = scene = None
+        try:
+            probe = Probe()
+            scene = PlanningSceneInterface(timeout=15.0)
+            assert scene.wait_for_server(30.0), server.output()
+            assert wait_until(lambda: bool(probe.joints()), 30.0)
+            yield {"controllers": controllers, "server": server, "probe": probe, "scene": scene}
+        finally:
+            if scene is not None:
+                scene.close()
+            if probe is not None:
+                probe.close()
 
 
 def run_workflow(module: str, *ros_args: str) -> tuple[int, str]:

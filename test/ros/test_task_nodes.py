@@ -30,8 +30,7 @@ from mycobot_planning.paths import use_fast_discovery
 from mycobot_planning.ros.task.task_node import EXIT_PLANNING_FAILED
 from mycobot_planning.core.robot_trajectory.robot_trajectory import joint_trajectory_to_timed
 from mycobot_planning.ros.task.task_topics import SOLUTION_QOS, STATISTICS_QOS, task_topics
-from mycobot_planning.paths import config_file
-from ros_testing import PYTHON, REPO, NodeProcess, ProbeNode, ros_env, use_session_domain, wait_until
+from ros_testing import PYTHON, REPO, NodeProcess, ProbeNode, robot_processes, ros_env, use_session_domain, wait_until
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 NODES = {"modular": "modular_demo", "fallbacks_move_to": "fallbacks_move_to_demo",
@@ -101,22 +100,13 @@ def system():
     # The probe announces itself as often as our nodes do (0.25 s, not Fast DDS's 3 s), so a
     # short-lived demo node discovers it before exiting.
     use_fast_discovery()
-    controllers = NodeProcess("mycobot_planning.nodes.mock_controllers")
-    server = NodeProcess("mycobot_planning.nodes.planning_server",
-                         ["--ros-args", "--params-file", str(config_file("planning_server.yaml")),
-                          "-p", "trajectory_execution.allowed_goal_duration_margin:=3.0"])
-    probe = None
-    try:
-        assert controllers.wait_for_output("controller_manager ready", 30), controllers.output()
-        assert server.wait_for_output("planning_server ready", 30), server.output()
+    with robot_processes("trajectory_execution.allowed_goal_duration_margin:=3.0", params_file=True) as (_, server):
         probe = Probe()
-        assert wait_until(lambda: bool(probe.joints()), 20.0)
-        yield {"probe": probe, "server": server}
-    finally:
-        if probe is not None:
+        try:
+            assert wait_until(lambda: bool(probe.joints()), 20.0)
+            yield {"probe": probe, "server": server}
+        finally:
             probe.close()
-        server.stop()
-        controllers.stop()
 
 
 def _run(module: str, *params: str, linger: float = 6.0, timeout: float = 90.0) -> tuple[int, str]:

@@ -1,4 +1,4 @@
-"""ros2_control's controller actions on the mock controllers: what a MoveIt controller manager
+"""ros2_control's controller actions of the controller manager's controllers: what a MoveIt controller manager
 (moveit_simple_controller_manager) or any ros2_control client sends to a real arm.
 
 * JointTrajectoryController: ``/<name>/follow_joint_trajectory`` (control_msgs/action/
@@ -7,9 +7,9 @@
 * GripperActionController: ``/<name>/gripper_cmd`` (control_msgs/action/GripperCommand:
   position and max_effort in; position, effort, stalled, reached_goal out).
 
-Both drive the same JointTrajectoryFollower as the ``joint_trajectory`` topic, through
-``MockControllerManager.submit``, so a goal sent by action preempts one sent by topic and the
-other way round, as in ros2_control.
+Both drive the same follower as the ``joint_trajectory`` topic, through the public calls of
+``controller_manager.Controller`` (submit, state, stop), so a goal sent by action preempts one
+sent by topic and the other way round, as in ros2_control.
 """
 from __future__ import annotations
 
@@ -29,7 +29,9 @@ from interfaces_py.ros_conversions import duration_to_seconds, seconds_to_durati
 from mycobot_planning.mock_control.joint_trajectory_follower import ControllerStatus, FollowerState, TrajectoryCommand
 
 if TYPE_CHECKING:  # pragma: no cover
-    from mycobot_planning.ros.controllers.mock_controllers import MockControllerManager, _Controller
+    from rclpy.node import Node
+
+    from mycobot_planning.ros.controllers.controller_manager import Controller
 
 #: s between two checks of a running goal (and two feedback messages): the controller rate is
 #: 100 Hz; feedback at 50 Hz is what JTC's default action_monitor_rate (20 Hz) allows and more.
@@ -70,9 +72,9 @@ def _tolerances(entries: Any, joints: tuple[str, ...]) -> np.ndarray:
 
 
 class ControllerActions:
-    """The action servers and the controller_state publisher of one mock controller."""
+    """The action servers and the controller_state publisher of one controller."""
 
-    def __init__(self, manager: "MockControllerManager", controller: "_Controller") -> None:
+    def __init__(self, manager: "Node", controller: "Controller") -> None:
         self._manager = manager
         self._c = controller
         name = controller.config.name
@@ -108,10 +110,9 @@ class ControllerActions:
     def _cancel(self, goal_handle: Any) -> CancelResponse:
         """Stop at once (hold position), so that when the client hears "cancel accepted" the
         joints no longer move, as JTC holds position on cancel."""
-        with self._manager._lock:
-            running = self._c.follower.goal_id
+        running = self._c.running_goal()
         if running and running.endswith(str(uuid.UUID(bytes=bytes(goal_handle.goal_id.uuid)))):
-            self._manager.stop(self._c, f"goal {running} canceled by its client")
+            self._c.stop(f"goal {running} canceled by its client")
         return CancelResponse.ACCEPT
 
     def _follow(self, goal_handle: Any, command: TrajectoryCommand, feedback: Any | None,
@@ -119,21 +120,21 @@ class ControllerActions:
         """Submit and follow one goal until it ends: (outcome, message, last state) with outcome
         one of succeeded, rejected, canceled, preempted, path, failed, stalled, or shutdown (the
         node is going down: nothing can be reported any more)."""
-        result = self._manager.submit(self._c, command)
+        result = self._c.submit(command)
         if not result.accepted:
-            return "rejected", result.reason, self._manager.follower_state(self._c)
+            return "rejected", result.reason, self._c.state()
         goal_id = result.goal_id
         end = command.times[-1] if command.times else 0.0
         while True:
             time.sleep(POLL_PERIOD)
-            state = self._manager.follower_state(self._c)
+            state = self._c.state()
             if not self._manager.context.ok():  # SIGINT/SIGTERM: the action server is going away
                 return "shutdown", "the node is shutting down", state
             if state.goal_id != goal_id:
                 return "preempted", f"goal {goal_id} was preempted by goal {state.goal_id}", state
             if goal_handle.is_cancel_requested:
-                self._manager.stop(self._c, f"goal {goal_id} canceled by its client")
-                return "canceled", f"goal {goal_id} canceled", self._manager.follower_state(self._c)
+                self._c.stop(f"goal {goal_id} canceled by its client")
+                return "canceled", f"goal {goal_id} canceled", self._c.state()
             if feedback is not None:
                 self._send_feedback(goal_handle, feedback, state)
             if state.status == ControllerStatus.SUCCEEDED:
@@ -145,12 +146,12 @@ class ControllerActions:
                 over = np.nonzero(error > path_limits)[0]
                 if over.size:
                     j = int(over[0])
-                    self._manager.stop(self._c, "path tolerance violated")
+                    self._c.stop("path tolerance violated")
                     return "path", (f"path tolerance violated: joint {self._c.config.joints[j]} is {error[j]:.4f} "
                                     f"from the desired position (tolerance {path_limits[j]:g})"), state
             if (state.status == ControllerStatus.STALLED and goal_time_tolerance > 0
                     and state.time_from_start > end + goal_time_tolerance):
-                self._manager.stop(self._c, "goal time tolerance exceeded")
+                self._c.stop("goal time tolerance exceeded")
                 return "stalled", state.message + f"; goal_time_tolerance {goal_time_tolerance:g} s exceeded", state
 
     def _send_feedback(self, goal_handle: Any, feedback: Any, state: FollowerState) -> None:
@@ -183,7 +184,7 @@ class ControllerActions:
             self._log().warning(f"{self._c.config.name}: rejected a goal with a multi-DOF trajectory "
                                 "(this controller drives single-DOF joints only)")
             return GoalResponse.REJECT
-        problem = self._c.follower.validate(self._command(goal.trajectory, ""))
+        problem = self._c.validate(self._command(goal.trajectory, ""))
         if problem is not None:
             self._log().warning(f"{self._c.config.name}: rejected a FollowJointTrajectory goal: {problem}")
             return GoalResponse.REJECT
@@ -226,7 +227,7 @@ class ControllerActions:
     # ------------------------------------------------------------------ GripperCommand
     def _gripper_target(self, goal: GripperCommand.Goal) -> tuple[float | None, str]:
         position = float(goal.command.position)
-        lower, upper = self._c.follower.lower[0], self._c.follower.upper[0]
+        lower, upper = self._c.lower[0], self._c.upper[0]
         if not math.isfinite(position):
             return None, f"position must be a finite number, got {position}"
         if not lower - 1e-9 <= position <= upper + 1e-9:
@@ -247,12 +248,11 @@ class ControllerActions:
         object (effort stays 0) unless stall_after is injected."""
         target, problem = self._gripper_target(goal_handle.request)
         result = GripperCommand.Result()
-        follower = self._c.follower
         if target is None:
             goal_handle.abort()
             return result
-        start = float(follower.positions[0])
-        speed = float(follower.velocity_limits[0])
+        start = float(self._c.state().actual_positions[0])
+        speed = float(self._c.velocity_limits[0])
         speed = speed if math.isfinite(speed) and speed > 0 else DEFAULT_GRIPPER_SPEED
         duration = max(abs(target - start) / speed, 0.05)
         goal_id = f"{self._c.config.name}/gripper_cmd/{uuid.UUID(bytes=bytes(goal_handle.goal_id.uuid))}"

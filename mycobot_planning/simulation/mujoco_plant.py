@@ -1,0 +1,122 @@
+"""The MuJoCo twin as a plant of the controller manager (hardware_interface.plant): the
+controllers' followers measure the simulated joints (``read``), and each control period the arm
+servos get the trajectory's desired position and velocity as ros2_control's position and
+velocity command interfaces (``write``); a gripper goal becomes the simulator's GripperCommand,
+whose contact decides where the fingers stop (a stall on an object counts as success, as
+GripperActionController's allow_stalling). Physics runs in the simulator's own real-time thread.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from ..core.trajectory_execution.controllers_config import ControllerConfig
+from ..hardware.follower import MeasuredTrajectoryFollower
+from ..hardware_interface.plant import ControllerSpec, Plant, PlantHost
+from .simulator import MujocoSimulator
+
+
+@dataclass(frozen=True)
+class SimTracking:
+    """How goals are judged against the simulated joints: ``path_tolerance`` (rad; inf: not
+    checked) and ``goal_time`` (s after a trajectory's end to come within goal tolerance)."""
+
+    path_tolerance: float = 0.2
+    goal_time: float = 1.0
+    gripper_goal_time: float = 3.0
+
+
+class MujocoPlant(Plant):
+    """``simulator``'s arm joints are driven by the one controller that names them, its gripper
+    joint by a gripper controller (ValueError when the controllers do not match the model).
+    ``own_simulator``: close the simulator with the plant."""
+
+    def __init__(self, variable_names: Sequence[str], default_positions: np.ndarray, simulator: MujocoSimulator,
+                 controllers: Sequence[ControllerConfig], tracking: SimTracking = SimTracking(),
+                 own_simulator: bool = False) -> None:
+        super().__init__(variable_names, default_positions)
+        self.sim = simulator
+        self.tracking = tracking
+        self.own_simulator = own_simulator
+        arm = [c for c in controllers if set(c.joints) == set(simulator.arm_joints)]
+        gripper = [c for c in controllers if c.joints == (simulator.gripper_joint,)]
+        if len(arm) != 1:
+            raise ValueError(f"the simulation needs one controller of the arm joints {list(simulator.arm_joints)}; "
+                             f"the controllers are {[(c.name, list(c.joints)) for c in controllers]}")
+        self.arm_controller = arm[0].name
+        self.gripper_controller = gripper[0].name if gripper else None
+        self._arm_was_active = False
+        self._gripper_target: float | None = None
+        self._index = {name: i for i, name in enumerate(self.variable_names)}
+
+    def create_follower(self, spec: ControllerSpec) -> MeasuredTrajectoryFollower:
+        c, t = spec.config, self.tracking
+        if c.name == self.gripper_controller:
+            tolerance, goal_time, stalling = math.inf, t.gripper_goal_time, True
+        elif c.name == self.arm_controller:
+            tolerance, goal_time, stalling = t.path_tolerance, t.goal_time, False
+        else:
+            raise ValueError(f"the simulation drives no joints of controller {c.name} ({list(c.joints)})")
+        start = self.sim.joint_states().as_dict()
+        return MeasuredTrajectoryFollower(
+            c.joints, spec.lower, spec.upper, np.clip([start[j] for j in c.joints], spec.lower, spec.upper),
+            goal_tolerance=c.goal_tolerance, start_tolerance=c.start_tolerance, name=c.name,
+            velocity_limits=spec.velocity_limits, acceleration_limits=spec.acceleration_limits,
+            limit_tolerance=spec.limit_tolerance, path_tolerance=tolerance, goal_time=goal_time,
+            allow_stalling=stalling)
+
+    def start(self, host: PlantHost) -> None:
+        super().start(host)
+        self.sim.start()
+
+    def read(self, now: float) -> None:
+        state = self.sim.joint_states()
+        position = dict(zip(state.names, state.positions))
+        velocity = dict(zip(state.names, state.velocities))
+        for follower, _ in self.followers.values():
+            follower.measure([position[j] for j in follower.joint_names],
+                             [velocity[j] for j in follower.joint_names], now)
+
+    def write(self, now: float) -> None:
+        arm = self.followers[self.arm_controller][0]
+        if arm.active:
+            desired = arm.state()
+            self.sim.set_arm_command(dict(zip(arm.joint_names, desired.desired_positions)),
+                                     dict(zip(arm.joint_names, desired.desired_velocities)))
+        elif self._arm_was_active:
+            self.sim.stop_arm()  # the goal ended (succeeded, stopped, aborted): hold where the arm is
+        self._arm_was_active = arm.active
+        if self.gripper_controller is not None:
+            gripper = self.followers[self.gripper_controller][0]
+            target = float(gripper.final_positions[0]) if gripper.active else None
+            if target is not None and target != self._gripper_target:
+                self.sim.command_gripper(target)
+            self._gripper_target = target
+
+    def joint_state(self) -> tuple[np.ndarray, np.ndarray]:
+        state = self.sim.joint_states()
+        for name, q, qd in zip(state.names, state.positions, state.velocities):
+            i = self._index.get(name)
+            if i is not None:
+                self.positions[i], self.velocities[i] = q, qd
+        return self.positions, self.velocities
+
+    def description(self) -> str:
+        return (f"MuJoCo twin, physics step {self.sim.timestep * 1000:g} ms, speed factor "
+                f"{self.sim.speed_factor:g}")
+
+    def state_source(self) -> str:
+        return " from the simulation"
+
+    def stats(self) -> dict:
+        status = self.sim.status()
+        return {"time": status.time, "real_time_factor": status.real_time_factor,
+                "behind_real_time": status.behind_real_time, "message": status.message}
+
+    def close(self) -> None:
+        self.sim.stop()
+        if self.own_simulator:
+            self.sim.close()
