@@ -1,12 +1,13 @@
 """Benchmark of concurrent plans in the planning_server: its memory (RSS) with four plans at once.
 
 ``concurrent_plans``: starts mock_controllers + planning_server (RobotProcesses, a ROS domain of
-its own), sends one plan, then rounds of four /plan_kinematic_path requests at once (two OMPL
-RRTstar plans that use their whole allowed time, so the four overlap, one RRTConnect, one
-industrial PTP; four different goals), and reads the server's /proc status: ``rss_idle_mb``
-after the first plan, ``rss_after_mb`` after the rounds, ``hwm_mb`` its peak (VmHWM);
-``round_ms`` the wall time of one round. One server per repeat; summary keys are the medians.
-Every plan must succeed (the server validates each trajectory).
+its own), puts a 5 cm box in the way (/apply_planning_scene), sends one plan, then rounds of four
+/plan_kinematic_path requests at once: three OMPL RRTstar plans around the box (an optimizing
+planner keeps improving its path for a while, so they overlap) and one
+industrial PTP, four different goals. It reads the server's /proc status: ``rss_idle_mb`` after
+the first plan, ``rss_after_mb`` after the rounds, ``hwm_mb`` its peak (VmHWM); ``round_ms`` the
+wall time of one round. One server per repeat; summary keys are the medians. Every plan must
+succeed (the server validates each trajectory).
 
 Imports only what the bench package has had since before the planning contexts changed, so the
 same file, run as a script, measures an older checkout (docs/bench.md says how).
@@ -23,15 +24,17 @@ from mycobot_planning.bench.ros_scenarios import RobotProcesses, bench_domain_id
 
 ARM = ["link1_to_link2", "link2_to_link3", "link3_to_link4", "link4_to_link5", "link5_to_link6",
        "link6_to_link6_flange"]
-#: (pipeline, planner, goal): four different goals, two plans that run their whole allowed time
+#: (pipeline, planner, goal): four different goals, the first three behind the box
 PLANS = (
-    ("ompl", "RRTstarkConfigDefault", [0.0, -0.3, 0.6, 0.2, 0.0, 0.0]),
     ("ompl", "RRTstarkConfigDefault", [1.0, -1.0, -0.8, 0.3, 0.5, 0.8]),
-    ("ompl", "RRTConnectkConfigDefault", [-0.8, 0.4, -0.5, 0.0, 0.3, -0.4]),
+    ("ompl", "RRTstarkConfigDefault", [1.1, -0.9, -0.8, 0.2, 0.5, 0.7]),
+    ("ompl", "RRTstarkConfigDefault", [0.9, -1.1, -0.7, 0.3, 0.4, 0.8]),
     ("pilz_industrial_motion_planner", "PTP", [0.5, 0.2, 0.3, -0.2, 0.1, 0.2]),
 )
+BOX_CENTRE = (0.0, 0.15, 0.25)
+BOX_SIZE = 0.05
 ROUNDS = 3
-ALLOWED_PLANNING_TIME = 1.0
+ALLOWED_PLANNING_TIME = 5.0
 
 
 def _status_mb(pid: int) -> dict[str, float]:
@@ -59,9 +62,27 @@ def _request(pipeline: str, planner: str, goal: list[float]) -> Any:
     return request
 
 
+def _box_scene() -> Any:
+    from moveit_msgs.msg import CollisionObject, PlanningScene
+    from moveit_msgs.srv import ApplyPlanningScene
+    from geometry_msgs.msg import Pose
+    from shape_msgs.msg import SolidPrimitive
+
+    box = CollisionObject(id="box", operation=CollisionObject.ADD)
+    box.header.frame_id = "world"
+    box.primitives = [SolidPrimitive(type=SolidPrimitive.BOX, dimensions=[BOX_SIZE] * 3)]
+    pose = Pose()
+    pose.position.x, pose.position.y, pose.position.z = BOX_CENTRE
+    pose.orientation.w = 1.0
+    box.primitive_poses = [pose]
+    request = ApplyPlanningScene.Request(scene=PlanningScene(is_diff=True))
+    request.scene.world.collision_objects = [box]
+    return request
+
+
 def bench_concurrent_plans(repeat: int, seed: int) -> None:
     import rclpy
-    from moveit_msgs.srv import GetMotionPlan
+    from moveit_msgs.srv import ApplyPlanningScene, GetMotionPlan
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.node import Node
 
@@ -75,9 +96,15 @@ def bench_concurrent_plans(repeat: int, seed: int) -> None:
             executor = SingleThreadedExecutor(context=context)
             executor.add_node(node)
             client = node.create_client(GetMotionPlan, "/plan_kinematic_path")
+            apply = node.create_client(ApplyPlanningScene, "/apply_planning_scene")
             try:
-                if not client.wait_for_service(timeout_sec=30.0):
-                    raise RuntimeError("/plan_kinematic_path is not offered")
+                for service in (client, apply):
+                    if not service.wait_for_service(timeout_sec=30.0):
+                        raise RuntimeError(f"{service.srv_name} is not offered")
+                future = apply.call_async(_box_scene())
+                executor.spin_until_future_complete(future, timeout_sec=30.0)
+                if not future.done() or not future.result().success:
+                    raise RuntimeError("the planning_server did not add the box")
 
                 def plan_all(plans) -> None:
                     futures = [client.call_async(_request(*plan)) for plan in plans]
@@ -91,7 +118,7 @@ def bench_concurrent_plans(repeat: int, seed: int) -> None:
                         if code.val != 1:
                             raise RuntimeError(f"{plan[0]}/{plan[1]} failed: {code.message}")
 
-                plan_all(PLANS[2:3])
+                plan_all(PLANS[3:])
                 time.sleep(3.0)  # start-up work in the server's background threads ends
                 idle = _status_mb(pid)
                 rounds = []
