@@ -178,6 +178,23 @@ def test_a_short_plan_is_answered_while_another_clients_long_plan_runs(mycobot, 
     assert long_out["error_code"]["val"] == MoveItErrorCode.PREEMPTED
 
 
+def test_four_plans_run_at_once_on_the_one_model_and_stop_ends_them_all(mycobot, pipeline):
+    """No bound but the callers': four long plans with different goals are all running at the same
+    time (one model, one pipeline, a planning context each), then stop ends every one of them."""
+    core = _core(mycobot, pipeline)
+    goals = ([0.5, -0.3, -0.4, 0.2, 0.1, 0.0], [-0.5, 0.3, 0.4, 0.0, 0.2, 0.1], [0.3, 0.3, -0.3, 0.1, -0.2, 0.4],
+             [-0.4, -0.2, 0.5, -0.3, 0.0, -0.1])
+    started = [_start(core, {**_long_request(), "goal": {"joints": goal}}) for goal in goals]
+    _wait_running(core, 4)
+    answer = core.stop()
+    assert answer["cancelled_plans"] == 4 and "cancelling 4 running plans" in answer["message"], answer
+    for thread, out in started:
+        thread.join(30.0)
+        assert not thread.is_alive()
+        assert out["error_code"]["val"] == MoveItErrorCode.PREEMPTED, out["error_code"]
+    assert core.get_state()["planning"] == 0
+
+
 # ---------------------------------------------------------------------------- the JSON boundary
 @pytest.mark.parametrize("text, words", [
     ('{"id": "a", "method": "plan", "params": {"group": "t\\ud800x"}}', "lone surrogate"),
