@@ -25,15 +25,23 @@ _LOCAL = threading.local()
 def thread_data(model: "RobotModel") -> pin.Data:
     """The calling thread's Pinocchio data for ``model``: made on first use, dropped with the
     thread or the model. Valid until this thread's next kinematics call on the same model."""
+    try:
+        last_model, last_data = _LOCAL.last  # the common case: one model per thread
+        if last_model() is model:
+            return last_data
+    except AttributeError:
+        pass
+    return _lookup(model)
+
+
+def _lookup(model: "RobotModel") -> pin.Data:
     local = _LOCAL
     try:
-        if local.last_model() is model:  # the common case: one model per thread
-            return local.last_data
         table = local.table
     except AttributeError:
         table = local.table = weakref.WeakKeyDictionary()
     data = table.get(model)
     if data is None:
         data = table[model] = model.pin_model.createData()
-    local.last_model, local.last_data = weakref.ref(model), data
+    local.last = (weakref.ref(model), data)
     return data
