@@ -294,8 +294,7 @@ class RobotCollisionInfo:
         self.geometry_objects: list[pin.GeometryObject] = []
         self.geometry_links: list[str] = []
         self.geometry_joints: list[int] = []
-        for geom in source.geometryObjects:
-            geom.geometry.computeLocalAABB()  # the broad phase needs local AABBs
+        for geom in source.geometryObjects:  # local AABBs computed by the model (the broad phase needs them)
             self.geometry_objects.append(geom)
             self.geometry_links.append(pin_model.frames[geom.parentFrame].name)
             self.geometry_joints.append(int(geom.parentJoint))

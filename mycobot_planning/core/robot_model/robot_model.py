@@ -201,6 +201,8 @@ class RobotModel:
             )
         except (ValueError, RuntimeError, OSError) as exc:
             raise RobotModelError(f"cannot load the URDF collision geometry: {exc}") from None
+        for geom in self.pin_collision_model.geometryObjects:
+            geom.geometry.computeLocalAABB()  # the broad phase needs them; computed now, never later
         self._kinematics_config = dict(kinematics or {})
         self._cache: dict[Any, Any] = {}
         self._build_joints(urdf, dict(joint_limits or {}))
