@@ -13,7 +13,6 @@ draws it from an unseeded generator, so about one run in ten would ask for a col
 """
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any, Iterator
 
 import pytest

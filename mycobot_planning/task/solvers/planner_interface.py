@@ -4,7 +4,6 @@ constraints every solver resolves in the scene it plans from."""
 from __future__ import annotations
 
 import math
-import time
 import threading
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Callable
