@@ -14,6 +14,7 @@ from mycobot_planning.core.transforms import make_pose
 
 from .common import emit, machine, spread, stats, timed
 from .driver_scenarios import bench_driver_tracking
+from .concurrency_scenarios import CONCURRENCY_SCENARIOS
 from .objectives_scenarios import OBJECTIVES_SCENARIOS
 from .peers.parts import bench_peers_parts
 from .perception_scenarios import bench_perception
@@ -250,4 +251,5 @@ SCENARIOS: dict[str, Callable[..., None]] = {
     **TIME_PARAMETERIZATION_SCENARIOS,
     **OBJECTIVES_SCENARIOS,
     **SIM_SCENARIOS,
+    **CONCURRENCY_SCENARIOS,
 }

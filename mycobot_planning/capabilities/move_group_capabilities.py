@@ -39,7 +39,7 @@ from ..core.trajectory_execution import (
 )
 from ..core.robot_trajectory.robot_trajectory import timed_to_joint_trajectory
 from ..core.kinematic_constraints.kinematic_constraints import ConstraintError, PathConstraints, path_constraints_from_json
-from ..core.planning_interface.planning_contexts import ContextFactory, PlanningContextPool
+from ..core.planning_interface.planning_context import PlanningContext
 from ..core.planners.pilz import KNOWN_PLANNER_IDS as PILZ_PLANNER_IDS
 from ..core.planning_interface.planning_interface import JointGoal, MotionPlanRequest, NamedGoal, PoseGoal
 from ..core.planning_scene.planning_scene import PlanningScene
@@ -151,15 +151,12 @@ class MoveGroupCapabilities(PlanningSceneMonitor):
         defaults: PlanningDefaults | None = None,
         clock: Callable[[], float] = time.monotonic,
         log: Callable[[str, str], None] | None = None,
-        context_factory: ContextFactory | None = None,
     ) -> None:
-        """``context_factory`` builds another (model, pipeline) pair like ``model`` and ``pipeline``:
-        with it, plans of several clients run at once (see planning_contexts.py); without it,
-        one after the other."""
+        """Plans of several clients run at once, each in a PlanningContext of its own on the one
+        model and pipeline (see core/planning_interface/planning_context.py)."""
         super().__init__(model, clock, log)
         self.pipeline = pipeline
-        self.contexts = PlanningContextPool(model, pipeline, context_factory)
-        self._cancels: set[threading.Event] = set()
+        self._planning: set[PlanningContext] = set()  # the plans running now (stop terminates them)
         self.defaults = defaults or PlanningDefaults()
         self._last_plan: tuple[JointTrajectory, str] | None = None
         self._last_plan_problem = "nothing has been planned yet"
@@ -423,18 +420,16 @@ class MoveGroupCapabilities(PlanningSceneMonitor):
         }
 
     def _plan_in_context(self, scene: PlanningScene, request: MotionPlanRequest) -> Any:
-        """Plan on a free planning context, cancellable by stop()."""
-        cancel = threading.Event()
-        request.cancel = cancel
+        """Plan in a planning context of its own, terminated by stop()."""
+        context = PlanningContext(self.pipeline, scene, request)
         with self._lock:
-            self._cancels.add(cancel)
+            self._planning.add(context)
         try:
-            with self.contexts.acquire() as context:
-                local = context.scene_for(scene)
-                return context.pipeline.plan(local, context.request_for(request, local))
+            return context.solve()
         finally:
             with self._lock:
-                self._cancels.discard(cancel)
+                self._planning.discard(context)
+            context.clear()
 
     def _display(self, trajectory: JointTrajectory) -> None:
         for listener in list(self.trajectory_listeners):
@@ -482,12 +477,10 @@ class MoveGroupCapabilities(PlanningSceneMonitor):
             kwargs["path_constraints"] = self._path_constraints(params, scene)
         except RequestError as exc:
             return self._fail(exc.code, exc.message, fraction=0.0, stop_reason="invalid_request")
-        with self.contexts.acquire() as context:
-            local = context.scene_for(scene)
-            result = compute_cartesian_path(
-                local, group, local.current_state.copy(), poses, link=link or None,
-                ik_frame_offset=ik_offset, avoid_collisions=avoid, **kwargs,
-            )
+        result = compute_cartesian_path(
+            scene, group, scene.current_state.copy(), poses, link=link or None,
+            ik_frame_offset=ik_offset, avoid_collisions=avoid, **kwargs,
+        )
         out: dict[str, Any] = {
             "error_code": _code(result.error_code.val, result.error_code.message, "cartesian_path"),
             "trajectory": None,
@@ -653,8 +646,7 @@ class MoveGroupCapabilities(PlanningSceneMonitor):
                 values[key] = text
         updated = dataclasses.replace(current, planner_configs={
             **current.planner_configs, planner_config: dataclasses.replace(config, params=values)})
-        for pipeline in self.contexts.pipelines():
-            pipeline.ompl.config = updated
+        self.pipeline.ompl.config = updated
         self._log("info", f"planner configuration {planner_config}: parameters now {values}")
         return None
 
@@ -761,9 +753,9 @@ class MoveGroupCapabilities(PlanningSceneMonitor):
     def stop(self) -> dict[str, Any]:
         """Stop the running execution and cancel every running plan (they answer PREEMPTED)."""
         with self._lock:
-            cancels = list(self._cancels)
-        for cancel in cancels:
-            cancel.set()
+            cancels = list(self._planning)
+        for context in cancels:
+            context.terminate()
         stopped = self.executor.stop()
         parts = (["stopping the running execution"] if stopped else []) + (
             [f"cancelling {len(cancels)} running plan{'s' if len(cancels) != 1 else ''}"] if cancels else [])
@@ -782,7 +774,7 @@ class MoveGroupCapabilities(PlanningSceneMonitor):
             "joint_state_age": age,
             "joint_state_received": positions is not None,
             "execution": self.executor.status(),
-            "planning": len(self._cancels),  # plans running now (stop cancels them)
+            "planning": len(self._planning),  # plans running now (stop cancels them)
             "has_plan": self._last_plan is not None,
             "controllers": dict(controller_states or {}),
         }

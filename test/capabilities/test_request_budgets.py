@@ -15,7 +15,6 @@ import pytest
 from interfaces_py.json_rpc import BAD_REQUEST, MAX_REQUEST_BYTES, RpcError, decode_request, log_safe
 from interfaces_py.msgs import MoveItErrorCode
 from mycobot_planning.core.trajectory_execution import ControllerInfo, ExecutionSettings
-from mycobot_planning.core.planning_interface.planning_contexts import PlanningContextPool
 from mycobot_planning.core.planning_interface.planning_pipeline import PlanningPipeline
 from interfaces_py.msgs import WORKSPACE_BOUND
 from mycobot_planning.capabilities.move_group_capabilities import (
@@ -46,9 +45,9 @@ class IdleBus:
         return None
 
 
-def _core(model: RobotModel, pipeline, factory=None) -> MoveGroupCapabilities:
+def _core(model: RobotModel, pipeline) -> MoveGroupCapabilities:
     core = MoveGroupCapabilities(model, pipeline, [ControllerInfo("arm_controller", tuple(ARM))], IdleBus(),
-                              ExecutionSettings(), context_factory=factory)
+                              ExecutionSettings())
     names = list(model.variable_names)
     assert core.update_joint_state(names, [0.0] * len(names)) is None
     return core
@@ -149,7 +148,7 @@ def _start(core, request) -> tuple[threading.Thread, dict]:
 
 def _wait_running(core, count: int = 1, timeout: float = 30.0) -> None:
     deadline = time.monotonic() + timeout
-    while len(core._cancels) < count:
+    while core.get_state()["planning"] < count:
         assert time.monotonic() < deadline, "the plan did not start"
         time.sleep(0.01)
 
@@ -167,9 +166,8 @@ def test_stop_cancels_a_running_plan_with_preempted(core):
 
 
 def test_a_short_plan_is_answered_while_another_clients_long_plan_runs(mycobot, pipeline):
-    core = _core(mycobot, pipeline, factory=lambda: (RobotModel.mycobot(), PlanningPipeline()))
-    core.contexts.prepare()
-    assert core.contexts.size == 2
+    """Both plans on the one model and pipeline, each in a planning context of its own."""
+    core = _core(mycobot, pipeline)
     long_thread, long_out = _start(core, _long_request())
     _wait_running(core)
     short = core.plan({"group": "arm", "goal": {"named": "ready"}, "allowed_planning_time": 5.0})
@@ -180,21 +178,21 @@ def test_a_short_plan_is_answered_while_another_clients_long_plan_runs(mycobot, 
     assert long_out["error_code"]["val"] == MoveItErrorCode.PREEMPTED
 
 
-def test_the_context_pool_builds_contexts_on_demand_up_to_its_bound(mycobot, pipeline):
-    built = []
-
-    def factory():
-        built.append(1)
-        return RobotModel.mycobot(), pipeline
-
-    pool = PlanningContextPool(mycobot, pipeline, factory, max_contexts=2)
-    with pool.acquire() as first:
-        assert first.primary and not built
-        with pool.acquire() as second:
-            assert not second.primary and len(built) == 1 and second.model is not mycobot
-    with pool.acquire() as again:
-        assert again.primary  # the primary is preferred: no scene copy
-    assert pool.size == 2 and len(built) == 1
+def test_four_plans_run_at_once_on_the_one_model_and_stop_ends_them_all(mycobot, pipeline):
+    """No bound but the callers': four long plans with different goals are all running at the same
+    time (one model, one pipeline, a planning context each), then stop ends every one of them."""
+    core = _core(mycobot, pipeline)
+    goals = ([0.5, -0.3, -0.4, 0.2, 0.1, 0.0], [-0.5, 0.3, 0.4, 0.0, 0.2, 0.1], [0.3, 0.3, -0.3, 0.1, -0.2, 0.4],
+             [-0.4, -0.2, 0.5, -0.3, 0.0, -0.1])
+    started = [_start(core, {**_long_request(), "goal": {"joints": goal}}) for goal in goals]
+    _wait_running(core, 4)
+    answer = core.stop()
+    assert answer["cancelled_plans"] == 4 and "cancelling 4 running plans" in answer["message"], answer
+    for thread, out in started:
+        thread.join(30.0)
+        assert not thread.is_alive()
+        assert out["error_code"]["val"] == MoveItErrorCode.PREEMPTED, out["error_code"]
+    assert core.get_state()["planning"] == 0
 
 
 # ---------------------------------------------------------------------------- the JSON boundary

@@ -10,7 +10,7 @@ import threading
 import weakref
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Iterable, Mapping, Sequence
+from typing import TYPE_CHECKING, Callable, Iterable, Mapping, Sequence
 from urllib.parse import unquote, urlparse
 
 import coal
@@ -294,8 +294,7 @@ class RobotCollisionInfo:
         self.geometry_objects: list[pin.GeometryObject] = []
         self.geometry_links: list[str] = []
         self.geometry_joints: list[int] = []
-        for geom in source.geometryObjects:
-            geom.geometry.computeLocalAABB()  # the broad phase needs local AABBs
+        for geom in source.geometryObjects:  # local AABBs computed by the model (the broad phase needs them)
             self.geometry_objects.append(geom)
             self.geometry_links.append(pin_model.frames[geom.parentFrame].name)
             self.geometry_joints.append(int(geom.parentJoint))
@@ -386,11 +385,67 @@ def _se3(matrix: np.ndarray) -> pin.SE3:
     return pin.SE3(np.array(matrix[:3, :3]), np.array(matrix[:3, 3]))
 
 
+class _SceneData:
+    """One thread's buffers for a CompiledScene: what every collision or distance call writes
+    (Pinocchio data, geometry data, the broad phases over them) and the checker closure bound to
+    them. Pinocchio's model/data split: the CompiledScene is the model, this is the data."""
+
+    __slots__ = ("data", "geometry_data", "manager", "hull_data", "hull_geometry_data", "hull_manager", "check",
+                 "distance_data")
+
+    def __init__(self, scene: "CompiledScene", data: pin.Data | None = None) -> None:
+        pin_model, gm = scene.pin_model, scene.geometry_model
+        self.data = data if data is not None else pin_model.createData()
+        self.geometry_data = scene._geometry_data_of(gm)
+        self.manager = self.hull_manager = self.hull_data = self.hull_geometry_data = None
+        if scene._manager_type is not None:
+            self.manager = scene._manager_type(pin_model, gm, self.geometry_data)
+            if scene._hull_model is not None:
+                self.hull_data = pin_model.createData()
+                self.hull_geometry_data = scene._geometry_data_of(scene._hull_model)
+                self.hull_manager = scene._manager_type(pin_model, scene._hull_model, self.hull_geometry_data)
+        self.distance_data: dict[tuple, tuple[pin.GeometryData, list[int]]] = {}
+        self.check = self._checker(scene)
+
+    def _checker(self, scene: "CompiledScene"):
+        """The hot path: a closure doing exactly one Pinocchio call per configuration."""
+        compute = pin.computeCollisions
+        pin_model, data = scene.pin_model, self.data
+        if not scene.pairs:
+            def no_pairs(q: np.ndarray) -> bool:
+                return False
+
+            return no_pairs
+        if self.manager is not None:
+            manager = self.manager
+            hull_manager = self.hull_manager
+            if hull_manager is not None:
+                hull_data = self.hull_data
+
+                def hulls_then_meshes(q: np.ndarray) -> bool:
+                    return compute(pin_model, hull_data, hull_manager, q, True) and \
+                        compute(pin_model, data, manager, q, True)
+
+                return hulls_then_meshes
+
+            def broadphase(q: np.ndarray) -> bool:
+                return compute(pin_model, data, manager, q, True)
+
+            return broadphase
+        gm, gd = scene.geometry_model, self.geometry_data
+
+        def plain(q: np.ndarray) -> bool:
+            return compute(pin_model, data, gm, gd, q, True)
+
+        return plain
+
+
 class CompiledScene:
     """A scene's geometry as one Pinocchio GeometryModel + broad phase, ready for per-state calls.
 
-    Not thread-safe (it owns Pinocchio data buffers reused on every call), like MoveIt's
-    collision environments are not shared across threads without copies.
+    Shared by every thread and every copy of the scene: the buffers a check writes (Pinocchio
+    and geometry data, the broad phases) are each thread's own (_SceneData, made on the thread's
+    first check), so concurrent plans on copies of one scene never touch each other's data.
     """
 
     def __init__(
@@ -404,7 +459,7 @@ class CompiledScene:
         model = robot.model
         pin_model = model.pin_model
         self.pin_model = pin_model
-        self.data = pin_model.createData()
+        self._local = threading.local()
         gm = pin.GeometryModel()
         names: list[str] = []  # body name per geometry
         kinds: list[str] = []  # body kind per geometry
@@ -476,43 +531,90 @@ class CompiledScene:
             gm.addCollisionPair(pin.CollisionPair(i, j))
         self.pairs = pairs
         self.geometry_model = gm
-        gd = gm.createData()
-        for request in gd.collisionRequests:
-            request.security_margin = SECURITY_MARGIN
-        self.geometry_data = gd
+        self._inactive_pairs: list[int] = []
+        gd = self._geometry_data_of(gm)
+        data = pin_model.createData()
         self._pair_is_world = [kinds[i] == OBJECT or kinds[j] == OBJECT for i, j in pairs]
 
         # Pairs fixed relative to each other: decide once, drop from the per-state check if free.
         self.constant_colliding: list[int] = []
         constant = [k for k, (i, j) in enumerate(pairs) if joints[i] == joints[j]]
         if constant:
-            pin.updateGeometryPlacements(pin_model, self.data, gm, gd, robot.neutral_q)
+            pin.updateGeometryPlacements(pin_model, data, gm, gd, robot.neutral_q)
             for k in constant:
                 if pin.computeCollision(gm, gd, k):
                     self.constant_colliding.append(k)
                     _warn_always_colliding(model.name, names[pairs[k][0]], names[pairs[k][1]])
                 else:
-                    gd.deactivateCollisionPair(k)
-        self.active_pairs = [k for k in range(len(pairs)) if gd.activeCollisionPairs[k]]
+                    self._inactive_pairs.append(k)
+        inactive = set(self._inactive_pairs)
+        self.active_pairs = [k for k in range(len(pairs)) if k not in inactive]
 
         # Broad phase when every geometry has a proper AABB (the manager silently ignores
         # degenerate ones, e.g. a flat mesh); otherwise the plain all-pairs loop.
         degenerate = any(not g.geometry.aabb_local.volume() > 0.0 for g in gm.geometryObjects)
-        self.manager = None
+        self._manager_type = None
         if not degenerate and pairs:
-            manager_type = (
+            self._manager_type = (
                 pin.BroadPhaseManager_NaiveCollisionManager
                 if gm.ngeoms <= _AABB_TREE_THRESHOLD
                 else pin.BroadPhaseManager_DynamicAABBTreeCollisionManager
             )
-            self.manager = manager_type(pin_model, gm, gd)
-        self._distance_data: dict[tuple, tuple[pin.GeometryData, list[int]]] = {}
-        self.hull_manager = self._hull_manager(robot, gm, gd) if self.manager is not None else None
-        self.collides = self._make_checker()
+        self._hull_model = self._hull_geometry(robot, gm) if self._manager_type is not None else None
+        # the constructing thread's buffers: the ones made above
+        self._local.scene_data = _SceneData(self, data)
 
-    def _hull_manager(self, robot: RobotCollisionInfo, gm: pin.GeometryModel, gd: pin.GeometryData):
-        """The same geometry, pairs and margins with every link mesh replaced by its convex hull,
-        behind its own broad phase; None when no link has a hull.
+    def _geometry_data_of(self, gm: pin.GeometryModel) -> pin.GeometryData:
+        """Fresh geometry data for this scene's geometry (or its hulls'): the margin on every
+        request, the pairs found free once and for all switched off."""
+        gd = gm.createData()
+        for request in gd.collisionRequests:
+            request.security_margin = SECURITY_MARGIN
+        for k in self._inactive_pairs:
+            gd.deactivateCollisionPair(k)
+        return gd
+
+    def _thread_data(self) -> _SceneData:
+        """The calling thread's buffers (made on its first call)."""
+        local = self._local
+        try:
+            return local.scene_data
+        except AttributeError:
+            local.scene_data = _SceneData(self)
+            return local.scene_data
+
+    @property
+    def collides(self) -> Callable[[np.ndarray], bool]:
+        """The calling thread's collision test: ``collides(q)`` is True when the Pinocchio
+        configuration q collides. Use it in the thread that asked for it."""
+        try:
+            return self._local.scene_data.check
+        except AttributeError:
+            return self._thread_data().check
+
+    @property
+    def manager(self):
+        """The calling thread's broad phase (None when the scene has none)."""
+        return self._thread_data().manager
+
+    @property
+    def hull_manager(self):
+        """The calling thread's broad phase over the hulls (None when there is no hull pre-test)."""
+        return self._thread_data().hull_manager
+
+    @property
+    def data(self) -> pin.Data:
+        """The calling thread's Pinocchio data for this scene's checks."""
+        return self._thread_data().data
+
+    @property
+    def geometry_data(self) -> pin.GeometryData:
+        """The calling thread's geometry data."""
+        return self._thread_data().geometry_data
+
+    def _hull_geometry(self, robot: RobotCollisionInfo, gm: pin.GeometryModel) -> pin.GeometryModel | None:
+        """The same geometry and pairs with every link mesh replaced by its convex hull (checked
+        behind a broad phase of its own); None when no link has a hull.
 
         A hull contains its mesh, so a state the hulls find free is free, and the meshes are
         consulted only for states the hulls find in collision: every verdict is still the
@@ -532,53 +634,14 @@ class CompiledScene:
                     geom.name, int(geom.parentJoint), int(geom.parentFrame), geom.placement, hull))
         for i, j in self.pairs:
             hull_gm.addCollisionPair(pin.CollisionPair(i, j))
-        hull_gd = hull_gm.createData()
-        for request in hull_gd.collisionRequests:
-            request.security_margin = SECURITY_MARGIN
-        for k in range(len(self.pairs)):
-            if not gd.activeCollisionPairs[k]:
-                hull_gd.deactivateCollisionPair(k)
-        manager_type = type(self.manager)
-        self._hull_model, self._hull_data, self._hull_pin_data = hull_gm, hull_gd, self.pin_model.createData()
-        return manager_type(self.pin_model, hull_gm, hull_gd)
+        return hull_gm
 
     # ------------------------------------------------------------------ collision
-    def _make_checker(self):
-        """The hot path: a closure doing exactly one Pinocchio call per configuration."""
-        compute = pin.computeCollisions
-        pin_model, data = self.pin_model, self.data
-        if not self.pairs:
-            def no_pairs(q: np.ndarray) -> bool:
-                return False
-
-            return no_pairs
-        if self.manager is not None:
-            manager = self.manager
-            hull_manager = self.hull_manager
-            if hull_manager is not None:
-                hull_data = self._hull_pin_data
-
-                def hulls_then_meshes(q: np.ndarray) -> bool:
-                    return compute(pin_model, hull_data, hull_manager, q, True) and \
-                        compute(pin_model, data, manager, q, True)
-
-                return hulls_then_meshes
-
-            def broadphase(q: np.ndarray) -> bool:
-                return compute(pin_model, data, manager, q, True)
-
-            return broadphase
-        gm, gd = self.geometry_model, self.geometry_data
-
-        def plain(q: np.ndarray) -> bool:
-            return compute(pin_model, data, gm, gd, q, True)
-
-        return plain
-
     def contacts(self, q: np.ndarray, max_contacts: int | None = None) -> list[Contact]:
         """Every colliding active pair at q (a full pass without early exit), with depths."""
-        gm, gd = self.geometry_model, self.geometry_data
-        pin.updateGeometryPlacements(self.pin_model, self.data, gm, gd, q)
+        buffers = self._thread_data()
+        gm, gd = self.geometry_model, buffers.geometry_data
+        pin.updateGeometryPlacements(self.pin_model, buffers.data, gm, gd, q)
         if not self.pairs:
             return []
         pin.computeCollisions(gm, gd, False)
@@ -616,16 +679,17 @@ class CompiledScene:
     ) -> DistanceReport:
         """Minimum distance over the selected active pairs, and per robot body."""
         key = (include_self, include_world, bodies)
-        entry = self._distance_data.get(key)
+        buffers = self._thread_data()
+        entry = buffers.distance_data.get(key)
         if entry is None:
             entry = self._distance_selection(include_self, include_world, bodies)
-            if len(self._distance_data) > 16:
-                self._distance_data.clear()
-            self._distance_data[key] = entry
+            if len(buffers.distance_data) > 16:
+                buffers.distance_data.clear()
+            buffers.distance_data[key] = entry
         gd, selected = entry
         if not selected:
             return DistanceReport(math.inf)
-        pin.computeDistances(self.pin_model, self.data, self.geometry_model, gd, q)
+        pin.computeDistances(self.pin_model, buffers.data, self.geometry_model, gd, q)
         results = gd.distanceResults
         names, kinds = self.geometry_names, self.geometry_kinds
         best = math.inf

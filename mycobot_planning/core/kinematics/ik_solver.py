@@ -114,7 +114,9 @@ def state_distance(a: np.ndarray, b: np.ndarray) -> float:
 class IKSolver:
     """IK for one group and one tip frame (optionally an ik_frame rigidly offset from it).
 
-    Built once and reused: it caches the frame id, the Jacobian columns and the limit vectors.
+    Built once and reused: it caches the frame id, the Jacobian columns and the limit vectors,
+    and owns the Pinocchio data its descents write, so solvers on one model may run in different
+    threads; one solver serves one thread at a time.
     """
 
     def __init__(
@@ -157,6 +159,7 @@ class IKSolver:
         self._damping6 = options.damping * np.eye(6)
         self._gesv = get_lapack_funcs(("gesv",), (np.zeros((6, 6)),))[0]
         self._seed_features: tuple = (None, None)  # (key of the last seed, its pose features)
+        self._data = model.pin_model.createData()
 
     # ------------------------------------------------------------------ one descent
     def _seed_table(self, position_only: bool) -> tuple[cKDTree, np.ndarray]:
@@ -172,13 +175,14 @@ class IKSolver:
             samples = rng.uniform(self._sample_lower, self._sample_upper, size=(size, len(self._indices)))
             full = self.model.default_positions()
             features = np.empty((size, 12))
-            pmodel, pdata = self.model.pin_model, self.model.pin_data
+            pmodel, pdata = self.model.pin_model, self._data
             for i, x in enumerate(samples):
                 full[self._indices] = x
                 pin.forwardKinematics(pmodel, pdata, self.model.to_q(full))
                 pose = pin.updateFramePlacement(pmodel, pdata, self.frame_id)
                 features[i, :3] = pose.translation
                 features[i, 3:] = pose.rotation.reshape(-1)
+            samples.flags.writeable = False  # shared through the model's cache
             if position_only:
                 return cKDTree(features[:, :3]), samples
             features[:, 3:] *= self._orientation_weight
@@ -203,7 +207,7 @@ class IKSolver:
         def measure() -> float:
             rng = np.random.default_rng(54321)
             full = self.model.default_positions()
-            pmodel, pdata = self.model.pin_model, self.model.pin_data
+            pmodel, pdata = self.model.pin_model, self._data
             points = np.empty((REACH_SAMPLES, 3))
             for i, x in enumerate(rng.uniform(self._sample_lower, self._sample_upper,
                                               size=(REACH_SAMPLES, len(self._indices)))):
@@ -238,7 +242,7 @@ class IKSolver:
         distances, nearest = np.atleast_1d(distances), np.atleast_1d(nearest)
         key = (base.tobytes(), position_only)
         if self._seed_features[0] != key:  # the same seed as the last call (a common case) is not redone
-            pmodel, pdata = self.model.pin_model, self.model.pin_data
+            pmodel, pdata = self.model.pin_model, self._data
             pin.forwardKinematics(pmodel, pdata, self.model.to_q(base))
             seed_pose = pin.updateFramePlacement(pmodel, pdata, self.frame_id)
             self._seed_features = (key, self._features(seed_pose, position_only))
@@ -276,7 +280,7 @@ class IKSolver:
         _descend_batch and refine.
         """
         model, opts = self.model, self.options
-        pmodel, pdata = model.pin_model, model.pin_data
+        pmodel, pdata = model.pin_model, self._data
         idx, fid = self._indices, self.frame_id
         columns, jmap = self._columns, self._jmap
         slots = self._q_slots
@@ -384,7 +388,7 @@ class IKSolver:
         budgets[k] steps, as in its own descent.
         """
         model, opts = self.model, self.options
-        pmodel, pdata, fid = model.pin_model, model.pin_data, self.frame_id
+        pmodel, pdata, fid = model.pin_model, self._data, self.frame_id
         idx, columns, jmap, slots = self._indices, self._columns, self._jmap, self._q_slots
         m, n = starts.shape
         x = np.array(starts, dtype=float)

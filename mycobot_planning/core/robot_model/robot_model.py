@@ -3,7 +3,9 @@
 Pinocchio owns kinematics (mimic joints included) and Coal owns the collision shapes; this class
 adds what MoveIt users expect on top: planning groups, named states, end effectors, the SRDF's
 disabled collision pairs, and joint limits overridden by joint_limits.yaml. It is immutable after
-construction, so states, scenes and planners can share one instance.
+construction (attributes cannot be reassigned, its arrays are read-only) and holds no scratch
+data: every thread may share one instance, and the Pinocchio data a computation writes belongs to
+the computation (see thread_data.py and docs/core.md, "The model shared, the data per computation").
 """
 from __future__ import annotations
 
@@ -25,6 +27,8 @@ from .srdf import Srdf, parse_srdf
 from .srdf_check import UrdfTree, drop_unknown_names
 
 _LOG = logging.getLogger(__name__)
+
+_MISSING = object()
 
 #: Acceleration assumed where neither the URDF nor joint_limits.yaml gives one (MoveIt's default).
 DEFAULT_MAX_ACCELERATION = 1.0
@@ -190,7 +194,6 @@ class RobotModel:
             self.pin_model: pin.Model = pin.buildModelFromXML(urdf_xml, mimic=False)
         except (ValueError, RuntimeError) as exc:
             raise RobotModelError(f"Pinocchio cannot build the URDF model: {exc}") from None
-        self.pin_data = self.pin_model.createData()
         dirs = [str(p) for p in package_dirs]
         try:
             self.pin_collision_model: pin.GeometryModel = pin.buildGeomFromUrdfString(
@@ -198,6 +201,8 @@ class RobotModel:
             )
         except (ValueError, RuntimeError, OSError) as exc:
             raise RobotModelError(f"cannot load the URDF collision geometry: {exc}") from None
+        for geom in self.pin_collision_model.geometryObjects:
+            geom.geometry.computeLocalAABB()  # the broad phase needs them; computed now, never later
         self._kinematics_config = dict(kinematics or {})
         self._cache: dict[Any, Any] = {}
         self._build_joints(urdf, dict(joint_limits or {}))
@@ -205,6 +210,24 @@ class RobotModel:
         self._build_groups()
         self._build_named_states()
         self._build_disabled_pairs()
+        self._freeze()
+
+    def _freeze(self) -> None:
+        """Refuse later changes: arrays read-only, attributes no longer assignable."""
+        for value in self.__dict__.values():
+            if isinstance(value, np.ndarray):
+                value.flags.writeable = False
+        for group in self._groups.values():
+            group.variable_indices.flags.writeable = False
+        object.__setattr__(self, "_frozen", True)
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if getattr(self, "_frozen", False):
+            raise AttributeError(f"RobotModel '{self.name}' is immutable: cannot set '{name}' (build another model)")
+        object.__setattr__(self, name, value)
+
+    def __delattr__(self, name: str) -> None:
+        raise AttributeError(f"RobotModel '{self.name}' is immutable: cannot delete '{name}'")
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -719,11 +742,14 @@ class RobotModel:
         """Memoise derived data (IK seed tables, compiled collision models) on the model.
 
         The model never changes after construction, so anything derived from it alone can be
-        computed once and shared by every solver and scene built on it.
+        computed once and shared by every solver and scene built on it. The value must not be
+        changed by its users (make its arrays read-only). Thread-safe: two threads asking at once
+        may both compute it (the factory is deterministic), and both get the first one stored.
         """
-        if key not in self._cache:
-            self._cache[key] = factory()
-        return self._cache[key]
+        value = self._cache.get(key, _MISSING)
+        if value is _MISSING:
+            value = self._cache.setdefault(key, factory())  # atomic: the first value stored wins
+        return value
 
     def default_positions(self) -> np.ndarray:
         """All zeros, clipped into the limits (MoveIt's default state)."""

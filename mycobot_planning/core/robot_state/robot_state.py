@@ -13,6 +13,7 @@ import pinocchio as pin
 
 from ..errors import StateError
 from ..robot_model.robot_model import RobotModel
+from ..robot_model.thread_data import thread_data
 
 _REFERENCE = {
     "world": pin.ReferenceFrame.LOCAL_WORLD_ALIGNED,
@@ -132,13 +133,15 @@ class RobotState:
         """4x4 pose of a link or frame in the model root ('world') frame."""
         model = self.model
         fid = model.frame_id(frame)
-        pin.forwardKinematics(model.pin_model, model.pin_data, self.q)
-        return pin.updateFramePlacement(model.pin_model, model.pin_data, fid).homogeneous.copy()
+        data = thread_data(model)
+        pin.forwardKinematics(model.pin_model, data, self.q)
+        return pin.updateFramePlacement(model.pin_model, data, fid).homogeneous.copy()
 
     def frame_poses(self, frames: Iterable[str]) -> dict[str, np.ndarray]:
         model = self.model
-        pin.framesForwardKinematics(model.pin_model, model.pin_data, self.q)
-        return {f: model.pin_data.oMf[model.frame_id(f)].homogeneous.copy() for f in frames}
+        data = thread_data(model)
+        pin.framesForwardKinematics(model.pin_model, data, self.q)
+        return {f: data.oMf[model.frame_id(f)].homogeneous.copy() for f in frames}
 
     def jacobian(self, frame: str, group: str | None = None, reference: str = "world") -> np.ndarray:
         """6xN geometric Jacobian (linear; angular) of a frame over a group's (or all) variables.
@@ -150,7 +153,7 @@ class RobotState:
             raise StateError(f"unknown Jacobian reference '{reference}'; use one of {sorted(_REFERENCE)}")
         model = self.model
         fid = model.frame_id(frame)
-        full = pin.computeFrameJacobian(model.pin_model, model.pin_data, self.q, fid, _REFERENCE[reference])
+        full = pin.computeFrameJacobian(model.pin_model, thread_data(model), self.q, fid, _REFERENCE[reference])
         indices = None if group is None else model.group(group).variable_indices
         return full @ model.jacobian_map(indices)
 

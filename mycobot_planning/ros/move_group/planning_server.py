@@ -137,11 +137,7 @@ class PlanningServer(Node):
         self._monitor_executor.add_node(self._monitor)
         self._bus = ActionControllerBus(self, self._monitor, controllers, self._on_feedback)
         self.core = MoveGroupCapabilities(model, pipeline, controllers, self._bus, self._execution_settings(),
-                                       self._planning_defaults(), log=self._log,
-                                       context_factory=self._planning_context)
-        # One spare planning context, built in the background: the first plan that arrives while
-        # another runs then starts at once (see core/planning_interface/planning_contexts.py).
-        threading.Thread(target=self.core.contexts.prepare, name="spare planning context", daemon=True).start()
+                                       self._planning_defaults(), log=self._log)
         self._goal_last_set: str | None = None
         self._params.on_change(self._on_params)
 
@@ -214,11 +210,6 @@ class PlanningServer(Node):
         )
 
     # ------------------------------------------------------------------ set-up
-    def _planning_context(self) -> tuple[RobotModel, PlanningPipeline]:
-        """Another model and pipeline like the server's own, for a plan that runs beside another."""
-        return self._load_model(), PlanningPipeline(self._config_path("ompl_planning_file", "ompl_planning"),
-                                                    self._config.get("pilz_cartesian_limits_file") or None)
-
     def _config_path(self, parameter: str, config_key: str) -> str | None:
         """A file parameter's value, else the robot_config directory's file of that kind, else None
         (the package's default)."""

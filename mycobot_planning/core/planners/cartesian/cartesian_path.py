@@ -267,12 +267,13 @@ class _StepSolver:
     Holds the frame pose and the group Jacobian at the current solution, so the next step's
     first Newton iteration (the first-order predictor q + J^+ dx) needs no extra kinematics.
     Written for the per-step budget (tens of microseconds): LAPACK's gesv directly instead of
-    numpy.linalg.solve, no np.clip/np.max wrappers.
+    numpy.linalg.solve, no np.clip/np.max wrappers. Owns its Pinocchio data (one per path).
     """
 
     def __init__(self, model: RobotModel, jmg: JointModelGroup, link: str, full: np.ndarray) -> None:
         self.model = model
-        self.pmodel, self.pdata = model.pin_model, model.pin_data
+        self.pmodel = model.pin_model
+        self.pdata = self.pmodel.createData()
         self.fid = model.frame_id(link)
         self.idx = jmg.variable_indices
         jmap = np.ascontiguousarray(model.jacobian_map(self.idx))

@@ -114,10 +114,8 @@ class PrecisionCheck:
 
 def _chain_reach(model, fid: int) -> float:
     """The sum of the offsets of the frame and of every joint above it: no joint of the chain is
-    farther from the frame, whatever the configuration (kept on the model, per frame)."""
-    cache = model.__dict__.setdefault("_chain_reach", {})
-    reach = cache.get(fid)
-    if reach is None:
+    farther from the frame, whatever the configuration (cached on the model, per frame)."""
+    def measure() -> float:
         pmodel = model.pin_model
         frame = pmodel.frames[fid]
         reach = float(np.linalg.norm(frame.placement.translation))
@@ -125,5 +123,6 @@ def _chain_reach(model, fid: int) -> float:
         while joint > 0:
             reach += float(np.linalg.norm(pmodel.jointPlacements[joint].translation))
             joint = pmodel.parents[joint]
-        cache[fid] = reach
-    return reach
+        return reach
+
+    return model.cached(("chain_reach", fid), measure)

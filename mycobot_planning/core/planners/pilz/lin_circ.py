@@ -15,6 +15,7 @@ from ...planning_interface.planning_interface import (
     check_pose_goal,
     failure,
 )
+from ...robot_model.thread_data import thread_data
 from ...robot_state.robot_state import RobotState
 from ...robot_trajectory.robot_trajectory import TimedTrajectory
 from .common import (
@@ -319,7 +320,7 @@ def _joint_derivatives(ctx: PilzContext, solver: IKSolver, offset_pose: np.ndarr
         velocities = np.gradient(positions, times, axis=0)
         velocities[0] = velocities[-1] = 0.0  # at rest at both ends, as the profile is
         return velocities, np.gradient(velocities, times, axis=0)
-    pmodel, pdata = model.pin_model, model.pin_data
+    pmodel, pdata = model.pin_model, thread_data(model)
     fid = solver.frame_id
     jmap = model.jacobian_map(idx)
     world = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED

@@ -1,0 +1,167 @@
+"""Benchmark of concurrent plans in the planning_server: its memory (RSS) with four plans at once.
+
+``concurrent_plans``: starts mock_controllers + planning_server (RobotProcesses, a ROS domain of
+its own), puts a 5 cm box in the way (/apply_planning_scene), sends one plan, then rounds of four
+/plan_kinematic_path requests at once: three OMPL RRTConnect plans around the box, each of
+ATTEMPTS attempts (MoveIt keeps the shortest), so the plans overlap, and one industrial PTP; four
+different goals. It reads the server's /proc status: ``rss_idle_mb`` after
+the first plan, ``rss_after_mb`` after the rounds, ``hwm_mb`` its peak (VmHWM); ``round_ms`` the
+wall time of one round. One server per repeat; summary keys are the medians. Every plan must
+succeed (the server validates each trajectory).
+
+Imports only what the bench package has had since before the planning contexts changed, so the
+same file, run as a script, measures an older checkout (docs/bench.md says how).
+"""
+from __future__ import annotations
+
+import statistics
+import time
+from pathlib import Path
+from typing import Any
+
+from mycobot_planning.bench.common import emit, machine, spread
+from mycobot_planning.bench.ros_scenarios import RobotProcesses, bench_domain_id
+
+ARM = ["link1_to_link2", "link2_to_link3", "link3_to_link4", "link4_to_link5", "link5_to_link6",
+       "link6_to_link6_flange"]
+#: (pipeline, planner, goal): four different goals, the first three behind the box
+PLANS = (
+    ("ompl", "RRTConnectkConfigDefault", [1.0, -1.0, -0.8, 0.3, 0.5, 0.8]),
+    ("ompl", "RRTConnectkConfigDefault", [1.1, -0.9, -0.8, 0.2, 0.5, 0.7]),
+    ("ompl", "RRTConnectkConfigDefault", [0.9, -1.1, -0.7, 0.3, 0.4, 0.8]),
+    ("pilz_industrial_motion_planner", "PTP", [0.5, 0.2, 0.3, -0.2, 0.1, 0.2]),
+)
+BOX_CENTRE = (0.0, 0.15, 0.25)
+BOX_SIZE = 0.05
+ROUNDS = 3
+ALLOWED_PLANNING_TIME = 10.0
+ATTEMPTS = 10
+
+
+def _status_mb(pid: int) -> dict[str, float]:
+    """VmRSS and VmHWM of a process, in MB."""
+    out = {}
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        key, _, value = line.partition(":")
+        if key in ("VmRSS", "VmHWM"):
+            out[key] = int(value.split()[0]) / 1024.0
+    return out
+
+
+def _request(pipeline: str, planner: str, goal: list[float]) -> Any:
+    from moveit_msgs.msg import Constraints, JointConstraint
+    from moveit_msgs.srv import GetMotionPlan
+
+    request = GetMotionPlan.Request()
+    r = request.motion_plan_request
+    r.group_name, r.pipeline_id, r.planner_id = "arm", pipeline, planner
+    r.allowed_planning_time = ALLOWED_PLANNING_TIME
+    r.num_planning_attempts = ATTEMPTS if pipeline == "ompl" else 1
+    r.max_velocity_scaling_factor = r.max_acceleration_scaling_factor = 0.5
+    r.goal_constraints = [Constraints(joint_constraints=[JointConstraint(
+        joint_name=j, position=v, tolerance_above=1e-3, tolerance_below=1e-3, weight=1.0)
+        for j, v in zip(ARM, goal)])]
+    return request
+
+
+def _box_scene() -> Any:
+    from moveit_msgs.msg import CollisionObject, PlanningScene
+    from moveit_msgs.srv import ApplyPlanningScene
+    from geometry_msgs.msg import Pose
+    from shape_msgs.msg import SolidPrimitive
+
+    box = CollisionObject(id="box", operation=CollisionObject.ADD)
+    box.header.frame_id = "world"
+    box.primitives = [SolidPrimitive(type=SolidPrimitive.BOX, dimensions=[BOX_SIZE] * 3)]
+    pose = Pose()
+    pose.position.x, pose.position.y, pose.position.z = BOX_CENTRE
+    pose.orientation.w = 1.0
+    box.primitive_poses = [pose]
+    request = ApplyPlanningScene.Request(scene=PlanningScene(is_diff=True))
+    request.scene.world.collision_objects = [box]
+    return request
+
+
+class _Client:
+    """A private rclpy context and node with the two service clients this benchmark calls."""
+
+    def __init__(self) -> None:
+        import rclpy
+        from moveit_msgs.srv import ApplyPlanningScene, GetMotionPlan
+        from rclpy.executors import SingleThreadedExecutor
+
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context)
+        self.node = rclpy.create_node("bench_concurrent_plans", context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self.plan = self.node.create_client(GetMotionPlan, "/plan_kinematic_path")
+        self.apply = self.node.create_client(ApplyPlanningScene, "/apply_planning_scene")
+        if not all(c.wait_for_service(timeout_sec=30.0) for c in (self.plan, self.apply)):
+            self.close()
+            raise RuntimeError("the planning_server offers no /plan_kinematic_path or /apply_planning_scene")
+
+    def wait(self, futures: list, what: str, timeout: float = 120.0) -> list:
+        deadline = time.monotonic() + timeout
+        while not all(f.done() for f in futures):
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"the planning_server did not answer {what}")
+            self.executor.spin_once(timeout_sec=0.1)
+        return [f.result() for f in futures]
+
+    def plan_all(self, plans) -> None:
+        """Send every plan at once; each must succeed."""
+        answers = self.wait([self.plan.call_async(_request(*plan)) for plan in plans], "every plan")
+        for plan, answer in zip(plans, answers):
+            code = answer.motion_plan_response.error_code
+            if code.val != 1:
+                raise RuntimeError(f"{plan[0]}/{plan[1]} failed: {code.message}")
+
+    def close(self) -> None:
+        import rclpy
+
+        self.node.destroy_node()
+        rclpy.shutdown(context=self.context)
+
+
+def bench_concurrent_plans(repeat: int, seed: int) -> None:
+    records: list[dict[str, Any]] = []
+    for index in range(repeat):
+        with RobotProcesses(bench_domain_id()) as robot:
+            pid = robot.procs["planning_server"].pid
+            client = _Client()
+            try:
+                if not client.wait([client.apply.call_async(_box_scene())], "the box")[0].success:
+                    raise RuntimeError("the planning_server did not add the box")
+                client.plan_all(PLANS[3:])
+                time.sleep(3.0)  # start-up work in the server's background threads ends
+                idle = _status_mb(pid)
+                rounds = []
+                for _ in range(ROUNDS):
+                    t0 = time.perf_counter()
+                    client.plan_all(PLANS)
+                    rounds.append(time.perf_counter() - t0)
+                after = _status_mb(pid)
+            finally:
+                client.close()
+        record = {"scenario": "concurrent_plans", "repeat": index, "rss_idle_mb": round(idle["VmRSS"], 1),
+                  "rss_after_mb": round(after["VmRSS"], 1), "hwm_mb": round(after["VmHWM"], 1),
+                  "round_ms": round(1e3 * statistics.median(rounds), 1)}
+        records.append(record)
+        emit(record)
+    summary: dict[str, Any] = {"scenario": "concurrent_plans", "summary": True}
+    for key in ("rss_idle_mb", "rss_after_mb", "hwm_mb", "round_ms"):
+        summary[key] = round(statistics.median(r[key] for r in records), 1)
+    emit({**summary, **spread([r["rss_after_mb"] for r in records]), **machine()})
+
+
+CONCURRENCY_SCENARIOS = {"concurrent_plans": bench_concurrent_plans}
+
+if __name__ == "__main__":  # to measure another checkout with this file (docs/bench.md)
+    import argparse
+
+    parser = argparse.ArgumentParser(description="bench concurrent_plans of the checkout whose venv runs this")
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--seed", type=int, default=0)
+    options = parser.parse_args()
+    bench_concurrent_plans(options.repeat, options.seed)
