@@ -8,13 +8,10 @@ import math
 import threading
 import time
 import traceback
-import dataclasses
 from dataclasses import dataclass
 from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
-import yaml
-
 from interfaces_py.pose_conversion import PoseError, pose_matrix
 from interfaces_py.msgs import (
     JointTrajectory,
@@ -40,7 +37,6 @@ from ..core.trajectory_execution import (
 from ..core.robot_trajectory.robot_trajectory import timed_to_joint_trajectory
 from ..core.kinematic_constraints.kinematic_constraints import ConstraintError, PathConstraints, path_constraints_from_json
 from ..core.planning_interface.planning_contexts import ContextFactory, PlanningContextPool
-from ..core.planners.pilz import KNOWN_PLANNER_IDS as PILZ_PLANNER_IDS
 from ..core.planning_interface.planning_interface import JointGoal, MotionPlanRequest, NamedGoal, PoseGoal
 from ..core.planning_scene.planning_scene import PlanningScene
 from ..core.planning_scene.planning_scene_monitor import BAD_REQUEST, PlanningSceneMonitor, RequestError
@@ -612,50 +608,27 @@ class MoveGroupCapabilities(PlanningSceneMonitor):
 
     # ------------------------------------------------------------------ planner interfaces
     def planner_interfaces(self) -> list[dict[str, Any]]:
-        """move_group's query_planner_interface: each pipeline with its planner ids."""
-        ompl = self.pipeline.ompl.config
-        out = [{"name": "OMPL", "pipeline_id": "ompl", "planner_ids": sorted(ompl.planner_configs)}]
-        out.append({"name": "Pilz Industrial Motion Planner", "pipeline_id": "pilz_industrial_motion_planner",
-                    "planner_ids": list(PILZ_PLANNER_IDS)})
-        out.append({"name": "Joint interpolation (MTC's JointInterpolationPlanner)",
-                    "pipeline_id": "joint_interpolation", "planner_ids": ["joint_interpolation"]})
-        return out
+        """move_group's query_planner_interface: each registered pipeline with its planner ids."""
+        return [{"name": manager.description, "pipeline_id": pipeline_id, "planner_ids": manager.planner_ids()}
+                for pipeline_id, manager in self.pipeline.managers.items()]
 
     def get_planner_params(self, pipeline_id: str, planner_config: str, group: str = "") -> dict[str, Any]:
-        """The parameters of one OMPL planner configuration ({} when unknown), as strings."""
-        if pipeline_id not in ("", "ompl"):
-            return {}
-        config = self.pipeline.ompl.config.planner_configs.get(planner_config)
-        if config is None:
-            return {}
-        params = {k: str(v) for k, v in config.params.items()}
-        params["type"] = config.type
-        return params
+        """The parameters of one planner configuration ({} when unknown), as strings."""
+        manager = self.pipeline.manager(pipeline_id)
+        return manager.planner_params(planner_config, group) if manager is not None else {}
 
     def set_planner_params(self, pipeline_id: str, planner_config: str, params: Mapping[str, str],
                            replace: bool = False) -> str | None:
-        """Change an OMPL planner configuration's parameters in every planning context; None when
+        """Change a planner configuration's parameters in every planning context; None when
         applied, else why not (nothing changed)."""
-        if pipeline_id not in ("", "ompl"):
-            return f"pipeline {pipeline_id!r} has no settable planner parameters (only 'ompl')"
-        current = self.pipeline.ompl.config
-        config = current.planner_configs.get(planner_config)
-        if config is None:
-            return (f"unknown planner configuration {planner_config!r}; known: "
-                    f"{', '.join(sorted(current.planner_configs))}")
-        values: dict[str, Any] = {} if replace else dict(config.params)
-        for key, text in params.items():
-            if key == "type":
-                continue
-            try:
-                values[key] = yaml.safe_load(text) if isinstance(text, str) else text
-            except yaml.YAMLError:
-                values[key] = text
-        updated = dataclasses.replace(current, planner_configs={
-            **current.planner_configs, planner_config: dataclasses.replace(config, params=values)})
+        if self.pipeline.manager(pipeline_id) is None:
+            return f"unknown planning pipeline {pipeline_id!r}; known: {', '.join(self.pipeline.pipeline_ids)}"
         for pipeline in self.contexts.pipelines():
-            pipeline.ompl.config = updated
-        self._log("info", f"planner configuration {planner_config}: parameters now {values}")
+            problem = pipeline.manager(pipeline_id).set_planner_params(planner_config, params, replace)
+            if problem is not None:
+                return problem
+        self._log("info", f"planner configuration {pipeline_id or 'ompl'}/{planner_config}: parameters now "
+                          f"{self.get_planner_params(pipeline_id, planner_config)}")
         return None
 
     # ------------------------------------------------------------------ execution
