@@ -19,7 +19,7 @@ from .planning_interface import MotionPlanRequest, MotionPlanResponse
 from ..planning_scene.planning_scene import PlanningScene
 
 __all__ = ["ENTRY_POINT_GROUP", "PlannerFactory", "PlannerManager", "PlannerSettings", "PlannerRegistryError",
-           "planner_factories", "register_planner"]
+           "planner_factories", "register_planner", "unregister_planner"]
 
 #: setuptools entry-point group third-party planners register in: ``name = module:factory``.
 ENTRY_POINT_GROUP = "mycobot_planning.planners"
@@ -83,6 +83,12 @@ def register_planner(pipeline_id: str, factory: PlannerFactory, replace: bool = 
         if pipeline_id in _FACTORIES and not replace and _FACTORIES[pipeline_id] is not factory:
             raise PlannerRegistryError(f"planning pipeline '{pipeline_id}' is registered already")
         _FACTORIES[pipeline_id] = factory
+
+
+def unregister_planner(pipeline_id: str) -> None:
+    """Forget ``pipeline_id`` (pipelines built already keep their planner)."""
+    with _LOCK:
+        _FACTORIES.pop(pipeline_id, None)
 
 
 def planner_factories() -> dict[str, PlannerFactory]:
