@@ -41,9 +41,10 @@ from ..core.planning_interface.planning_interface import JointGoal, MotionPlanRe
 from ..core.planning_scene.planning_scene import PlanningScene
 from ..core.planning_scene.planning_scene_monitor import BAD_REQUEST, PlanningSceneMonitor, RequestError
 from ..core.robot_model.robot_model import RobotModel
+from ..core.robot_state.robot_state import RobotState
 from .state_queries import DEFAULT_IK_TIMEOUT, MAX_IK_TIMEOUT, StateQueries, state_to_json
 
-__all__ = ["PlanningDefaults", "MoveGroupCapabilities", "RequestError", "goal_from_parameters", "pose_from_json"]
+__all__ = ["PlanResult", "PlanningDefaults", "MoveGroupCapabilities", "RequestError", "goal_from_parameters", "pose_from_json"]
 
 SOURCE = "planning_server"
 
@@ -69,6 +70,19 @@ _CARTESIAN_KEYS = {
     "revolute_jump_threshold", "prismatic_jump_threshold", "path_constraints",
 }
 
+
+
+@dataclass
+class PlanResult:
+    """The plan capability's answer: MoveIt's error code, and on success the trajectory as the
+    controllers get it (sampled at the server's trajectory_sample_period) and the start state."""
+
+    error_code: MoveItErrorCode
+    trajectory: JointTrajectory | None = None
+    planning_time: float = 0.0
+    group: str = ""
+    planner_id: str = ""
+    start_state: Any = None  # core RobotState the plan starts from
 
 
 @dataclass
@@ -289,40 +303,29 @@ class MoveGroupCapabilities(PlanningSceneMonitor):
                                f"unknown planning group {group!r}; known: {', '.join(self.model.group_names)}")
         return group
 
-    def _request(self, params: Mapping[str, Any]) -> tuple[MotionPlanRequest, PlanningScene]:
+    def _request(self, params: Mapping[str, Any]) -> tuple[MotionPlanRequest, Any, str, Any]:
+        """The JSON face's plan request as the typed call's arguments: (request, start state,
+        goal frame, path constraints); what the request leaves out stays 0 / "" / None."""
         bad = MoveItErrorCode.INVALID_MOTION_PLAN
         group = self._checked_request(params, _PLAN_KEYS, "plan request")
         if "goal" not in params:
             raise RequestError(MoveItErrorCode.INVALID_GOAL_CONSTRAINTS, "plan request needs a 'goal'")
         goal = self._goal(params["goal"])
-        d = self.defaults
         strings = {}
-        for key, default in (("pipeline_id", d.pipeline_id), ("planner_id", d.planner_id)):
+        for key in ("pipeline_id", "planner_id"):
             value = params.get(key)
-            if value is None or value == "":
-                value = default
+            if value is None:
+                value = ""
             if not isinstance(value, str):
                 raise RequestError(bad, f"{key} must be a string, got {value!r}")
             strings[key] = value
         numbers = {}
-        for key, default in (("allowed_planning_time", d.planning_time),
-                             ("max_velocity_scaling_factor", d.max_velocity_scaling_factor),
-                             ("max_acceleration_scaling_factor", d.max_acceleration_scaling_factor)):
+        for key in ("allowed_planning_time", "max_velocity_scaling_factor", "max_acceleration_scaling_factor"):
             value = params.get(key)
-            numbers[key] = default if value is None or value == 0 else self._number(value, key)
-        if not 0 < numbers["allowed_planning_time"] <= MAX_PLANNING_TIME:
-            raise RequestError(bad, f"allowed_planning_time must be in (0, {MAX_PLANNING_TIME:g}] s, "
-                                    f"got {numbers['allowed_planning_time']:g}")
-        for key in ("max_velocity_scaling_factor", "max_acceleration_scaling_factor"):
-            if not 0 < numbers[key] <= 1:
-                raise RequestError(bad, f"{key} must be in (0, 1], got {numbers[key]:g}")
-        attempts = params.get("num_planning_attempts", d.num_planning_attempts)
+            numbers[key] = 0.0 if value is None else self._number(value, key)
+        attempts = params.get("num_planning_attempts", 0)
         if isinstance(attempts, bool) or not isinstance(attempts, int):
             raise RequestError(bad, f"num_planning_attempts must be an integer, got {attempts!r}")
-        if attempts == 0:
-            attempts = d.num_planning_attempts  # MoveIt reads 0 as "the default"
-        if not 1 <= attempts <= MAX_PLANNING_ATTEMPTS:
-            raise RequestError(bad, f"num_planning_attempts must be in [1, {MAX_PLANNING_ATTEMPTS}], got {attempts}")
         seed = params.get("seed")
         if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int)):
             raise RequestError(bad, f"seed must be an integer, got {seed!r}")
@@ -338,18 +341,57 @@ class MoveGroupCapabilities(PlanningSceneMonitor):
             if isinstance(n, bool) or not isinstance(n, int) or n < 1:
                 raise RequestError(bad, f"num_ik_goals must be an integer >= 1, got {n!r}")
             extra["num_ik_goals"] = n
-        scene = self._start_scene(params.get("start_state"), self.model.group(group).joint_names)
         frame = params["goal"].get("frame", "world")
         if not isinstance(frame, str) or not frame:
             raise RequestError(MoveItErrorCode.INVALID_GOAL_CONSTRAINTS, "goal 'frame' must be a frame name")
-        if isinstance(goal, PoseGoal):
-            goal.pose = self._in_world([goal.pose], frame, scene)[0]
-        request = MotionPlanRequest(
-            group=group, goal=goal, start_state=scene.current_state.copy(), seed=seed,
-            num_planning_attempts=attempts, path_constraints=self._path_constraints(params, scene),
-            **strings, **numbers, **extra,
-        )
-        return request, scene
+        request = MotionPlanRequest(group=group, goal=goal, seed=seed, num_planning_attempts=attempts,
+                                    **strings, **numbers, **extra)
+        return request, self._start_msg(params.get("start_state")), frame, params.get("path_constraints")
+
+    @staticmethod
+    def _start_msg(start_state: Any) -> RobotStateMsg | None:
+        if start_state is None or isinstance(start_state, RobotStateMsg):
+            return start_state
+        try:
+            return RobotStateMsg.from_dict(start_state)
+        except MessageError as exc:
+            raise RequestError(MoveItErrorCode.INVALID_ROBOT_STATE, f"invalid start_state: {exc}") from None
+
+    def complete_request(self, request: MotionPlanRequest, start_state: RobotStateMsg | None = None,
+                         goal_frame: str = "world", path_constraints: Any = None) -> PlanningScene:
+        """Fill what ``request`` leaves out (0, "", None) with the defaults, check it against the
+        request budgets, and resolve its start state (merged onto the current one), goal frame
+        and path constraints: the scene to plan in (its current state is the start state).
+        Raises RequestError with MoveIt's code."""
+        bad = MoveItErrorCode.INVALID_MOTION_PLAN
+        if not self.model.has_group(request.group):
+            raise RequestError(MoveItErrorCode.INVALID_GROUP_NAME, f"unknown planning group {request.group!r}; "
+                                                                  f"known: {', '.join(self.model.group_names)}")
+        d = self.defaults
+        request.pipeline_id = request.pipeline_id or d.pipeline_id
+        request.planner_id = request.planner_id or d.planner_id
+        for key, default in (("allowed_planning_time", d.planning_time),
+                             ("max_velocity_scaling_factor", d.max_velocity_scaling_factor),
+                             ("max_acceleration_scaling_factor", d.max_acceleration_scaling_factor)):
+            value = getattr(request, key)
+            setattr(request, key, default if not value else self._number(value, key))
+        if not 0 < request.allowed_planning_time <= MAX_PLANNING_TIME:
+            raise RequestError(bad, f"allowed_planning_time must be in (0, {MAX_PLANNING_TIME:g}] s, "
+                                    f"got {request.allowed_planning_time:g}")
+        for key in ("max_velocity_scaling_factor", "max_acceleration_scaling_factor"):
+            if not 0 < getattr(request, key) <= 1:
+                raise RequestError(bad, f"{key} must be in (0, 1], got {getattr(request, key):g}")
+        if request.num_planning_attempts == 0:
+            request.num_planning_attempts = d.num_planning_attempts  # MoveIt reads 0 as "the default"
+        if not 1 <= request.num_planning_attempts <= MAX_PLANNING_ATTEMPTS:
+            raise RequestError(bad, f"num_planning_attempts must be in [1, {MAX_PLANNING_ATTEMPTS}], "
+                                    f"got {request.num_planning_attempts}")
+        scene = self._start_scene(start_state, self.model.group(request.group).joint_names)
+        if isinstance(request.goal, PoseGoal):
+            request.goal.pose = self._in_world([request.goal.pose], goal_frame, scene)[0]
+        request.start_state = scene.current_state.copy()
+        request.path_constraints = self._path_constraints({"path_constraints": path_constraints}, scene)
+        return scene
 
     def _path_constraints(self, params: Mapping[str, Any], scene: PlanningScene) -> PathConstraints | None:
         """The request's path constraints ({"joints", "orientation", "position"}, see
@@ -376,18 +418,44 @@ class MoveGroupCapabilities(PlanningSceneMonitor):
         return constraints or None
 
     def plan(self, params: Mapping[str, Any]) -> dict[str, Any]:
-        """Plan a request (see docs/core.md (mycobot_planning.capabilities.move_group_capabilities)); never raises for bad input.
+        """The JSON face's plan (see docs/core.md (mycobot_planning.capabilities.move_group_capabilities)); never raises for bad input.
 
         Returns {"error_code", "trajectory" (RobotTrajectory dict or None), "planning_time",
         "group", "planner_id"}. A successful plan becomes the "last plan" for execute().
         """
         started = time.perf_counter()
         try:
-            request, scene = self._request(params)
+            request, start, frame, path = self._request(params)
         except RequestError as exc:
             self._last_plan, self._last_plan_problem = None, f"the last planning request failed: {exc.message}"
             self._log("warning", f"plan request refused: {exc.message}")
             return self._fail(exc.code, exc.message)
+        result = self.plan_motion(request, start, frame, path, display=params.get("display", True))
+        if result.trajectory is None:
+            out = self._fail(result.error_code.val, result.error_code.message,
+                             **({"group": result.group} if result.group else {}))
+            out["error_code"]["source"] = result.error_code.source
+            out["planning_time"] = time.perf_counter() - started if result.group else 0.0
+            return out
+        return {
+            "error_code": result.error_code.to_dict(),
+            "trajectory": RobotTrajectory(result.trajectory, result.group).to_dict(),
+            "planning_time": result.planning_time,
+            "group": result.group,
+            "planner_id": result.planner_id,
+        }
+
+    def plan_motion(self, request: MotionPlanRequest, start_state: RobotStateMsg | None = None,
+                    goal_frame: str = "world", path_constraints: Any = None, display: bool = True) -> PlanResult:
+        """move_group's plan capability as a typed call: ``request`` as complete_request reads
+        it; never raises for bad input. A successful plan becomes the "last plan" for execute()."""
+        started = time.perf_counter()
+        try:
+            scene = self.complete_request(request, start_state, goal_frame, path_constraints)
+        except RequestError as exc:
+            self._last_plan, self._last_plan_problem = None, f"the last planning request failed: {exc.message}"
+            self._log("warning", f"plan request refused: {exc.message}")
+            return PlanResult(MoveItErrorCode(exc.code, exc.message, SOURCE))
         try:
             response = self._plan_in_context(scene, request)
         except Exception as exc:  # planners promise not to raise; if one does, answer anyway
@@ -399,24 +467,18 @@ class MoveGroupCapabilities(PlanningSceneMonitor):
             code = response.error_code if response is not None else MoveItErrorCode(MoveItErrorCode.FAILURE, message)
             self._last_plan, self._last_plan_problem = None, f"the last planning request failed: {code}"
             self._log("warning", f"planning for '{request.group}' failed: {code}")
-            result = self._fail(code.val, code.message, group=request.group)
-            result["error_code"]["source"] = code.source or request.pipeline_id
-            result["planning_time"] = time.perf_counter() - started
-            return result
+            return PlanResult(MoveItErrorCode(code.val, code.message, code.source or request.pipeline_id),
+                              planning_time=time.perf_counter() - started, group=request.group)
         trajectory = timed_to_joint_trajectory(response.trajectory, self.defaults.sample_period or None)
         self._last_plan = (trajectory, request.group)
         self._last_plan_problem = ""
-        if params.get("display", True):
+        if display:
             self._display(trajectory)
         self._log("info", f"planned '{request.group}' with {request.pipeline_id}/{response.planner_id or 'default'}: "
                           f"{trajectory.duration:.3f} s trajectory in {response.planning_time:.3f} s")
-        return {
-            "error_code": _code(MoveItErrorCode.SUCCESS, response.error_code.message, request.pipeline_id),
-            "trajectory": RobotTrajectory(trajectory, request.group).to_dict(),
-            "planning_time": response.planning_time,
-            "group": request.group,
-            "planner_id": response.planner_id,
-        }
+        return PlanResult(MoveItErrorCode(MoveItErrorCode.SUCCESS, response.error_code.message, request.pipeline_id),
+                          trajectory, response.planning_time, request.group, response.planner_id,
+                          request.start_state)
 
     def _plan_in_context(self, scene: PlanningScene, request: MotionPlanRequest) -> Any:
         """Plan on a free planning context, cancellable by stop()."""
@@ -514,23 +576,21 @@ class MoveGroupCapabilities(PlanningSceneMonitor):
 
     # ------------------------------------------------------------------ state queries
     def compute_ik(self, params: Mapping[str, Any]) -> dict[str, Any]:
-        """MoveIt's compute_ik: {"group", "pose", "frame", "link", "robot_state" (seed),
+        """The JSON face's compute_ik: {"group", "pose", "frame", "link", "robot_state" (seed),
         "avoid_collisions", "timeout"} -> {"error_code", "solution" (JSON RobotState or None)}."""
         try:
             if not isinstance(params, Mapping):
                 raise RequestError(BAD_REQUEST, "an IK request must be a JSON object")
             group = params.get("group", "arm")
-            if not isinstance(group, str) or not self.model.has_group(group):
-                raise RequestError(MoveItErrorCode.INVALID_GROUP_NAME,
-                                   f"unknown planning group {group!r}; known: {', '.join(self.model.group_names)}")
+            if not isinstance(group, str):
+                raise RequestError(MoveItErrorCode.INVALID_GROUP_NAME, f"unknown planning group {group!r}; "
+                                                                      f"known: {', '.join(self.model.group_names)}")
             link = params.get("link") or ""
-            if not isinstance(link, str) or (link and not self.model.has_link(link)):
+            if not isinstance(link, str):
                 raise RequestError(MoveItErrorCode.INVALID_LINK_NAME,
                                    f"unknown link {link!r} of robot '{self.model.name}'")
-            timeout = params.get("timeout") or DEFAULT_IK_TIMEOUT
+            timeout = params.get("timeout") or 0.0
             timeout = self._number(timeout, "timeout", BAD_REQUEST)
-            if not 0 < timeout <= MAX_IK_TIMEOUT:
-                raise RequestError(BAD_REQUEST, f"timeout must be in (0, {MAX_IK_TIMEOUT:g}] s, got {timeout:g}")
             avoid = params.get("avoid_collisions", False)
             if not isinstance(avoid, bool):
                 raise RequestError(BAD_REQUEST, "avoid_collisions must be true or false")
@@ -538,17 +598,37 @@ class MoveGroupCapabilities(PlanningSceneMonitor):
             if not isinstance(frame, str):
                 raise RequestError(MoveItErrorCode.FRAME_TRANSFORM_FAILURE, "frame must be a frame name")
             seed = params.get("robot_state")
-            scene = self._start_scene(seed if isinstance(seed, Mapping) and seed.get("joint_names") else None,
-                                      self.model.group(group).joint_names)
-            target = self._in_world([pose_from_json(params.get("pose"), "IK pose")], frame, scene)[0]
+            seed = self._start_msg(seed) if isinstance(seed, Mapping) and seed.get("joint_names") else None
+            pose = pose_from_json(params.get("pose"), "IK pose")
         except RequestError as exc:
             return {"error_code": _code(exc.code, exc.message, "compute_ik"), "solution": None}
-        answer = self.queries.compute_ik(scene, group, target, link, avoid, timeout)
+        code, state = self.solve_ik(group, pose, frame, link, seed, avoid, timeout)
+        return {"error_code": code.to_dict(), "solution": state_to_json(state) if state is not None else None}
+
+    def solve_ik(self, group: str, pose: np.ndarray, frame: str = "world", link: str = "",
+                 seed: RobotStateMsg | None = None, avoid_collisions: bool = False,
+                 timeout: float = 0.0) -> tuple[MoveItErrorCode, RobotState | None]:
+        """move_group's compute_ik as a typed call: the whole robot state placing ``link``
+        (default: the group's tip) at ``pose`` (4x4 in ``frame``), seeded from ``seed`` merged
+        onto the current state; ``timeout`` 0: DEFAULT_IK_TIMEOUT. Never raises for bad input."""
+        try:
+            if not self.model.has_group(group):
+                raise RequestError(MoveItErrorCode.INVALID_GROUP_NAME,
+                                   f"unknown planning group {group!r}; known: {', '.join(self.model.group_names)}")
+            if link and not self.model.has_link(link):
+                raise RequestError(MoveItErrorCode.INVALID_LINK_NAME,
+                                   f"unknown link {link!r} of robot '{self.model.name}'")
+            timeout = timeout or DEFAULT_IK_TIMEOUT
+            if not 0 < timeout <= MAX_IK_TIMEOUT:
+                raise RequestError(BAD_REQUEST, f"timeout must be in (0, {MAX_IK_TIMEOUT:g}] s, got {timeout:g}")
+            scene = self._start_scene(seed, self.model.group(group).joint_names)
+            target = self._in_world([pose], frame or "world", scene)[0]
+        except RequestError as exc:
+            return MoveItErrorCode(exc.code, exc.message, "compute_ik"), None
+        answer = self.queries.compute_ik(scene, group, target, link, avoid_collisions, timeout)
         if answer.state is None:
-            return {"error_code": _code(getattr(MoveItErrorCode, answer.error), answer.message, "compute_ik"),
-                    "solution": None}
-        return {"error_code": _code(MoveItErrorCode.SUCCESS, "", "compute_ik"),
-                "solution": state_to_json(answer.state)}
+            return MoveItErrorCode(getattr(MoveItErrorCode, answer.error), answer.message, "compute_ik"), None
+        return MoveItErrorCode(MoveItErrorCode.SUCCESS, "", "compute_ik"), answer.state
 
     def compute_fk(self, params: Mapping[str, Any]) -> dict[str, Any]:
         """MoveIt's compute_fk: {"links", "frame", "robot_state"} -> {"error_code", "poses"

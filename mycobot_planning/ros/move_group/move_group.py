@@ -63,7 +63,6 @@ from interfaces_py.moveit_conversions import (
     cartesian_params_from_request,
     collision_object_from_msg,
     error_code_to_msg,
-    plan_params_from_request,
     planning_scene_from_msg,
     planning_scene_to_msg,
     pose_from_msg,
@@ -73,9 +72,17 @@ from interfaces_py.moveit_conversions import (
     robot_trajectory_from_msg,
     robot_trajectory_to_msg,
 )
-from interfaces_py.msgs import JointTrajectory
+from interfaces_py.msgs import JointTrajectory, MoveItErrorCode, RobotState as RobotStateMsg, RobotTrajectory
+from interfaces_py.pose_conversion import PoseError, pose_matrix
 from interfaces_py.mtc_conversions import task_solution_from_msg
-from mycobot_planning.capabilities.move_group_capabilities import MoveGroupCapabilities, RequestError
+from mycobot_planning.capabilities.move_group_capabilities import MoveGroupCapabilities, PlanResult, RequestError
+from mycobot_planning.core.planning_interface.planning_interface import JointGoal, MotionPlanRequest
+from mycobot_planning.ros.move_group.moveit_translation import (
+    motion_plan_request_from_msg,
+    robot_state_from_ros,
+    robot_state_to_ros,
+    robot_trajectory_to_ros,
+)
 
 LATCHED_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 INPUT_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
@@ -106,6 +113,11 @@ def _code(code: dict[str, Any] | None) -> MoveItErrorCodes:
     if msg.val not in _MOVEIT_CODES:
         msg.val = MoveItErrorCodes.FAILURE
     return msg
+
+
+def _typed_code(code: MoveItErrorCode) -> MoveItErrorCodes:
+    val = code.val if code.val in _MOVEIT_CODES else MoveItErrorCodes.FAILURE
+    return MoveItErrorCodes(val=val, message=code.message, source=code.source)
 
 
 def _failure(val: int, message: str, source: str = "move_group") -> MoveItErrorCodes:
@@ -233,50 +245,54 @@ class MoveGroupFace(Node):
                                   self.get_clock().now().to_msg())
 
     # ------------------------------------------------------------------ planning
-    def _plan(self, request: Any) -> tuple[dict[str, Any], dict[str, Any], float]:
-        """Plan a MotionPlanRequest: each goal_constraints entry in turn until one succeeds
-        (MoveIt: "any of them"). Returns (core result, params, planning time)."""
-        started = time.perf_counter()
-        params, goals = plan_params_from_request(request)
-        self._complete_joint_goals(params, goals)
-        result: dict[str, Any] = {}
-        for goal in goals:
-            result = self.core.plan({**params, "goal": goal})
-            if result.get("error_code", {}).get("val") == MoveItErrorCodes.SUCCESS:
+    def _plan(self, msg: Any) -> tuple[PlanResult, RobotStateMsg | None]:
+        """Plan a moveit_msgs/MotionPlanRequest: each goal_constraints entry in turn until one
+        succeeds (MoveIt: "any of them"). Returns (the plan capability's result, start state)."""
+        requests, start, path = motion_plan_request_from_msg(msg)
+        self._complete_joint_goals([r for r, _ in requests], start)
+        result = PlanResult(MoveItErrorCode(MoveItErrorCodes.FAILURE, "nothing planned"))
+        for request, frame in requests:
+            result = self.core.plan_motion(request, start, frame, path)
+            if result.error_code.val == MoveItErrorCodes.SUCCESS:
                 break
-        return result, params, time.perf_counter() - started
+        return result, start
 
-    def _complete_joint_goals(self, params: dict[str, Any], goals: list[dict[str, Any]]) -> None:
+    def _complete_joint_goals(self, requests: list[MotionPlanRequest], start: RobotStateMsg | None) -> None:
         """Joints of the group that a goal's joint constraints leave out keep their start-state
         values (MoveIt would sample them anywhere in their bounds)."""
-        group = params.get("group") or ""
-        if not self.core.model.has_group(group):
-            return  # the core answers INVALID_GROUP_NAME
-        start = dict(self.core.joint_positions()[0] or {})
-        given = params.get("start_state") or {}
-        start.update(zip(given.get("joint_names", []), given.get("positions", [])))
-        for goal in goals:
-            joints = goal.get("joints")
-            if isinstance(joints, dict):
-                for name in self.core.model.group(group).joint_names:
-                    if name not in joints and name in start:
-                        joints[name] = float(start[name])
+        joint_requests = [r for r in requests if isinstance(r.goal, JointGoal) and isinstance(r.goal.values, dict)]
+        if not joint_requests or not self.core.model.has_group(joint_requests[0].group):
+            return  # the capability answers INVALID_GROUP_NAME
+        values = dict(self.core.joint_positions()[0] or {})
+        if start is not None:
+            values.update(start.joint_positions())
+        for request in joint_requests:
+            for name in self.core.model.group(request.group).joint_names:
+                if name not in request.goal.values and name in values:
+                    request.goal.values[name] = float(values[name])
+
+    def _trajectory_start(self, result: PlanResult) -> Any:
+        """The state a plan starts from, as the response's trajectory_start."""
+        state = result.start_state
+        values = state.to_joint_dict(include_mimic=False) if state is not None else dict(
+            self.core.joint_positions()[0] or {})
+        return robot_state_to_ros(values, self.get_clock().now().to_msg())
 
     def _srv_plan(self, request: GetMotionPlan.Request, response: GetMotionPlan.Response) -> GetMotionPlan.Response:
         try:
-            result, params, elapsed = self._plan(request.motion_plan_request)
+            result, _ = self._plan(request.motion_plan_request)
         except ConversionError as exc:
             response.motion_plan_response.error_code = _failure(exc.code, exc.message, "plan_kinematic_path")
             response.motion_plan_response.group_name = request.motion_plan_request.group_name
             self._log("warning", f"plan_kinematic_path: refused: {exc.message}")
             return response
         out = response.motion_plan_response
-        out.group_name = result.get("group") or request.motion_plan_request.group_name
-        out.error_code = _code(result.get("error_code"))
-        out.planning_time = float(result.get("planning_time", elapsed))
-        if result.get("trajectory"):
-            out.trajectory = robot_trajectory_to_msg(result["trajectory"], self.core.model.root_link)
-            out.trajectory_start = self._start_state_msg(result["trajectory"], params.get("start_state"))
+        out.group_name = result.group or request.motion_plan_request.group_name
+        out.error_code = _typed_code(result.error_code)
+        out.planning_time = float(result.planning_time)
+        if result.trajectory is not None:
+            out.trajectory = robot_trajectory_to_ros(result.trajectory, self.core.model.root_link)
+            out.trajectory_start = self._trajectory_start(result)
         return response
 
     def _srv_cartesian(self, request: GetCartesianPath.Request,
@@ -296,19 +312,18 @@ class MoveGroupFace(Node):
         if len(ik.pose_stamped_vector):
             raise ConversionError(MoveItErrorCodes.FAILURE,
                                   "pose_stamped_vector (several IK links at once) is not supported; use pose_stamped")
+        try:
+            pose = pose_matrix(ik.pose_stamped.pose, "IK pose")
+        except PoseError as exc:
+            raise ConversionError(MoveItErrorCodes.INVALID_GOAL_CONSTRAINTS, f"invalid {exc}") from None
         timeout = ik.timeout.sec + ik.timeout.nanosec * 1e-9
-        params: dict[str, Any] = {
-            "group": ik.group_name, "pose": pose_from_msg(ik.pose_stamped.pose),
-            "frame": ik.pose_stamped.header.frame_id or "world", "link": ik.ik_link_name or None,
-            "avoid_collisions": bool(ik.avoid_collisions), "timeout": timeout if timeout > 0 else None,
-        }
-        seed = robot_state_from_msg(ik.robot_state)
-        if seed is not None:
-            params["robot_state"] = seed
-        result = self.core.compute_ik(params)
-        response.error_code = _code(result.get("error_code"))
-        if result.get("solution"):
-            response.solution = robot_state_to_msg(result["solution"], self.get_clock().now().to_msg())
+        code, state = self.core.solve_ik(ik.group_name, pose, ik.pose_stamped.header.frame_id or "world",
+                                         ik.ik_link_name, robot_state_from_ros(ik.robot_state),
+                                         bool(ik.avoid_collisions), max(timeout, 0.0))
+        response.error_code = _typed_code(code)
+        if state is not None:
+            response.solution = robot_state_to_ros(state.to_joint_dict(include_mimic=False),
+                                                    self.get_clock().now().to_msg())
         return response
 
     def _srv_fk(self, request: GetPositionFK.Request, response: GetPositionFK.Response) -> GetPositionFK.Response:
@@ -471,20 +486,20 @@ class MoveGroupFace(Node):
                                           f"planning_scene_diff refused: {exc.message}") from None
             feedback.state = "PLANNING"
             goal_handle.publish_feedback(feedback)
-            planned, params, elapsed = self._plan(goal.request)
+            planned, _ = self._plan(goal.request)
         except ConversionError as exc:
             self._log("warning", f"move_action: refused: {exc.message}")
             result.error_code = _failure(exc.code, exc.message, "move_action")
             goal_handle.abort()
             return result
-        result.planning_time = float(planned.get("planning_time", elapsed))
-        code = _code(planned.get("error_code"))
-        if code.val != MoveItErrorCodes.SUCCESS or not planned.get("trajectory"):
+        result.planning_time = float(planned.planning_time)
+        code = _typed_code(planned.error_code)
+        if code.val != MoveItErrorCodes.SUCCESS or planned.trajectory is None:
             result.error_code = code
             self._finish(goal_handle, code)
             return result
-        result.planned_trajectory = robot_trajectory_to_msg(planned["trajectory"], self.core.model.root_link)
-        result.trajectory_start = self._start_state_msg(planned["trajectory"], params.get("start_state"))
+        result.planned_trajectory = robot_trajectory_to_ros(planned.trajectory, self.core.model.root_link)
+        result.trajectory_start = self._trajectory_start(planned)
         if goal_handle.is_cancel_requested:
             result.error_code = _failure(MoveItErrorCodes.PREEMPTED, "canceled after planning")
             goal_handle.canceled()
@@ -496,7 +511,7 @@ class MoveGroupFace(Node):
         feedback.state = "MONITOR"
         goal_handle.publish_feedback(feedback)
         executed = self._execute_with_cancel(goal_handle, lambda: self.core.execute(
-            {"trajectory": planned["trajectory"]}))
+            {"trajectory": RobotTrajectory(planned.trajectory, planned.group)}))
         result.error_code = _code(executed.get("error_code"))
         if result.error_code.val == MoveItErrorCodes.SUCCESS:
             result.executed_trajectory = result.planned_trajectory
