@@ -1,7 +1,7 @@
 """The planning server's core refuses requests that cannot be right or would never end, lets
 several clients plan at once, and stop() ends running plans (issue 13).
 
-No ROS here: MoveGroupCapabilities with a controller bus that is never used (nothing executes).
+No ROS here: MoveGroupJsonFace with a controller bus that is never used (nothing executes).
 """
 from __future__ import annotations
 
@@ -18,12 +18,9 @@ from mycobot_planning.core.trajectory_execution import ControllerInfo, Execution
 from mycobot_planning.core.planning_interface.planning_contexts import PlanningContextPool
 from mycobot_planning.core.planning_interface.planning_pipeline import PlanningPipeline
 from interfaces_py.msgs import WORKSPACE_BOUND
-from mycobot_planning.capabilities.move_group_capabilities import (
-    MAX_PLANNING_ATTEMPTS,
-    MAX_PLANNING_TIME,
-    MAX_WAYPOINTS,
-    MoveGroupCapabilities,
-)
+from mycobot_planning.capabilities.cartesian_path import MAX_WAYPOINTS
+from mycobot_planning.capabilities.json_face import MoveGroupJsonFace
+from mycobot_planning.capabilities.plan import MAX_PLANNING_ATTEMPTS, MAX_PLANNING_TIME
 from mycobot_planning.core.robot_model.robot_model import RobotModel
 
 ARM = ["link1_to_link2", "link2_to_link3", "link3_to_link4", "link4_to_link5", "link5_to_link6", "link6_to_link6_flange"]
@@ -46,8 +43,8 @@ class IdleBus:
         return None
 
 
-def _core(model: RobotModel, pipeline, factory=None) -> MoveGroupCapabilities:
-    core = MoveGroupCapabilities(model, pipeline, [ControllerInfo("arm_controller", tuple(ARM))], IdleBus(),
+def _core(model: RobotModel, pipeline, factory=None) -> MoveGroupJsonFace:
+    core = MoveGroupJsonFace(model, pipeline, [ControllerInfo("arm_controller", tuple(ARM))], IdleBus(),
                               ExecutionSettings(), context_factory=factory)
     names = list(model.variable_names)
     assert core.update_joint_state(names, [0.0] * len(names)) is None
@@ -60,7 +57,7 @@ def pipeline() -> PlanningPipeline:
 
 
 @pytest.fixture()
-def core(mycobot, pipeline) -> MoveGroupCapabilities:
+def core(mycobot, pipeline) -> MoveGroupJsonFace:
     return _core(mycobot, pipeline)
 
 
@@ -149,7 +146,7 @@ def _start(core, request) -> tuple[threading.Thread, dict]:
 
 def _wait_running(core, count: int = 1, timeout: float = 30.0) -> None:
     deadline = time.monotonic() + timeout
-    while len(core._cancels) < count:
+    while len(core.cancels) < count:
         assert time.monotonic() < deadline, "the plan did not start"
         time.sleep(0.01)
 

@@ -10,19 +10,29 @@ from __future__ import annotations
 from array import array
 from typing import Any, Mapping
 
+import numpy as np
+
 from builtin_interfaces.msg import Duration
 from moveit_msgs.msg import Constraints, MoveItErrorCodes, RobotState as RobotStateRos, RobotTrajectory as RobotTrajectoryRos
 from trajectory_msgs.msg import JointTrajectoryPoint
 
 from interfaces_py.moveit_conversions import attached_object_from_msg, path_constraints_from_msg
-from interfaces_py.msgs import AttachedCollisionObject, JointTrajectory, MessageError, RobotState as RobotStateMsg
+from interfaces_py.msgs import (
+    AttachedCollisionObject,
+    JointTrajectory,
+    JointTrajectoryPoint as JointTrajectoryPointMsg,
+    MessageError,
+    RobotState as RobotStateMsg,
+)
 from interfaces_py.moveit_conversions import FREE_ORIENTATION
 from interfaces_py.pose_conversion import PoseError, pose_matrix
 from interfaces_py.ros_message_reading import ConversionError
+from mycobot_planning.capabilities.cartesian_path import CartesianPathRequest
 from mycobot_planning.core.planning_interface.planning_interface import Goal, JointGoal, MotionPlanRequest, PoseGoal
 
-__all__ = ["goal_from_constraints", "motion_plan_request_from_msg", "robot_state_from_ros",
-           "robot_state_to_ros", "robot_trajectory_to_ros"]
+__all__ = ["cartesian_request_from_msg", "goal_from_constraints", "joint_trajectory_from_ros",
+           "motion_plan_request_from_msg", "pose_from_ros", "robot_state_from_ros", "robot_state_to_ros",
+           "robot_trajectory_to_ros"]
 
 
 def robot_state_from_ros(msg: RobotStateRos) -> RobotStateMsg | None:
@@ -165,3 +175,48 @@ def motion_plan_request_from_msg(msg: Any) -> tuple[list[tuple[MotionPlanRequest
             max_velocity_scaling_factor=float(msg.max_velocity_scaling_factor),
             max_acceleration_scaling_factor=float(msg.max_acceleration_scaling_factor)), frame))
     return requests, robot_state_from_ros(msg.start_state), path_constraints_from_msg(msg.path_constraints)
+
+
+def pose_from_ros(msg: Any, what: str, code: int = MoveItErrorCodes.INVALID_GOAL_CONSTRAINTS) -> np.ndarray:
+    """A geometry_msgs/Pose as a 4x4 transform (ConversionError with ``code`` when malformed)."""
+    try:
+        return pose_matrix(msg, what)
+    except PoseError as exc:
+        raise ConversionError(code, f"invalid {exc}") from None
+
+
+def joint_trajectory_from_ros(msg: RobotTrajectoryRos) -> tuple[JointTrajectory, str]:
+    """A moveit_msgs/RobotTrajectory's joint trajectory, checked (ConversionError when not)."""
+    if len(msg.multi_dof_joint_trajectory.points):
+        raise ConversionError(MoveItErrorCodes.INVALID_MOTION_PLAN,
+                              "trajectory: multi-DOF trajectories are not supported (the robot's joints are "
+                              "single-DOF)")
+    jt = msg.joint_trajectory
+    if not len(jt.points):
+        raise ConversionError(MoveItErrorCodes.INVALID_MOTION_PLAN, "trajectory: joint_trajectory has no points")
+    try:
+        return JointTrajectory(list(jt.joint_names), [JointTrajectoryPointMsg(
+            list(p.positions), list(p.velocities), list(p.accelerations),
+            p.time_from_start.sec + p.time_from_start.nanosec * 1e-9) for p in jt.points]), ""
+    except MessageError as exc:
+        raise ConversionError(MoveItErrorCodes.INVALID_MOTION_PLAN, f"trajectory: {exc}") from None
+
+
+def cartesian_request_from_msg(msg: Any) -> CartesianPathRequest:
+    """A moveit_msgs/GetCartesianPath request as the Cartesian path capability's request."""
+    return CartesianPathRequest(
+        group=msg.group_name,
+        waypoints=[pose_from_ros(p, f"waypoint {k}", MoveItErrorCodes.INVALID_MOTION_PLAN)
+                   for k, p in enumerate(msg.waypoints)],
+        frame=msg.header.frame_id or "world",
+        link=msg.link_name,
+        eef_step=float(msg.max_step) if msg.max_step > 0 else 0.01,
+        jump_threshold=float(msg.jump_threshold),
+        revolute_jump_threshold=float(msg.revolute_jump_threshold),
+        prismatic_jump_threshold=float(msg.prismatic_jump_threshold),
+        avoid_collisions=bool(msg.avoid_collisions),
+        max_velocity_scaling_factor=float(msg.max_velocity_scaling_factor),
+        max_acceleration_scaling_factor=float(msg.max_acceleration_scaling_factor),
+        start_state=robot_state_from_ros(msg.start_state),
+        path_constraints=path_constraints_from_msg(msg.path_constraints),
+    )

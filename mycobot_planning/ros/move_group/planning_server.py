@@ -1,4 +1,4 @@
-"""planning_server: the move_group stand-in (thin rclpy shell around MoveGroupCapabilities).
+"""planning_server: the move_group stand-in (thin rclpy shell around move_group's capabilities).
 
 The full story: docs/nodes.md, section mycobot_planning.ros.move_group.planning_server.
 """
@@ -26,8 +26,8 @@ from interfaces_py.background_spin import BackgroundSpin
 from interfaces_py.json_rpc import BAD_REQUEST, JsonRpcServer, RpcError, decode_request, log_safe
 from interfaces_py.msgs import CollisionObject, JointTrajectory, MoveItErrorCode
 from interfaces_py.ros_conversions import collision_object_to_markers, joint_trajectory_to_msg
-from mycobot_planning.capabilities.move_group_capabilities import (
-    MoveGroupCapabilities,
+from mycobot_planning.capabilities.json_face import (
+    MoveGroupJsonFace,
     PlanningDefaults,
     RequestError,
     goal_from_parameters,
@@ -135,7 +135,7 @@ class PlanningServer(Node):
         self._monitor_executor = SingleThreadedExecutor(context=self.context)
         self._monitor_executor.add_node(self._monitor)
         self._bus = ActionControllerBus(self, self._monitor, controllers, self._on_feedback)
-        self.core = MoveGroupCapabilities(model, pipeline, controllers, self._bus, self._execution_settings(),
+        self.core = MoveGroupJsonFace(model, pipeline, controllers, self._bus, self._execution_settings(),
                                        self._planning_defaults(), log=self._log,
                                        context_factory=self._planning_context)
         # One spare planning context, built in the background: the first plan that arrives while
@@ -574,13 +574,13 @@ class PlanningServer(Node):
 
     def _rpc_get_planning_scene(self, params: Mapping[str, Any]) -> Any:
         self._check_keys(params, set(), "get_planning_scene")
-        return self.core.scene_msg().to_dict()
+        return self.core.get_planning_scene()
 
     def _rpc_apply_planning_scene(self, params: Mapping[str, Any]) -> Any:
         self._check_keys(params, {"scene"}, "apply_planning_scene")
         if "scene" not in params:
             raise RpcError(BAD_REQUEST, "apply_planning_scene needs a 'scene' (PlanningScene)")
-        return self._scene_rpc(lambda: self.core.apply_planning_scene(params["scene"]))
+        return self._scene_rpc(lambda: self.core.apply_planning_scene_json(params["scene"]))
 
     def _rpc_apply_collision_object(self, params: Mapping[str, Any]) -> Any:
         self._check_keys(params, {"object", "objects"}, "apply_collision_object")
