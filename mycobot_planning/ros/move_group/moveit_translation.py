@@ -7,6 +7,7 @@ point). Path constraints keep the core's constraint description (kinematic_const
 """
 from __future__ import annotations
 
+import math
 from array import array
 from typing import Any, Mapping
 
@@ -24,11 +25,13 @@ from interfaces_py.msgs import (
     MessageError,
     RobotState as RobotStateMsg,
 )
-from interfaces_py.moveit_conversions import FREE_ORIENTATION
 from interfaces_py.pose_conversion import PoseError, pose_matrix
 from interfaces_py.ros_message_reading import ConversionError
 from mycobot_planning.capabilities.cartesian_path import CartesianPathRequest
 from mycobot_planning.core.planning_interface.planning_interface import Goal, JointGoal, MotionPlanRequest, PoseGoal
+
+#: rad: an orientation constraint this loose on every axis leaves the orientation free
+FREE_ORIENTATION = math.pi
 
 __all__ = ["cartesian_request_from_msg", "goal_from_constraints", "joint_trajectory_from_ros",
            "motion_plan_request_from_msg", "pose_from_ros", "robot_state_from_ros", "robot_state_to_ros",
