@@ -67,6 +67,11 @@ def test_a_registered_planner_plans_and_is_listed(straight_line, mycobot: RobotM
     assert response.success, response.error_code
     assert np.allclose(response.trajectory.positions[-1], 0.0, atol=1e-9)
     assert validate_trajectory(scene, response.trajectory, "arm", start).valid
+    # an id the planner does not have is refused by the pipeline (canServiceRequest), not planned
+    other = MotionPlanRequest("arm", NamedGoal("home"), start_state=start, pipeline_id="straight_line",
+                              planner_id="RRTConnectkConfigDefault")
+    refused = pipeline.plan(scene, other)
+    assert refused.error_code.val == MoveItErrorCode.INVALID_MOTION_PLAN and "is not 'StraightLine'" in refused.message
     # the shared request checks give the plugin MoveIt's codes: 7 values for a 6-joint group
     bad = MotionPlanRequest("arm", JointGoal([0.0] * 7), start_state=start, pipeline_id="straight_line")
     assert pipeline.plan(scene, bad).error_code.val == MoveItErrorCode.INVALID_GOAL_CONSTRAINTS

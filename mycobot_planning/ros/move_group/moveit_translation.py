@@ -17,9 +17,8 @@ from builtin_interfaces.msg import Duration
 from moveit_msgs.msg import Constraints, MoveItErrorCodes, RobotState as RobotStateRos, RobotTrajectory as RobotTrajectoryRos
 from trajectory_msgs.msg import JointTrajectoryPoint
 
-from interfaces_py.moveit_conversions import attached_object_from_msg, path_constraints_from_msg
+from interfaces_py.moveit_conversions import path_constraints_from_msg, robot_state_from_msg
 from interfaces_py.msgs import (
-    AttachedCollisionObject,
     JointTrajectory,
     JointTrajectoryPoint as JointTrajectoryPointMsg,
     MessageError,
@@ -40,23 +39,11 @@ __all__ = ["cartesian_request_from_msg", "goal_from_constraints", "joint_traject
 
 def robot_state_from_ros(msg: RobotStateRos) -> RobotStateMsg | None:
     """None for an empty diff start state ("start from the current state", MoveIt's default)."""
-    js = msg.joint_state
-    names = list(js.name)
-    positions = [float(v) for v in js.position]
-    if len(positions) != len(names):
-        raise ConversionError(MoveItErrorCodes.INVALID_ROBOT_STATE,
-                              f"robot state: joint_state has {len(names)} names but {len(positions)} positions")
-    if len(msg.multi_dof_joint_state.joint_names):
-        raise ConversionError(MoveItErrorCodes.INVALID_ROBOT_STATE,
-                              "robot state: multi-DOF joint states are not supported (the robot's joints are "
-                              "single-DOF)")
-    if not names and not len(msg.attached_collision_objects):
+    data = robot_state_from_msg(msg)
+    if data is None:
         return None
     try:
-        attached = [AttachedCollisionObject.from_dict(attached_object_from_msg(a))
-                    for a in msg.attached_collision_objects]
-        return RobotStateMsg(joint_names=names, positions=positions, attached_collision_objects=attached,
-                             is_diff=bool(msg.is_diff))
+        return RobotStateMsg.from_dict(data)
     except MessageError as exc:
         raise ConversionError(MoveItErrorCodes.INVALID_ROBOT_STATE, f"invalid robot state: {exc}") from None
 

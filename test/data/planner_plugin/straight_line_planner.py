@@ -49,7 +49,7 @@ class StraightLinePlanner:
         return None if planner_id in ("", PLANNER_ID) else f"'{planner_id}' is not '{PLANNER_ID}'"
 
     def can_service_request(self, request: MotionPlanRequest) -> bool:
-        return isinstance(request.goal, (JointGoal, NamedGoal))
+        return isinstance(request.goal, (JointGoal, NamedGoal)) and self.planner_id_problem(request.planner_id) is None
 
     def planner_params(self, planner_id: str, group: str = "") -> dict[str, str]:
         return {"steps": str(STEPS)}

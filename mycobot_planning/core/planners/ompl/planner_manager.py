@@ -101,12 +101,15 @@ class OmplPlanner:
     def planner_id_problem(self, planner_id: str, groups: Sequence[str] = ()) -> str | None:
         if not planner_id:
             return None
+        problems = []
         for group in list(groups) or list(self.config.groups) or ["arm"]:
             try:
                 self.resolve(group, planner_id)
                 return None
-            except PlanningFailure:
-                continue
+            except PlanningFailure as exc:
+                problems.append(exc.message)
+        if len(groups) == 1:
+            return problems[0]
         known = sorted(self.config.planner_configs)
         return (f"'{planner_id}' is no OMPL planner configuration ({', '.join(known[:4])}"
                 f"{', ...' if len(known) > 4 else ''})")
