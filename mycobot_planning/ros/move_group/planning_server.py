@@ -318,8 +318,8 @@ class PlanningServer(Node):
             ParameterSpec(ex + "goal_tolerance", 0.02,
                           "largest distance (rad or m) between the last point and /joint_states for an execution "
                           "to succeed; 0 trusts the controllers", range=(0.0, 10.0)),
-            ParameterSpec("planning_pipeline", "ompl", "default planning pipeline: ompl, "
-                          "pilz_industrial_motion_planner or joint_interpolation", validator=pipeline_check),
+            ParameterSpec("planning_pipeline", "ompl", "default planning pipeline, one of the registered planners: "
+                          + ", ".join(pipeline.pipeline_ids), validator=pipeline_check),
             ParameterSpec("planner_id", "", "default planner id (empty: the pipeline's default), e.g. "
                           "'RRTConnectkConfigDefault' or, for the industrial pipeline, PTP, LIN or CIRC",
                           validator=planner_check),
