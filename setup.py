@@ -52,6 +52,7 @@ setup(
             f"part_localizer = {PACKAGE}.nodes.part_localizer:main",
             f"scan_n_plan = {PACKAGE}.nodes.scan_n_plan:main",
             f"mtc_node = {PACKAGE}.nodes.mtc_node:main",
+            f"mtc_script = {PACKAGE}.nodes.mtc_script:main",
             f"pick_place_demo = {PACKAGE}.nodes.pick_place_demo:main",
             f"camera_simulator = {PACKAGE}.nodes.camera_simulator:main",
             f"perception_server = {PACKAGE}.nodes.perception_server:main",

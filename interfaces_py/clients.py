@@ -5,7 +5,9 @@ The full story: docs/interfaces.md, section interfaces_py.clients.
 from __future__ import annotations
 
 import math
+import threading
 import uuid
+import weakref
 from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
@@ -44,39 +46,49 @@ _EXECUTION_SLACK = 10.0
 
 
 class _RosHandle:
-    """A node to talk through: a private one spun in a daemon thread, or the caller's."""
+    """A node to talk through: a private one spun in a daemon thread, or the caller's.
+
+    A private one is closed by :meth:`close`, or else when the handle is garbage collected or the
+    interpreter exits (``weakref.finalize``): a client dropped without ``close()``, as
+    moveit_commander's are, never leaves a spinning thread behind for finalization to trip over.
+    """
 
     def __init__(self, node: Node | None, prefix: str) -> None:
-        self._context: Context | None = None
-        self._spin: BackgroundSpin | None = None
+        self._finalizer: weakref.finalize | None = None
         if node is not None:
             self.node = node
             return
-        self._context = Context()
-        rclpy.init(context=self._context)
-        self.node = Node(f"{prefix}_{uuid.uuid4().hex[:8]}", context=self._context)
+        context = Context()
+        rclpy.init(context=context)
+        self.node = Node(f"{prefix}_{uuid.uuid4().hex[:8]}", context=context)
         # Single-threaded on purpose: the callbacks (answers arriving) are short, and rclpy's
         # multi-threaded executor busy-polls while callbacks are queued, eating the CPU (and the
         # GIL) of the script that is waiting for the answer.
-        executor = SingleThreadedExecutor(context=self._context)
+        executor = SingleThreadedExecutor(context=context)
         executor.add_node(self.node)
-        self._spin = BackgroundSpin(executor, name=f"{prefix} executor")
+        spin = BackgroundSpin(executor, name=f"{prefix} executor")
+        self._finalizer = weakref.finalize(self, _close_private, context, spin, self.node)
 
     @property
     def owned(self) -> bool:
-        return self._context is not None
+        return self._finalizer is not None and self._finalizer.alive
 
     def close(self) -> None:
-        if self._context is None:
-            return
-        context, self._context = self._context, None
-        if self._spin is not None:
-            self._spin.stop()
-        try:
-            self.node.destroy_node()
-        except Exception:  # best-effort teardown: the context may already be shut down (Ctrl-C)
-            pass
-        rclpy.try_shutdown(context=context)
+        if self._finalizer is not None:
+            self._finalizer()
+
+
+def _close_private(context: Context, spin: BackgroundSpin, node: Node) -> None:
+    """Stop the thread, destroy the node, shut the private context down (each at most once)."""
+    if spin.thread is threading.current_thread():  # collected inside one of its own callbacks
+        threading.Thread(target=_close_private, args=(context, spin, node), daemon=True).start()
+        return
+    spin.stop()
+    try:
+        node.destroy_node()
+    except Exception:  # best-effort teardown: the context may already be shut down (Ctrl-C)
+        pass
+    rclpy.try_shutdown(context=context)
 
 
 class _Client:

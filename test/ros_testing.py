@@ -263,3 +263,43 @@ def robot_processes(*server_params: str, params_file: bool | Path = False,
     finally:
         server.stop()
         controllers.stop()
+
+
+#: panda_moveit_config's initial positions of the arm ('ready')
+PANDA_READY = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]
+
+
+def panda_parameters(directory: Path) -> tuple[Path, Path]:
+    """Params files of planning_server and mock_controllers for the Panda as panda_moveit_config
+    names it (config/panda/, example-robot-data's URDF), as the README describes the bring-up:
+    the arm at 'ready', the hand open."""
+    import yaml
+
+    from mycobot_planning.paths import example_robot_data_dir
+
+    urdf = (example_robot_data_dir() / "panda_description" / "urdf" / "panda.urdf").read_text()
+    srdf = config_file("panda/panda.srdf").read_text()
+    server = {"planning_server": {"ros__parameters": {
+        "robot_description": urdf, "robot_description_semantic": srdf,
+        "joint_limits_file": str(config_file("panda/joint_limits.yaml")),
+        "kinematics_file": str(config_file("panda/kinematics.yaml")),
+        "controllers_file": str(config_file("panda/controllers.yaml")),
+        "goal.group": "panda_arm"}}}
+    initial = {f"panda_joint{i + 1}": value for i, value in enumerate(PANDA_READY)} | {"panda_finger_joint1": 0.035}
+    controllers = {"controller_manager": {"ros__parameters": {
+        "robot_description": urdf, "robot_description_semantic": srdf,
+        "controllers_file": str(config_file("panda/controllers.yaml")),
+        "joint_limits_file": str(config_file("panda/joint_limits.yaml")),
+        "initial_positions": initial}}}
+    paths = directory / "panda_server.yaml", directory / "panda_controllers.yaml"
+    for path, data in zip(paths, (server, controllers)):
+        path.write_text(yaml.safe_dump(data))
+    return paths
+
+
+@contextlib.contextmanager
+def panda_processes(directory: Path) -> Iterator[tuple[NodeProcess, NodeProcess]]:
+    """The Panda bring-up (mock_controllers and planning_server), ready, stopped at exit."""
+    server_file, controllers_file = panda_parameters(directory)
+    with robot_processes(params_file=server_file, controllers_file=controllers_file) as processes:
+        yield processes

@@ -57,6 +57,52 @@ def assert_solution_valid(solution) -> int:
     return checked
 
 
+#: MTC's JointInterpolationPlanner max_step: the largest joint motion between two waypoints
+MAX_WAYPOINT_GAP = 0.1
+
+
+def waypoint_spacing(solution) -> list[dict]:
+    """For every sub-trajectory with motion: its stage path, the largest joint motion between
+    consecutive waypoints and, when a CartesianPath planned it, the largest ik-frame translation
+    between consecutive waypoints and the planner's step_size."""
+    from mycobot_planning.task import CartesianPath
+    from mycobot_planning.task.geometry import robot_tip_for_frame
+
+    out = []
+    for sub in solution.sub_trajectories():
+        traj = sub.trajectory
+        if traj is None or len(traj) < 2:
+            continue
+        entry = {"stage": sub.creator.path, "points": len(traj),
+                 "max_joint_gap": float(np.max(np.abs(np.diff(traj.positions, axis=0))))}
+        planner = getattr(sub.creator, "planner", None)
+        if isinstance(planner, CartesianPath):
+            scene = sub.start.scene
+            link, ik_pose = robot_tip_for_frame(sub.creator.properties.get("ik_frame"), scene, sub.group)
+            offset = np.linalg.solve(scene.current_state.frame_pose(link), ik_pose)
+            state = scene.current_state.copy()
+            indices = [scene.robot_model.variable_index(n) for n in traj.joint_names]
+            points = []
+            for row in traj.positions:
+                values = np.array(state.positions)
+                values[indices] = row
+                state.set_positions(values)
+                points.append((state.frame_pose(link) @ offset)[:3, 3])
+            entry["max_cartesian_step"] = float(np.max(np.linalg.norm(np.diff(points, axis=0), axis=1)))
+            entry["step_size"] = float(planner.properties["step_size"])
+        out.append(entry)
+    return out
+
+
+def spacing_problems(spacing: list[dict], max_gap: float = MAX_WAYPOINT_GAP) -> list[str]:
+    """The sub-trajectories of waypoint_spacing() whose waypoints are too far apart."""
+    problems = [f"{e['stage']}: joint gap {e['max_joint_gap']:.4f} > {max_gap}" for e in spacing
+                if e["max_joint_gap"] > max_gap + 1e-9]
+    problems += [f"{e['stage']}: Cartesian step {e['max_cartesian_step']:.5f} > step_size {e['step_size']}"
+                 for e in spacing if "step_size" in e and e["max_cartesian_step"] > e["step_size"] + 1e-6]
+    return problems
+
+
 def chain_is_continuous(solution) -> None:
     """Consecutive steps meet: each step starts where the previous one ended (joint values)."""
     subs = solution.sub_trajectories()

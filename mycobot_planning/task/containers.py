@@ -21,6 +21,7 @@ from __future__ import annotations
 from collections import defaultdict
 from typing import TYPE_CHECKING, Iterable, Iterator
 
+from ..core.robot_trajectory.robot_trajectory import DEFAULT_MAX_WAYPOINT_DISTANCE
 from .errors import InitStageException, TaskError
 from .stage import Connecting, Stage
 from .storage import BACKWARD, CONNECT, END_IF_MASK, FORWARD, GENERATE, PROPAGATE_BACKWARDS, PROPAGATE_FORWARDS, READS_END, READS_START, START_IF_MASK, UNKNOWN, WRITES_NEXT_START, WRITES_PREV_END, GENERATOR_KEY, Interface, InterfaceState, Priority, SolutionBase, SolutionSequence, SubTrajectory, WrappedSolution, flow_symbol_end, flow_symbol_start, interface_text, invert, update_state_priorities
@@ -665,7 +666,11 @@ class Merger(ParallelContainerBase):
             # Backward children planned towards the external state: merge them from their starts,
             # which share the external state's joints outside their own group.
             start = _combined_start(ordered, scene)
-        trajectory, group, message = merge_trajectories(scene, start, [(s.group, s.trajectory) for s in ordered])  # type: ignore[misc]
+        planners = [getattr(s.creator, "planner", None) for s in ordered]
+        distances = [float(p.properties["max_waypoint_distance"]) for p in planners if p is not None]
+        trajectory, group, message = merge_trajectories(
+            scene, start, [(s.group, s.trajectory) for s in ordered],  # type: ignore[misc]
+            max_waypoint_distance=min(distances, default=DEFAULT_MAX_WAYPOINT_DISTANCE))
         solution = SubTrajectory(trajectory, group or None, planner_id=", ".join(s.planner_id for s in ordered if s.planner_id))
         new_scene = scene.diff()
         if trajectory is None:

@@ -19,7 +19,7 @@ from ..core.planning_interface.planning_interface import time_group_path
 from ..core.planning_scene.planning_scene import PlanningScene
 from ..core.robot_model.robot_model import JointModelGroup, RobotModel
 from ..core.robot_state.robot_state import RobotState
-from ..core.robot_trajectory.robot_trajectory import TimedTrajectory
+from ..core.robot_trajectory.robot_trajectory import DEFAULT_MAX_WAYPOINT_DISTANCE, TimedTrajectory, limit_waypoint_distance
 
 #: Joint-space resolution (rad, max-norm) of the collision checks between merged waypoints;
 #: the trajectory validator's default, so both look equally closely.
@@ -144,6 +144,7 @@ def find_group(model: RobotModel, joint_names: set[str]) -> str | None:
 
 def merge_trajectories(scene: PlanningScene, start: RobotState, parts: Sequence[tuple[str, TimedTrajectory]],
                        velocity_scaling: float = 1.0, acceleration_scaling: float = 1.0,
+                       max_waypoint_distance: float = DEFAULT_MAX_WAYPOINT_DISTANCE,
                        ) -> tuple[TimedTrajectory | None, str, str]:
     """Merge trajectories of disjoint groups into one simultaneous motion (MTC's merge()).
 
@@ -154,7 +155,8 @@ def merge_trajectories(scene: PlanningScene, start: RobotState, parts: Sequence[
     (planners return trajectories checked in the scene they planned in) and no re-timing.
     Returns ``(trajectory, group, message)``; the trajectory is None (and the message says why)
     when the groups overlap, no planning group covers the union of their joints, or the merged
-    path collides.
+    path collides. The merged trajectory's waypoints are at most ``max_waypoint_distance`` apart
+    per joint (see core.robot_trajectory.limit_waypoint_distance).
     """
     model = scene.robot_model
     names: list[str] = []
@@ -172,7 +174,8 @@ def merge_trajectories(scene: PlanningScene, start: RobotState, parts: Sequence[
     if len(moving) <= 1 and all(_at_start(model, start, traj) for _, traj in parts if _stationary(traj)):
         # One motion and the rest holding the start state: the merged motion is that motion,
         # state for state, and its planner checked those states in this scene already.
-        return _extend(model, jmg, start, moving[0] if moving else parts[0][1]), merged_group, ""
+        extended = _extend(model, jmg, start, moving[0] if moving else parts[0][1])
+        return limit_waypoint_distance(extended, max_waypoint_distance), merged_group, ""
     paths = [geometric_path(traj) for _, traj in parts]
     length = max(len(p) for p in paths)
     columns = {}
@@ -184,4 +187,5 @@ def merge_trajectories(scene: PlanningScene, start: RobotState, parts: Sequence[
     ok, message = check_path(scene, start, jmg.variable_indices, merged)
     if not ok:
         return None, merged_group, message
-    return time_path(model, jmg, merged, velocity_scaling, acceleration_scaling), merged_group, ""
+    timed = time_path(model, jmg, merged, velocity_scaling, acceleration_scaling)
+    return limit_waypoint_distance(timed, max_waypoint_distance), merged_group, ""

@@ -258,9 +258,13 @@ def test_prepare_drops_mimic_joints_and_keeps_the_rest(mycobot):
     traj = JointTrajectory(joint_names=["gripper_controller", "gripper_base_to_gripper_left2"],
                            points=[JointTrajectoryPoint(positions=[0.0, 0.0], time_from_start=0.0),
                                    JointTrajectoryPoint(positions=[-0.3, -0.3], time_from_start=0.5)])
-    prepared = prepare_trajectory(mycobot, traj)
+    prepared = prepare_trajectory(mycobot, traj, max_waypoint_distance=0.0)
     assert prepared.joint_names == ["gripper_controller"]
     assert [p.positions for p in prepared.points] == [[0.0], [-0.3]]
+    # by default also dense: points on the controller's line every 0.1 (positions only: linear)
+    dense = prepare_trajectory(mycobot, traj)
+    assert [p.positions[0] for p in dense.points] == pytest.approx([0.0, -0.1, -0.2, -0.3])
+    assert [p.time_from_start for p in dense.points] == pytest.approx([0.0, 0.5 / 3, 1.0 / 3, 0.5])
 
 
 @pytest.mark.parametrize("names, points, problem", [

@@ -52,9 +52,14 @@ def tilt(model: RobotModel, positions: np.ndarray, joint_names) -> float:
     return float(np.arccos(np.clip(-z[2], -1.0, 1.0)))
 
 
+# Constrained RRTConnect needs 0.4-4 CPU s here (seeded, but its run still depends on the clock);
+# a budget far above that keeps the test about correctness on a loaded 2-core machine.
+PLANNING_BUDGET_S = 30.0
+
+
 def request(goal: RobotState, constraints, pipeline: str = "ompl", planner: str = "") -> MotionPlanRequest:
     return MotionPlanRequest(group="arm", goal=JointGoal(list(goal.group_positions("arm"))), pipeline_id=pipeline,
-                             planner_id=planner, allowed_planning_time=10.0, path_constraints=constraints, seed=3)
+                             planner_id=planner, allowed_planning_time=PLANNING_BUDGET_S, path_constraints=constraints, seed=3)
 
 
 def test_ompl_keeps_the_orientation_along_the_whole_path(setup):

@@ -1,25 +1,20 @@
 #! /usr/bin/env python3
 # -*- coding: utf-8 -*-
-# MoveIt Task Constructor's demo/scripts/constrained.py (ros2 branch, commit 8e76def85452; BSD-3-Clause,
-# (c) the moveit_task_constructor authors), run by test/ros/test_mtc_demo_scripts.py. Changed
-# nothing but the import and ROS start-up lines:
-#   from moveit.task_constructor import core, stages  ->  from mycobot_planning.task import core, stages
-#   import rclcpp  ->  import rclpy
-#   rclcpp.init()  ->  rclpy.init()
-#   node_options = rclcpp.NodeOptions()  ->  node = rclpy.create_node("mtc_tutorial", automatically_declare_parameters_from_overrides=True)
 
 from std_msgs.msg import Header
 from geometry_msgs.msg import Vector3Stamped, Vector3, Pose
 from moveit_msgs.msg import CollisionObject, Constraints, OrientationConstraint
 from shape_msgs.msg import SolidPrimitive
-from mycobot_planning.task import core, stages
+from moveit.task_constructor import core, stages
 import time
 
-import rclpy
+import rclcpp
 
-rclpy.init()
+rclcpp.init()
 
-node = rclpy.create_node("mtc_tutorial", automatically_declare_parameters_from_overrides=True)
+node_options = rclcpp.NodeOptions()
+node_options.automatically_declare_parameters_from_overrides = True
+node = rclcpp.Node("mtc_tutorial", node_options)
 
 group = "panda_arm"
 planner = core.PipelinePlanner(node, "ompl", "RRTConnectkConfigDefault")

@@ -1,22 +1,15 @@
 #! /usr/bin/env python3
 # -*- coding: utf-8 -*-
-# MoveIt Task Constructor's demo/scripts/modify_planning_scene.py (ros2 branch, commit 8e76def85452; BSD-3-Clause,
-# (c) the moveit_task_constructor authors), run by test/ros/test_mtc_demo_scripts.py. Changed
-# nothing but the import and ROS start-up lines:
-#   from moveit.task_constructor import core, stages  ->  from mycobot_planning.task import core, stages
-#   import rclcpp  ->  import rclpy
-#   rclcpp.init()  ->  rclpy.init()
-#   node = rclcpp.Node("mtc_tutorial")  ->  node = rclpy.create_node("mtc_tutorial")
 
-from mycobot_planning.task import core, stages
+from moveit.task_constructor import core, stages
 from moveit_msgs.msg import CollisionObject
 from shape_msgs.msg import SolidPrimitive
 from geometry_msgs.msg import PoseStamped
-import rclpy
+import rclcpp
 import time
 
-rclpy.init()
-node = rclpy.create_node("mtc_tutorial")
+rclcpp.init()
+node = rclcpp.Node("mtc_tutorial")
 
 # Create a task
 task = core.Task()

@@ -1,23 +1,15 @@
 #! /usr/bin/env python3
 # -*- coding: utf-8 -*-
-# MoveIt Task Constructor's demo/scripts/pickplace.py (ros2 branch, commit 8e76def85452; BSD-3-Clause,
-# (c) the moveit_task_constructor authors), run by test/ros/test_mtc_demo_scripts.py. Changed
-# nothing but the import and ROS start-up lines:
-#   from moveit.task_constructor import core, stages  ->  from mycobot_planning.task import core, stages
-#   from moveit_commander import PlanningSceneInterface  ->  from interfaces_py.clients import PlanningSceneInterface
-#   import rclcpp  ->  import rclpy
-#   rclcpp.init()  ->  rclpy.init()
-#   node = rclcpp.Node("mtc_tutorial")  ->  node = rclpy.create_node("mtc_tutorial")
 
-import rclpy
-from mycobot_planning.task import core, stages
-from interfaces_py.clients import PlanningSceneInterface
+import rclcpp
+from moveit.task_constructor import core, stages
+from moveit_commander import PlanningSceneInterface
 from geometry_msgs.msg import PoseStamped, TwistStamped
 from moveit_msgs.msg import Constraints, OrientationConstraint
 import math, time
 
-rclpy.init()
-node = rclpy.create_node("mtc_tutorial")
+rclcpp.init()
+node = rclcpp.Node("mtc_tutorial")
 
 # [pickAndPlaceTut1]
 # Specify robot parameters

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mycobot_planning.simulation import MujocoSimulator, tilt_deg
+from mycobot_planning.simulation import tilt_deg
 from mycobot_planning.demos.pick_place import PickPlaceParameters, expected_place_pose
 from mycobot_planning.demos.sim_pick_place import execute_in_simulation, plan_pick_place, solution_steps
 from mycobot_planning.simulation.grasp_monitor import PLACE_TOLERANCE, SLIP_TOLERANCE, TILT_TOLERANCE_DEG

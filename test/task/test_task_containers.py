@@ -287,14 +287,16 @@ def test_preempt_and_timeout(mycobot):
 
 def test_connect_keeps_the_arm_trajectory_when_the_gripper_does_not_move(mycobot):
     """A lone moving group is merged without re-checking or re-timing: the merged trajectory is
-    the arm's, state for state, with the gripper held where it was."""
+    the arm's, state for state (dense: waypoints at most 0.1 rad apart), with the gripper held
+    where it was."""
+    from mycobot_planning.core.robot_trajectory.robot_trajectory import limit_waypoint_distance
     from mycobot_planning.task.trajectories import merge_trajectories, single_point, time_path
 
     start = scene_at(mycobot, "home")
     goal = scene_at(mycobot, "ready")
     arm = mycobot.group("arm")
     path = np.array([start.current_state.group_positions("arm"), goal.current_state.group_positions("arm")])
-    arm_traj = time_path(mycobot, arm, path)
+    arm_traj = limit_waypoint_distance(time_path(mycobot, arm, path))
     gripper = mycobot.group("gripper")
     held = single_point(gripper.joint_names, start.current_state.group_positions("gripper"))
     merged, group, message = merge_trajectories(start, start.current_state, [("arm", arm_traj), ("gripper", held)])

@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import math
 import threading
-from typing import Any, Callable, Mapping, Sequence
+from contextlib import contextmanager
+from typing import Any, Callable, Iterator, Mapping, Sequence
 
 import numpy as np
 
@@ -130,6 +131,15 @@ class PlanningSceneMonitor:
         return None
 
     # ------------------------------------------------------------------ scene
+    @contextmanager
+    def locked(self, write: bool = False) -> Iterator[PlanningScene]:
+        """The live scene with the monitor's lock held (MoveIt's LockedPlanningSceneRO/RW): joint
+        states and updates wait meanwhile. ``write``: the listeners hear of the change at the end."""
+        with self._lock:
+            yield self.scene
+        if write:
+            self._changed()
+
     def _changed(self) -> None:
         for listener in list(self.scene_listeners):
             try:

@@ -1,5 +1,7 @@
-"""The robot trajectory (moveit_core/robot_trajectory): timed joint waypoints and their
-trajectory_msgs form."""
-from .robot_trajectory import TimedTrajectory, joint_trajectory_to_timed, timed_to_joint_trajectory
+"""The robot trajectory (moveit_core/robot_trajectory): timed joint waypoints, their
+trajectory_msgs form, and their waypoints made dense (max_waypoint_distance)."""
+from .robot_trajectory import (DEFAULT_MAX_WAYPOINT_DISTANCE, TimedTrajectory, densify_joint_trajectory,
+                               joint_trajectory_to_timed, limit_waypoint_distance, timed_to_joint_trajectory)
 
-__all__ = ["TimedTrajectory", "joint_trajectory_to_timed", "timed_to_joint_trajectory"]
+__all__ = ["DEFAULT_MAX_WAYPOINT_DISTANCE", "TimedTrajectory", "densify_joint_trajectory", "joint_trajectory_to_timed",
+           "limit_waypoint_distance", "timed_to_joint_trajectory"]

@@ -16,15 +16,22 @@ from interfaces_py.msgs import JointTrajectory, JointTrajectoryPoint
 from ..errors import TimeParameterizationError
 
 __all__ = [
+    "DEFAULT_MAX_WAYPOINT_DISTANCE",
     "DEFAULT_SAMPLE_PERIOD",
     "TimeParameterizationError",
     "TimedTrajectory",
+    "densify_joint_trajectory",
     "joint_trajectory_to_timed",
+    "limit_waypoint_distance",
     "timed_to_joint_trajectory",
 ]
 
 DEFAULT_SAMPLE_PERIOD = 0.01
 """Controller period (s) used by :meth:`TimedTrajectory.resample` when none is given."""
+
+DEFAULT_MAX_WAYPOINT_DISTANCE = 0.1
+"""Largest motion of any joint (rad, or m) between consecutive waypoints of a planned or executed
+trajectory: MTC's JointInterpolationPlanner ``max_step`` (see :func:`limit_waypoint_distance`)."""
 
 # Sampled outputs drop a grid sample closer than this fraction of the period to a breakpoint,
 # waypoint instant or the end: intervals much shorter than the period make position-based
@@ -286,3 +293,119 @@ def joint_trajectory_to_timed(trajectory: JointTrajectory) -> TimedTrajectory:
         if np.any(velocities[-1] != 0.0):  # still moving at the end: the spline's last value
             accelerations[-1] = -6.0 * dp[-1] / dt[-1] ** 2 + (2.0 * v0[-1] + 4.0 * v1[-1]) / dt[-1]
     return TimedTrajectory(list(trajectory.joint_names), times, positions, velocities, accelerations, interpolation="cubic")
+
+
+def limit_waypoint_distance(trajectory: TimedTrajectory, max_distance: float = DEFAULT_MAX_WAYPOINT_DISTANCE
+                            ) -> TimedTrajectory:
+    """The same motion with exact samples inserted so that no joint moves more than
+    ``max_distance`` between consecutive points.
+
+    The samples come from the trajectory's own interpolation (a piece of a constant-jerk or
+    quintic polynomial split at an inner instant is the same polynomial on both halves), so
+    positions, velocities and accelerations at every instant are unchanged: what a display, a
+    controller's spline and the validator see between two points is the motion that was timed.
+    Returns ``trajectory`` itself when it is dense enough already.
+    """
+    max_distance = positive_float(max_distance, "max_distance")
+    if len(trajectory) < 2:
+        return trajectory
+    times = trajectory.times
+    positions = trajectory.positions
+    steps = np.abs(np.diff(positions, axis=0))
+    if steps.max() <= max_distance:
+        return trajectory
+    first = True
+    for _ in range(64):  # each round splits every too-long interval; a few rounds suffice
+        gaps = steps.max(axis=1)
+        bad = np.nonzero(gaps > max_distance)[0]
+        if bad.size == 0:
+            break
+        travel = gaps[bad]
+        if first and trajectory.interpolation == "cubic":
+            travel = np.maximum(travel, _cubic_travel_bound(trajectory, bad))
+        first = False
+        # >= 2 each; the factor keeps a travel of exactly k steps from ending a rounding error above
+        pieces = np.ceil(travel / max_distance * (1.0 + 1e-9)).astype(int)
+        inner = pieces - 1
+        interval = np.repeat(bad, inner)
+        rank = np.arange(int(inner.sum())) - np.repeat(np.cumsum(inner) - inner, inner) + 1
+        fraction = rank / np.repeat(pieces, inner)
+        added = times[interval] + fraction * (times[interval + 1] - times[interval])
+        times = np.union1d(times, added)
+        positions, velocities, accelerations = trajectory._interpolate(times)
+        steps = np.abs(np.diff(positions, axis=0))
+    return TimedTrajectory(trajectory.joint_names, times, positions, velocities, accelerations,
+                           interpolation=trajectory.interpolation, path=trajectory.path,
+                           waypoint_times=trajectory.waypoint_times)
+
+
+def _cubic_travel_bound(trajectory: TimedTrajectory, intervals: np.ndarray) -> np.ndarray:
+    """Per interval, the largest distance any joint can travel on it: its peak speed (at an end,
+    or where the constant-jerk piece's velocity parabola turns) times the interval's length.
+    Splitting an interval into ceil(bound / max_distance) equal times then keeps every part
+    within max_distance in one pass, also where the speed changes along the interval."""
+    t = trajectory.times
+    h = (t[intervals + 1] - t[intervals])[:, None]
+    v0, v1 = trajectory.velocities[intervals], trajectory.velocities[intervals + 1]
+    a0 = trajectory.accelerations[intervals]
+    jerk = 2.0 * (v1 - v0 - a0 * h) / (h * h)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        turn = np.where(jerk != 0.0, -a0 / jerk, -1.0)
+    inside = (turn > 0.0) & (turn < h)
+    turn = np.where(inside, turn, 0.0)
+    peak = np.maximum(np.abs(v0), np.abs(v1))
+    peak = np.where(inside, np.maximum(peak, np.abs(v0 + turn * (a0 + 0.5 * jerk * turn))), peak)
+    return (peak * h).max(axis=1)
+
+
+def densify_joint_trajectory(trajectory: JointTrajectory, max_distance: float = DEFAULT_MAX_WAYPOINT_DISTANCE
+                             ) -> JointTrajectory:
+    """A JointTrajectory message with points inserted where a joint would move more than
+    ``max_distance`` between two points, sampled from the spline a JointTrajectoryController
+    follows through them (linear for positions only, cubic with velocities, quintic with
+    velocities and accelerations): the controller's motion is unchanged, only described densely.
+
+    Times keep their offsets (a first point later than 0 stays where it is); a message whose
+    points do not all carry the same fields is returned unchanged (controllers refuse it anyway).
+    """
+    max_distance = positive_float(max_distance, "max_distance")
+    points = trajectory.points
+    d = len(trajectory.joint_names)
+    if len(points) < 2 or d == 0:
+        return trajectory
+    has_velocities = {len(p.velocities) == d for p in points}
+    has_accelerations = {len(p.accelerations) == d for p in points}
+    if len(has_velocities) != 1 or len(has_accelerations) != 1:
+        return trajectory
+    times = np.array([p.time_from_start for p in points], dtype=float)
+    positions = np.array([p.positions for p in points], dtype=float)
+    if np.all(np.max(np.abs(np.diff(positions, axis=0)), axis=1) <= max_distance):
+        return trajectory
+    if not has_velocities.pop():
+        # positions only: a controller interpolates linearly, so the inserted points are on the lines
+        gaps = np.max(np.abs(np.diff(positions, axis=0)), axis=1)
+        rows, stamps = [positions[:1]], [times[:1]]
+        for k, gap in enumerate(gaps):
+            pieces = max(1, int(math.ceil(gap / max_distance - 1e-12)))
+            fraction = (np.arange(1, pieces + 1) / pieces)[:, None]
+            segment = positions[k] + fraction * (positions[k + 1] - positions[k])
+            segment[-1] = positions[k + 1]
+            rows.append(segment)
+            stamps.append(times[k] + fraction[:, 0] * (times[k + 1] - times[k]))
+        stamps_all = np.concatenate(stamps)
+        stamps_all[np.cumsum([len(s) for s in stamps]) - 1] = times  # the given points exactly
+        dense = np.vstack(rows)
+        return JointTrajectory(joint_names=list(trajectory.joint_names), frame_id=trajectory.frame_id, points=[
+            JointTrajectoryPoint(positions=dense[k].tolist(), time_from_start=float(stamps_all[k]))
+            for k in range(len(dense))])
+    timed = limit_waypoint_distance(joint_trajectory_to_timed(trajectory), max_distance)
+    with_accelerations = timed.interpolation == "quintic"
+    return JointTrajectory(joint_names=list(trajectory.joint_names), frame_id=trajectory.frame_id, points=[
+        JointTrajectoryPoint(
+            positions=timed.positions[k].tolist(),
+            velocities=timed.velocities[k].tolist(),
+            accelerations=timed.accelerations[k].tolist() if with_accelerations else [],
+            time_from_start=float(timed.times[k]),
+        )
+        for k in range(len(timed))
+    ])

@@ -165,7 +165,8 @@ class TrajectoryExecutionManager:
         with self._state_lock:
             if self._stop_requested:
                 return ExecutionResult(_code(MoveItErrorCode.PREEMPTED, "execution stopped on request before it started"))
-        prepared = prepare_trajectory(self.model, trajectory, limit_tolerance=self.settings.limit_tolerance)
+        prepared = prepare_trajectory(self.model, trajectory, limit_tolerance=self.settings.limit_tolerance,
+                                      max_waypoint_distance=self.settings.max_waypoint_distance)
         chosen = select_controllers(prepared.joint_names, self.controllers, controllers)
         needed = sorted({j for c in chosen for j in c.joints} | set(prepared.joint_names))
         current = self._require_positions(needed)

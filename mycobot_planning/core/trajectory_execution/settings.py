@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from interfaces_py.msgs import MoveItErrorCode
 
 from ..errors import PlanningError
+from ..robot_trajectory.robot_trajectory import DEFAULT_MAX_WAYPOINT_DISTANCE
 from ..trajectory_processing.trajectory_limits import DEFAULT_LIMIT_TOLERANCE
 
 SOURCE = "trajectory_execution"
@@ -36,10 +37,14 @@ class ExecutionSettings:
     joint_state_timeout: float = 1.0  # s: older joint states are stale
     #: relative slack on the joint velocity/acceleration limits a sent trajectory must keep
     limit_tolerance: float = DEFAULT_LIMIT_TOLERANCE
+    #: rad (m): largest joint motion between consecutive points sent to a controller; sparser
+    #: trajectories get points of the controller's own spline in between (0: send as given)
+    max_waypoint_distance: float = DEFAULT_MAX_WAYPOINT_DISTANCE
 
     def __post_init__(self) -> None:
         for name in ("allowed_execution_duration_scaling", "allowed_goal_duration_margin",
-                     "allowed_start_tolerance", "goal_tolerance", "joint_state_timeout", "limit_tolerance"):
+                     "allowed_start_tolerance", "goal_tolerance", "joint_state_timeout", "limit_tolerance",
+                     "max_waypoint_distance"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
                 raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")

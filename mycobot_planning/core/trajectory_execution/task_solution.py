@@ -177,7 +177,8 @@ def check_solution(manager: "TrajectoryExecutionManager", steps: Sequence[Soluti
         if step.moves:
             try:
                 prepared = prepare_trajectory(manager.model, step.trajectory,
-                                              limit_tolerance=manager.settings.limit_tolerance)
+                                              limit_tolerance=manager.settings.limit_tolerance,
+                                              max_waypoint_distance=manager.settings.max_waypoint_distance)
                 select_controllers(prepared.joint_names, manager.controllers, step.controllers)
             except ExecutionError as exc:
                 raise ExecutionError(exc.code, f"{where}: {exc.message}") from None

@@ -11,6 +11,7 @@ import numpy as np
 from interfaces_py.msgs import JointTrajectory, JointTrajectoryPoint, MessageError, MoveItErrorCode, RobotTrajectory
 
 from ..robot_model.robot_model import RobotModel
+from ..robot_trajectory.robot_trajectory import DEFAULT_MAX_WAYPOINT_DISTANCE, densify_joint_trajectory
 from ..trajectory_processing.trajectory_limits import DEFAULT_LIMIT_TOLERANCE, motion_limit_problem
 from .settings import ExecutionError
 
@@ -41,8 +42,13 @@ def parse_trajectory(value: Any, what: str = "trajectory") -> tuple[JointTraject
 
 
 def prepare_trajectory(model: RobotModel, trajectory: JointTrajectory, position_tolerance: float = 1e-4,
-                       limit_tolerance: float = DEFAULT_LIMIT_TOLERANCE) -> JointTrajectory:
-    """The trajectory as controllers get it: active joints only, checked.
+                       limit_tolerance: float = DEFAULT_LIMIT_TOLERANCE,
+                       max_waypoint_distance: float = DEFAULT_MAX_WAYPOINT_DISTANCE) -> JointTrajectory:
+    """The trajectory as controllers get it: active joints only, checked, dense.
+
+    Dense: where a joint would move more than ``max_waypoint_distance`` between two points,
+    points sampled from the spline the controller follows are inserted (0 keeps the points as
+    given); the motion is the same.
 
     Mimic joints are dropped when their source joint is in the trajectory (the controller drives
     the source); a mimic joint alone is refused. Refuses (ExecutionError INVALID_MOTION_PLAN): no
@@ -99,13 +105,15 @@ def prepare_trajectory(model: RobotModel, trajectory: JointTrajectory, position_
         model.velocity_limits[indices], model.acceleration_limits[indices], limit_tolerance)
     if problem is not None:
         raise ExecutionError(bad, problem)
-    if not dropped:
-        return trajectory
-    return JointTrajectory(
-        joint_names=[names[i] for i in keep],
-        points=[_select_point(p, keep) for p in trajectory.points],
-        frame_id=trajectory.frame_id,
-    )
+    if dropped:
+        trajectory = JointTrajectory(
+            joint_names=[names[i] for i in keep],
+            points=[_select_point(p, keep) for p in trajectory.points],
+            frame_id=trajectory.frame_id,
+        )
+    if max_waypoint_distance > 0:
+        trajectory = densify_joint_trajectory(trajectory, max_waypoint_distance)
+    return trajectory
 
 
 def _given(trajectory: JointTrajectory, field: str, keep: Sequence[int]) -> np.ndarray | None:

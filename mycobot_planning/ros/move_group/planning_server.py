@@ -35,6 +35,7 @@ from mycobot_planning.capabilities.json_face import (
 from mycobot_planning.core.planning_interface.planning_pipeline import PlanningPipeline
 from mycobot_planning.core.robot_model.robot_config import RobotConfig
 from mycobot_planning.core.robot_model.robot_model import RobotModel
+from mycobot_planning.core.robot_trajectory.robot_trajectory import DEFAULT_MAX_WAYPOINT_DISTANCE
 from mycobot_planning.core.trajectory_execution import ExecutionSettings, load_controllers
 from mycobot_planning.core.trajectory_processing.trajectory_limits import DEFAULT_LIMIT_TOLERANCE
 from mycobot_planning.ros.move_group.controller_bus import ActionControllerBus
@@ -310,6 +311,11 @@ class PlanningServer(Node):
             ParameterSpec(ex + "limit_tolerance", DEFAULT_LIMIT_TOLERANCE,
                           "relative slack on the joint velocity and acceleration limits: a trajectory exceeding "
                           "them by more is refused before it is sent (0.05: 5 %)", range=(0.0, 1.0)),
+            ParameterSpec(ex + "max_waypoint_distance", DEFAULT_MAX_WAYPOINT_DISTANCE,
+                          "largest joint motion (rad or m) between consecutive points sent to a controller: "
+                          "sparser trajectories get points of the controller's own spline in between, so the "
+                          "path it follows is the one described and checked (0: send points as given)",
+                          range=(0.0, 10.0)),
             ParameterSpec(ex + "allowed_start_tolerance", 0.01,
                           "largest distance (rad or m) between a trajectory's first point and the current state; "
                           "0 disables the check", range=(0.0, 10.0)),
@@ -351,6 +357,7 @@ class PlanningServer(Node):
             goal_tolerance=float(self._params.get(ex + "goal_tolerance")),
             joint_state_timeout=float(self._params.get("joint_state_timeout")),
             limit_tolerance=float(self._params.get(ex + "limit_tolerance")),
+            max_waypoint_distance=float(self._params.get(ex + "max_waypoint_distance")),
         )
 
     def _planning_defaults(self) -> PlanningDefaults:

@@ -101,6 +101,3 @@ class CartesianPath(PlannerInterface):
             trajectory = limit_cartesian_link_speed(trajectory, from_scene.current_state, limited,
                                                     float(p["max_cartesian_speed"]))
         return PlanResult(True, trajectory, f"achieved fraction: {fraction:.6f}", self.planner_id)
-
-
-from .planner_interface import PlannerInterface, PlanResult, constraint_failure, constraints_key

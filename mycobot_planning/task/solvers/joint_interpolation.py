@@ -80,6 +80,3 @@ class JointInterpolationPlanner(PlannerInterface):
         to_scene = from_scene.diff()
         to_scene.set_current_state(states[0])
         return self.plan(from_scene, to_scene, group, timeout, context, path_constraints)
-
-
-from .planner_interface import PlannerInterface, PlanResult, check_path, constraint_failure, constraints_key, plan_seed

@@ -4,7 +4,6 @@ constraints every solver resolves in the scene it plans from."""
 from __future__ import annotations
 
 import math
-import time
 import threading
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Callable
@@ -14,7 +13,7 @@ import numpy as np
 from ...core.kinematic_constraints.kinematic_constraints import ConstraintError, PathConstraints, dense_violation
 from ...core.planning_interface.planning_pipeline import PlanningPipeline
 from ...core.planning_scene.planning_scene import PlanningScene
-from ...core.robot_trajectory.robot_trajectory import TimedTrajectory
+from ...core.robot_trajectory.robot_trajectory import DEFAULT_MAX_WAYPOINT_DISTANCE, TimedTrajectory, limit_waypoint_distance
 from ..errors import PropertyError
 from ..path_constraints import PathConstraintsSpec, as_path_constraints
 from ..properties import PropertyMap
@@ -62,6 +61,10 @@ class PlannerInterface:
         p.declare("max_acceleration_scaling_factor", 1.0, "scale down max acceleration by this factor", type=float)
         p.declare("timeout", math.inf, "upper bound of the planning time (s); the stage's timeout applies too",
                   type=float)
+        p.declare("max_waypoint_distance", DEFAULT_MAX_WAYPOINT_DISTANCE,
+                  "largest joint motion (rad, or m) between consecutive waypoints of the trajectories this planner "
+                  "gives a stage (MTC's JointInterpolationPlanner max_step, 0.1): sparser ones get exact samples "
+                  "of their own timing in between", type=float)
 
     @property
     def properties(self) -> PropertyMap:
@@ -113,6 +116,16 @@ class PlannerInterface:
     def init(self, robot_model: "RobotModel") -> None:
         """Check the configuration (ValueError naming the property); the owning stage reports it."""
         self._scaling()
+        if not float(self._properties["max_waypoint_distance"]) > 0.0:
+            raise ValueError(f"max_waypoint_distance must be > 0, got {self._properties['max_waypoint_distance']}")
+
+    def dense(self, trajectory: TimedTrajectory | None) -> TimedTrajectory | None:
+        """``trajectory`` with waypoints at most ``max_waypoint_distance`` apart per joint, its
+        timing unchanged (what the stages publish, execute and validate; see
+        core.robot_trajectory.limit_waypoint_distance)."""
+        if trajectory is None:
+            return None
+        return limit_waypoint_distance(trajectory, float(self._properties["max_waypoint_distance"]))
 
     def _memoized(self, context: "TaskContext | None", scene: PlanningScene, parts: tuple,
                   compute: Callable[[], PlanResult]) -> PlanResult:
@@ -122,7 +135,8 @@ class PlannerInterface:
         settings, group, start state, target and collision scene give the same answer, so a
         task repeating a module from the same state (the modular demo) plans it once. The scene
         is identified by its compiled collision content, shared by scene copies until one of
-        them changes; scenes without it are never reused.
+        them changes; scenes without it are never reused. The result is kept dense (see
+        :meth:`dense`), so a reused answer is not made dense again.
         """
         identity = collision_identity(scene)
         if context is None or identity is None or not context.reuse_plans:
@@ -133,6 +147,7 @@ class PlannerInterface:
         result = cache.get(key)
         if result is None:
             result = compute()
+            result.trajectory = self.dense(result.trajectory)
             if len(cache) < context.plan_cache_size:
                 cache[key] = result
         return result

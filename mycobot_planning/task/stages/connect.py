@@ -122,6 +122,7 @@ class Connect(Connecting):
             target.set_group_positions(group, goal.group_positions(group))
             end_scene.set_current_state(target)
             result = planner.plan(start_scene, end_scene, group, timeout, self._context, **extra)
+            result.trajectory = planner.dense(result.trajectory)
             parts.append((group, planner, result))
             scenes.append(end_scene)
             if not result.success or result.trajectory is None:
@@ -151,7 +152,8 @@ class Connect(Connecting):
         if self._merged_group is None:
             return None
         trajectory, group, _message = merge_trajectories(
-            from_state.scene, from_state.scene.current_state, [(g, r.trajectory) for g, _, r in parts])
+            from_state.scene, from_state.scene.current_state, [(g, r.trajectory) for g, _, r in parts],
+            max_waypoint_distance=min(float(p.properties["max_waypoint_distance"]) for _, p, _ in parts))
         if trajectory is None:
             return None
         if not _within_path_constraints(self._properties["path_constraints"], from_state.scene, trajectory):

@@ -205,7 +205,7 @@ class MoveRelative(PropagatingEitherWay):
                     comment = ""
                 elif not success:
                     comment = f"failed to move full distance ({distance:.3g} {unit}): {result.message}"
-        trajectory = result.trajectory
+        trajectory = self._planner.dense(result.trajectory)
         solution.planner_id = result.planner_id or solution.planner_id
         if trajectory is None or len(trajectory) == 0:
             solution.comment = comment or "planning failed"

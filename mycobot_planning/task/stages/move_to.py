@@ -129,7 +129,7 @@ class MoveTo(PropagatingEitherWay):
                 target_pose[:3, 3] = point[:3]
             offset = inverse(scene.current_state.frame_pose(link)) @ ik_pose
             result = self._planner.plan_pose(state.scene, link, offset, target_pose, group, timeout, context, **extra)
-        trajectory = result.trajectory
+        trajectory = self._planner.dense(result.trajectory)
         solution = SubTrajectory(None, group, planner_id=result.planner_id or self._planner.planner_id)
         if trajectory is None or len(trajectory) == 0:
             solution.comment = result.message or "planning failed"
