@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Builds the interface packages in interfaces_py/ros_packages (moveit_msgs, control_msgs,
-# moveit_task_constructor_msgs, tf2_msgs, octomap_msgs, object_recognition_msgs) into real ROS
+# moveit_task_constructor_msgs, tf2_msgs, octomap_msgs, object_recognition_msgs, and the objective
+# server's own mycobot_objective_msgs) into real ROS
 # types installed in the venv, so rclpy imports them with no environment set. Called by
 # scripts/setup.sh. PyPI has no wheels of these packages; the pip ROS toolchain
 # (rosidl generators, ament_cmake) plus Debian's compiler and cmake build them here.
@@ -13,8 +14,9 @@ VENV="${1:-$ROOT/.venv}"
 SRC="$ROOT/interfaces_py/ros_packages"
 STAMP="$VENV/.mycobot_planning_interfaces"
 # Dependency order: moveit_msgs needs octomap_msgs and object_recognition_msgs; the MTC
-# messages need moveit_msgs.
-PACKAGES=(octomap_msgs object_recognition_msgs tf2_msgs control_msgs moveit_msgs moveit_task_constructor_msgs)
+# messages and the objective server's need moveit_msgs.
+PACKAGES=(octomap_msgs object_recognition_msgs tf2_msgs control_msgs moveit_msgs moveit_task_constructor_msgs
+          mycobot_objective_msgs)
 
 want="$( (cd "$SRC" && find . -type f | LC_ALL=C sort | xargs sha256sum; sha256sum "$ROOT/scripts/build_interfaces.sh") | sha256sum | cut -d' ' -f1)"
 if [[ -f "$STAMP" && "$(cat "$STAMP")" == "$want" ]]; then
@@ -33,7 +35,7 @@ if [[ -n "${AMENT_PREFIX_PATH:-}" ]]; then
     done
     [[ $found == 1 ]] || missing=1
   done
-  if [[ $missing == 0 ]] && "$VENV/bin/python" -c "import moveit_msgs.msg, control_msgs.action, moveit_task_constructor_msgs.msg, tf2_msgs.msg" 2>/dev/null; then
+  if [[ $missing == 0 ]] && "$VENV/bin/python" -c "import moveit_msgs.msg, control_msgs.action, moveit_task_constructor_msgs.msg, tf2_msgs.msg, mycobot_objective_msgs.action" 2>/dev/null; then
     echo "[setup] using the interface packages of the sourced ROS 2 install ($AMENT_PREFIX_PATH)"
     exit 0
   fi
@@ -84,7 +86,7 @@ for pkg in "${PACKAGES[@]}"; do
   fi
   echo "[setup]   $pkg built in $((SECONDS - t0)) s"
 done
-"$PY" -c "import moveit_msgs.action, control_msgs.action, moveit_task_constructor_msgs.action, tf2_msgs.msg, octomap_msgs.msg, object_recognition_msgs.msg"
+"$PY" -c "import moveit_msgs.action, control_msgs.action, moveit_task_constructor_msgs.action, tf2_msgs.msg, octomap_msgs.msg, object_recognition_msgs.msg, mycobot_objective_msgs.action"
 rm -rf "$BUILD"
 echo "$want" >"$STAMP"
 echo "[setup] interface packages built in $((SECONDS - start)) s"

@@ -52,37 +52,47 @@ def tree_ids_of(path: Path) -> list[str]:
 
 
 def find_objective(name: str, paths: Iterable[str | os.PathLike]) -> Path:
-    """The library file that defines BehaviorTree ``name`` (or whose file name is ``name``)."""
-    files = library_files(paths)
-    by_id: dict[str, list[Path]] = {}
-    by_stem: dict[str, list[Path]] = {}
-    for path in files:
-        try:
-            ids = tree_ids_of(path)
-        except (TreeLoadError, OSError) as exc:
-            _LOG.warning("objective library: skipping %s: %s", path, exc)
+    """The library file that defines BehaviorTree ``name`` (or whose file name is ``name``).
+
+    The folders are searched last first: an objective in the user's folder replaces one of the
+    same name in ours (config/objectives comes first), as a MoveIt Pro configuration package
+    overrides the objectives of the one it is based on. Two files of one folder (and its
+    subfolders) defining it are an error."""
+    paths = list(paths)
+    known: set[str] = set()
+    for folder in reversed(paths):
+        by_id: dict[str, list[Path]] = {}
+        by_stem: dict[str, list[Path]] = {}
+        for path in library_files([folder]):
+            try:
+                ids = tree_ids_of(path)
+            except (TreeLoadError, OSError) as exc:
+                _LOG.warning("objective library: skipping %s: %s", path, exc)
+                continue
+            for tree_id in ids:
+                by_id.setdefault(tree_id, []).append(path)
+            by_stem.setdefault(path.stem, []).append(path)
+        known.update(by_id)
+        found = by_id.get(name) or by_stem.get(name)
+        if not found:
             continue
-        for tree_id in ids:
-            by_id.setdefault(tree_id, []).append(path)
-        by_stem.setdefault(path.stem, []).append(path)
-    found = by_id.get(name) or by_stem.get(name)
-    if not found:
-        known = sorted(by_id)
-        folders = ", ".join(str(p) for p in paths) or "none"
-        raise TreeLoadError(f"no objective named '{name}' in the objective library ({folders}); "
-                            f"objectives: {', '.join(known) or 'none'}")
-    if len(found) > 1:
-        raise TreeLoadError(f"objective '{name}' is defined in more than one file: "
-                            + ", ".join(str(p) for p in found))
-    return found[0]
+        if len(found) > 1:
+            raise TreeLoadError(f"objective '{name}' is defined in more than one file: "
+                                + ", ".join(str(p) for p in found))
+        return found[0]
+    folders = ", ".join(str(p) for p in paths) or "none"
+    raise TreeLoadError(f"no objective named '{name}' in the objective library ({folders}); "
+                        f"objectives: {', '.join(sorted(known)) or 'none'}")
 
 
 def load_objective(factory: BehaviorTreeFactory, target: str, library: Iterable[str | os.PathLike]) -> str:
     """Register the objective ``target`` (a file, or a name in the library) and then the rest of
     the library, whose trees it may use as SubTrees; returns the ID of the tree to run.
 
-    Library files that do not load are skipped with a warning: they only matter if the objective
-    uses one of their trees, and then its SubTree is reported missing.
+    The rest of the library is registered last folder first, keeping the first definition of
+    each tree: the user's objectives replace ours of the same name, also as SubTrees. Library
+    files that do not load are skipped with a warning: they only matter if the objective uses
+    one of their trees, and then its SubTree is reported missing.
     """
     library = list(library)
     path = Path(target)
@@ -92,13 +102,14 @@ def load_objective(factory: BehaviorTreeFactory, target: str, library: Iterable[
     factory.register_behavior_tree_from_file(path)
     tree_id = target if by_name and target in factory.registered_behavior_trees() else factory.parser.main_tree_id()
     own = path.resolve()
-    for other in library_files(library):
-        if other.resolve() == own:
-            continue
-        try:
-            factory.register_behavior_tree_from_file(other, skip_existing=True)
-        except TreeLoadError as exc:
-            _LOG.warning("objective library: skipping %s", exc)
+    for folder in reversed(library):
+        for other in library_files([folder]):
+            if other.resolve() == own:
+                continue
+            try:
+                factory.register_behavior_tree_from_file(other, skip_existing=True)
+            except TreeLoadError as exc:
+                _LOG.warning("objective library: skipping %s", exc)
     return tree_id
 
 

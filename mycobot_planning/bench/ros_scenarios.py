@@ -152,6 +152,8 @@ class _JointWatcher:
         self._reference: np.ndarray | None = None
         self.moved_at: float | None = None
         self._index: list[int] | None = None
+        #: called with (perf_counter time, arm positions) for every message
+        self.listeners: list[Any] = []
         self.node.create_subscription(JointState, "/joint_states", self._on_joint_state, 10)
         self.spinner = BackgroundSpin(self.executor, name="joint state probe")
 
@@ -168,6 +170,8 @@ class _JointWatcher:
             if self._reference is not None and self.moved_at is None:
                 if np.max(np.abs(positions - self._reference)) > MOTION_THRESHOLD:
                     self.moved_at = now
+        for listener in self.listeners:
+            listener(now, positions)
 
     def arm(self) -> None:
         """Record the current position as the reference; the next change sets ``moved_at``."""

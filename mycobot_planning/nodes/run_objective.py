@@ -2,7 +2,9 @@
 and print one JSON line with its final status and the root blackboard.
 
 A tree made of BehaviorTree.CPP's built-in nodes runs right here, without ROS (rclpy is not
-even imported). Behaviors (motion, perception, operator prompts) run in the objective server.
+even imported). Behaviors (motion, perception, operator prompts) run in the objective server:
+``--server`` sends the objective to its /do_objective action instead (rclpy is imported then
+only) and prints the same JSON line, with the final root blackboard the server published.
 Exit status: 0 SUCCESS, 1 FAILURE (or SKIPPED, or an error while running), 2 refused before
 running (bad XML, unknown node, missing port, ...), 130 interrupted (the tree is halted).
 """
@@ -37,6 +39,9 @@ def _arguments(argv: list[str] | None) -> argparse.Namespace:
                              "ports that read it; repeatable)")
     parser.add_argument("--tick-period", type=float, default=0.01, metavar="S",
                         help="longest sleep between ticks while the tree is RUNNING (default 0.01 s)")
+    parser.add_argument("--server", action="store_true",
+                        help="run the objective on the objective_server (/do_objective) instead of here: needed "
+                             "for behaviors (motion, perception, operator prompts)")
     parser.add_argument("--tree-nodes-model", action="store_true",
                         help="print the TreeNodesModel XML of the nodes this command can run (for Groot2) and exit")
     args = parser.parse_args(argv)
@@ -62,9 +67,60 @@ def _refusal(exc: TreeLoadError, factory: BehaviorTreeFactory) -> str:
     where = f"{exc.file}:{exc.line}" if exc.file else "the objective"
     if declared:
         return (f"{where}: node '{node_id}' is not a built-in node of BehaviorTree.CPP: a tree with behaviors "
-                "needs the objective server (ros2 run mycobot_planning objective_server); "
-                "run_objective runs built-in nodes only")
-    return f"{exc} (run_objective runs BehaviorTree.CPP's built-in nodes; behaviors need the objective server)"
+                "needs the objective server (ros2 run mycobot_planning objective_server, then "
+                "run_objective --server); run_objective alone runs built-in nodes only")
+    return (f"{exc} (run_objective alone runs BehaviorTree.CPP's built-in nodes; behaviors need the objective "
+            "server: run_objective --server)")
+
+
+def _run_on_server(args: argparse.Namespace) -> int:
+    """The objective through the objective_server's /do_objective; one JSON line as locally."""
+    from pathlib import Path
+
+    from mycobot_planning.ros.objectives.objective_client import ObjectiveClient
+
+    target = args.objective
+    xml = ""
+    if target.endswith(".xml") or Path(target).is_file():
+        try:
+            xml = Path(target).read_text()
+        except OSError as exc:
+            _emit({"objective": target, "status": "REFUSED", "error": str(exc), "blackboard": {}})
+            return EXIT_REFUSED
+    overrides = dict(item.split("=", 1) for item in args.overrides)
+    client = ObjectiveClient()
+    try:
+        if not client.wait_for_server(10.0):
+            message = "no objective_server answers /do_objective (ros2 run mycobot_planning objective_server)"
+            print(f"run_objective: {message}", file=sys.stderr)
+            _emit({"objective": target, "status": "FAILURE", "error": message, "blackboard": {}})
+            return EXIT_FAILURE
+        print(f"run_objective: running objective '{target}' on the objective_server", file=sys.stderr, flush=True)
+        try:
+            goal_status, result = client.run("" if xml else target, xml, overrides)
+        except KeyboardInterrupt:
+            client.cancel()
+            _emit({"objective": target, "status": "CANCELLED", "blackboard": {}})
+            return EXIT_INTERRUPTED
+        state = client.tree_state() or {}
+    finally:
+        client.close()
+    blackboard = state.get("blackboard", {})
+    name = state.get("objective") or target
+    if result is None:
+        _emit({"objective": name, "status": "FAILURE", "error": "no result from the objective_server",
+               "blackboard": blackboard})
+        return EXIT_FAILURE
+    message = result.error_message
+    if result.error_code.val == 1:
+        _emit({"objective": name, "status": "SUCCESS", "blackboard": blackboard})
+        return EXIT_SUCCESS
+    if message.startswith("refused before running"):
+        _emit({"objective": name, "status": "REFUSED", "error": message, "blackboard": {}})
+        return EXIT_REFUSED
+    status = "CANCELLED" if state.get("status") == "Cancelled" else "FAILURE"
+    _emit({"objective": name, "status": status, "error": message, "blackboard": blackboard})
+    return EXIT_FAILURE
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -74,6 +130,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.tree_nodes_model:
         print(factory.write_tree_nodes_model_xml(include_builtin=True))
         return EXIT_SUCCESS
+    if args.server:
+        return _run_on_server(args)
     name = args.objective
     blackboard = Blackboard.create()
     try:

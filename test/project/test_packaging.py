@@ -27,6 +27,7 @@ OPTIONAL = {
     "tf2_msgs": "built from interfaces_py/ros_packages by scripts/setup.sh (no PyPI wheel)",
     "octomap_msgs": "built from interfaces_py/ros_packages by scripts/setup.sh (no PyPI wheel)",
     "object_recognition_msgs": "built from interfaces_py/ros_packages by scripts/setup.sh",
+    "mycobot_objective_msgs": "our own interfaces, built from interfaces_py/ros_packages by scripts/setup.sh",
 }
 
 

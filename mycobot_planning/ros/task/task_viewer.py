@@ -21,6 +21,7 @@ from interfaces_py.msgs import MessageError
 from interfaces_py.ros_conversions import joint_trajectory_from_msg
 from mycobot_planning.core.robot_model.robot_model import RobotModel
 from mycobot_planning.ros.node_runtime import Parameters, ParameterSpec
+from mycobot_planning.ros.objectives.objective_view import ObjectiveView
 from mycobot_planning.ros.task.task_topics import SOLUTION_QOS, STATISTICS_QOS, TASK_SUFFIXES, parse_task_topic
 from mycobot_planning.paths import package_share_dirs
 from mycobot_planning.visualization.viewer import TaskViewer
@@ -61,21 +62,28 @@ class TaskViewerNode(Node):
                 ParameterSpec("auto_play_planned_path", True, "animate each new /planned_path at once"),
                 ParameterSpec("discovery_period", 1.0, "seconds between looks for new task topics in the graph",
                               range=(0.05, 60.0)),
+                ParameterSpec("objective_server", "/objective_server", "the objective_server whose objectives the "
+                              "page's Objectives panel lists, runs and stops (empty: no panel)", read_only=True),
             ])
         except ParameterException as exc:
             raise ValueError(f"invalid parameters: {exc}") from None
         log = self.get_logger()
         model = self._load_model()
+        server = self._params.get("objective_server").strip()
+        self._objective_view = ObjectiveView(self, server) if server else None
         try:
             self.viewer = TaskViewer(
                 model, self._params.get("host"), self._params.get("port"),
                 max_update_rate=self._params.get("max_update_rate"), speed=self._params.get("playback_speed"),
                 loop=self._params.get("loop"), auto_play_planned_path=self._params.get("auto_play_planned_path"),
-                package_dirs=package_share_dirs(), log=lambda text: log.warning(text))
+                package_dirs=package_share_dirs(), log=lambda text: log.warning(text),
+                objective_actions=self._objective_view.actions() if self._objective_view else None)
         except OSError as exc:
             raise ValueError(f"cannot serve the page on {self._params.get('host')}:{self._params.get('port')}: {exc}") \
                 from None
         self._params.on_change(self._on_params)
+        if self._objective_view is not None and self.viewer.objectives is not None:
+            self._objective_view.attach(self.viewer.objectives)
 
         # /joint_states (100 Hz and more) on a node of its own with a single-threaded executor:
         # the multi-threaded executor's re-polling would cost a core at that rate (see
@@ -106,6 +114,7 @@ class TaskViewerNode(Node):
             "seek": self._rpc_seek,
             "show_live": lambda p: self._sync(self.viewer.show_live),
             "get_display_lags": self._rpc_lags,
+            "objectives_click": self._rpc_objectives_click,
         }.items():
             self._rpc.register(method, handler)
         self._monitor_spin = BackgroundSpin(self._monitor_executor, name="joint states")
@@ -210,6 +219,24 @@ class TaskViewerNode(Node):
         if isinstance(t, bool) or not isinstance(t, (int, float)):
             raise RpcError(BAD_REQUEST, f"'time' must be a number of seconds, got {t!r}")
         return self._sync(lambda: self.viewer.seek(float(t)))
+
+    def _rpc_objectives_click(self, params: dict) -> dict:
+        """A click on the Objectives panel, as the page makes it: {"button": "run" (with
+        "objective") | "stop" | "continue" | "fail" | "waypoint" (with "waypoint")}."""
+        panel = self.viewer.objectives
+        if panel is None:
+            raise RpcError(BAD_REQUEST, "the Objectives panel is off (objective_server parameter empty)")
+        button = params.get("button")
+        if button == "run":
+            panel.click_run(str(params.get("objective", "")) or None)
+        elif button == "stop":
+            panel.click_stop()
+        elif button in ("continue", "fail", "waypoint"):
+            panel.click_answer(button, params.get("waypoint"))
+        else:
+            raise RpcError(BAD_REQUEST, f"objectives_click: unknown button {button!r}; "
+                                        "run, stop, continue, fail or waypoint")
+        return panel.state()
 
     def _rpc_lags(self, params: dict) -> dict:
         lags = self.viewer.display_lags(reset=bool(params.get("reset", False)))
