@@ -1,14 +1,13 @@
-"""moveit_msgs <-> the JSON form of interfaces_py.msgs: the one translation between MoveIt's wire
-types and what the planning core reads.
+"""moveit_msgs <-> the JSON form of interfaces_py.msgs, for what has a JSON form on both sides:
+scenes and collision objects, robot states, trajectories (MTC's solutions, the task viewer) and
+path constraints in the core's constraint description.
 
-The planning core takes requests in the JSON form (dicts with the schema of interfaces_py.msgs),
-which the JSON face decodes from std_msgs/String; the MoveIt face (ros/move_group/move_group.py)
-translates moveit_msgs messages into the same dicts here, so a request is interpreted in one
-place only: the core. Nothing here imports rclpy; only the generated message classes.
+move_group's requests are not translated here: the moveit_msgs face turns them into the
+capabilities' typed calls directly (mycobot_planning/ros/move_group/moveit_translation.py).
+Nothing here imports rclpy; only the generated message classes.
 """
 from __future__ import annotations
 
-import math
 from array import array
 from typing import Any, Mapping, Sequence
 
@@ -30,9 +29,6 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from .ros_message_reading import ConversionError, collision_object_from_msg, pose_from_msg
 
-#: rad: an orientation constraint this loose on every axis leaves the orientation free
-FREE_ORIENTATION = math.pi
-
 
 # ----------------------------------------------------------------------------- small types
 
@@ -53,14 +49,6 @@ def duration_to_msg(seconds: float) -> Duration:
 def duration_from_msg(msg: Duration) -> float:
     return msg.sec + msg.nanosec * 1e-9
 
-
-def error_code_to_msg(code: Mapping[str, Any] | None) -> MoveItErrorCodes:
-    msg = MoveItErrorCodes()
-    code = code or {}
-    msg.val = int(code.get("val", MoveItErrorCodes.FAILURE))
-    msg.message = str(code.get("message", ""))
-    msg.source = str(code.get("source", ""))
-    return msg
 
 
 # ----------------------------------------------------------------------------- scene objects
@@ -241,93 +229,7 @@ def robot_trajectory_to_msg(data: Mapping[str, Any] | None, frame_id: str = "wor
     return msg
 
 
-def robot_trajectory_from_msg(msg: RobotTrajectory) -> dict[str, Any]:
-    if len(msg.multi_dof_joint_trajectory.points):
-        raise ConversionError(MoveItErrorCodes.INVALID_MOTION_PLAN,
-                              "trajectory: multi-DOF trajectories are not supported (the robot's joints are "
-                              "single-DOF)")
-    if not len(msg.joint_trajectory.points):
-        raise ConversionError(MoveItErrorCodes.INVALID_MOTION_PLAN, "trajectory: joint_trajectory has no points")
-    return {"joint_trajectory": joint_trajectory_from_msg(msg.joint_trajectory)}
-
-
-# ----------------------------------------------------------------------------- goals
-def _region_tolerance(constraint: Any) -> float:
-    """Position tolerance of a PositionConstraint's region: a sphere's radius, a box's smallest
-    half extent (the goal is the region's centre; the planner lands within this of it)."""
-    region = constraint.constraint_region
-    tolerances = []
-    for primitive in region.primitives:
-        dims = list(primitive.dimensions)
-        if primitive.type == SolidPrimitive.SPHERE and dims:
-            tolerances.append(dims[0])
-        elif primitive.type == SolidPrimitive.BOX and len(dims) == 3:
-            tolerances.append(min(dims) / 2)
-        elif primitive.type in (SolidPrimitive.CYLINDER, SolidPrimitive.CONE) and len(dims) == 2:
-            tolerances.append(min(dims[0] / 2, dims[1]))
-    return max(min(tolerances), 1e-6) if tolerances else 1e-3
-
-
-def goal_from_constraints(constraints: Constraints) -> dict[str, Any]:
-    """One goal of the core's form from one moveit_msgs/Constraints: joint constraints -> a joint
-    goal; a position constraint (with or without an orientation constraint on the same link) ->
-    a pose goal in the constraint's frame."""
-    joints = list(constraints.joint_constraints)
-    positions = list(constraints.position_constraints)
-    orientations = list(constraints.orientation_constraints)
-    bad = MoveItErrorCodes.INVALID_GOAL_CONSTRAINTS
-    if len(constraints.visibility_constraints):
-        raise ConversionError(bad, "visibility constraints are not supported as goals")
-    if joints and (positions or orientations):
-        raise ConversionError(bad, "a goal mixing joint constraints with position/orientation constraints is not "
-                                   "supported; send them as separate goal_constraints")
-    if joints:
-        values = {}
-        tolerance = 0.0
-        for jc in joints:
-            values[jc.joint_name] = float(jc.position)
-            tolerance = max(tolerance, float(jc.tolerance_above), float(jc.tolerance_below))
-        return {"joints": values, "tolerance": tolerance if tolerance > 0 else 1e-4}
-    if not positions and not orientations:
-        raise ConversionError(bad, "goal constraints are empty")
-    if len(positions) > 1 or len(orientations) > 1:
-        raise ConversionError(bad, "a goal may hold one position and one orientation constraint")
-    pc = positions[0] if positions else None
-    oc = orientations[0] if orientations else None
-    if pc is None:
-        raise ConversionError(bad, "an orientation-only goal is not supported; add a position constraint")
-    if oc is not None and oc.link_name != pc.link_name:
-        raise ConversionError(bad, f"position constraint on '{pc.link_name}' and orientation constraint on "
-                                   f"'{oc.link_name}': a goal constrains one link")
-    region = pc.constraint_region
-    if not len(region.primitive_poses) and not len(region.mesh_poses):
-        raise ConversionError(bad, "position constraint: constraint_region has no primitive pose")
-    centre = region.primitive_poses[0] if len(region.primitive_poses) else region.mesh_poses[0]
-    position = [centre.position.x, centre.position.y, centre.position.z]
-    if oc is not None:
-        q = oc.orientation
-        orientation = [q.x, q.y, q.z, q.w]
-        orientation_tolerance = max(float(oc.absolute_x_axis_tolerance), float(oc.absolute_y_axis_tolerance),
-                                    float(oc.absolute_z_axis_tolerance))
-        if oc.header.frame_id and pc.header.frame_id and oc.header.frame_id != pc.header.frame_id:
-            raise ConversionError(bad, f"position constraint in '{pc.header.frame_id}' and orientation constraint "
-                                       f"in '{oc.header.frame_id}': give both in one frame")
-    else:
-        orientation = [0.0, 0.0, 0.0, 1.0]
-        orientation_tolerance = FREE_ORIENTATION
-    offset = pc.target_point_offset
-    goal: dict[str, Any] = {
-        "pose": {"position": position, "orientation": orientation},
-        "link": pc.link_name or None,
-        "position_tolerance": _region_tolerance(pc),
-        "orientation_tolerance": orientation_tolerance if orientation_tolerance > 0 else 1e-3,
-        "frame": pc.header.frame_id or "world",
-    }
-    if (offset.x, offset.y, offset.z) != (0.0, 0.0, 0.0):
-        goal["ik_frame_offset"] = {"position": [offset.x, offset.y, offset.z], "orientation": [0.0, 0.0, 0.0, 1.0]}
-    return goal
-
-
+# ----------------------------------------------------------------------------- path constraints
 _REGION_TYPES = {SolidPrimitive.BOX: "box", SolidPrimitive.SPHERE: "sphere", SolidPrimitive.CYLINDER: "cylinder"}
 
 
@@ -366,50 +268,6 @@ def path_constraints_from_msg(constraints: Constraints) -> dict[str, Any] | None
     return data if any(data.values()) else None
 
 
-def plan_params_from_request(request: Any) -> tuple[dict[str, Any], list[dict[str, Any]]]:
-    """(request parameters without the goal, the goals) from a moveit_msgs/MotionPlanRequest."""
-    if len(request.goal_constraints) == 0:
-        raise ConversionError(MoveItErrorCodes.INVALID_GOAL_CONSTRAINTS, "the request has no goal_constraints")
-    goals = [goal_from_constraints(c) for c in request.goal_constraints]
-    if len(request.trajectory_constraints.constraints):
-        raise ConversionError(MoveItErrorCodes.INVALID_MOTION_PLAN, "trajectory constraints are not supported")
-    params: dict[str, Any] = {
-        "group": request.group_name,
-        "pipeline_id": request.pipeline_id,
-        "planner_id": request.planner_id,
-        "allowed_planning_time": float(request.allowed_planning_time),
-        "num_planning_attempts": int(request.num_planning_attempts),
-        "max_velocity_scaling_factor": float(request.max_velocity_scaling_factor),
-        "max_acceleration_scaling_factor": float(request.max_acceleration_scaling_factor),
-    }
-    return _with_start_and_path(params, request), goals
 
 
-def cartesian_params_from_request(request: Any) -> dict[str, Any]:
-    """A compute_cartesian_path request in the core's form from moveit_msgs/GetCartesianPath."""
-    params: dict[str, Any] = {
-        "group": request.group_name,
-        "waypoints": [pose_from_msg(p) for p in request.waypoints],
-        "link": request.link_name or None,
-        "frame": request.header.frame_id or "world",
-        "eef_step": float(request.max_step) if request.max_step > 0 else 0.01,
-        "jump_threshold": float(request.jump_threshold),
-        "revolute_jump_threshold": float(request.revolute_jump_threshold),
-        "prismatic_jump_threshold": float(request.prismatic_jump_threshold),
-        "avoid_collisions": bool(request.avoid_collisions),
-        "max_velocity_scaling_factor": float(request.max_velocity_scaling_factor),
-        "max_acceleration_scaling_factor": float(request.max_acceleration_scaling_factor),
-    }
-    return _with_start_and_path(params, request)
-
-
-def _with_start_and_path(params: dict[str, Any], request: Any) -> dict[str, Any]:
-    """Add a request's start_state and path_constraints, when it has them."""
-    path = path_constraints_from_msg(request.path_constraints)
-    if path is not None:
-        params["path_constraints"] = path
-    start = robot_state_from_msg(request.start_state)
-    if start is not None:
-        params["start_state"] = start
-    return params
 

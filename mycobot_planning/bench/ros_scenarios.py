@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from interfaces_py.msgs import CollisionObject, Pose
+from interfaces_py.msgs import CollisionObject, Pose, RobotState as RobotStateMsg
 from mycobot_planning.ros.bringup import robot as bringup
 
 from .common import emit, machine, spread, stats
@@ -312,8 +312,9 @@ class _NoControllers:
 
 def bench_moveit_api(repeat: int, seed: int) -> None:
     """move_group's services end to end (GetMotionPlan with a joint goal and GetPositionIK, myCobot,
-    empty scene) from a client process, against the same MoveGroupCapabilities calls in-process: the
-    difference is what the moveit_msgs face and ROS transport cost."""
+    empty scene) from a client process, against the same typed capability calls in-process
+    (capabilities.plan.plan, capabilities.kinematics.compute_ik: what the moveit_msgs face calls):
+    the difference is what the moveit_msgs face and ROS transport cost."""
     import rclpy
     from moveit_msgs.msg import Constraints, JointConstraint
     from moveit_msgs.srv import GetMotionPlan, GetPositionIK
@@ -322,12 +323,14 @@ def bench_moveit_api(repeat: int, seed: int) -> None:
 
     from mycobot_planning.core.trajectory_execution import load_controllers
     from mycobot_planning.core.planning_interface.planning_pipeline import PlanningPipeline
-    from mycobot_planning.capabilities.move_group_capabilities import MoveGroupCapabilities
+    from mycobot_planning.capabilities import kinematics, plan
+    from mycobot_planning.capabilities.move_group_context import MoveGroupContext
+    from mycobot_planning.core.planning_interface.planning_interface import JointGoal, MotionPlanRequest
     from mycobot_planning.core.robot_model.robot_model import RobotModel
     from mycobot_planning.core.robot_state.robot_state import RobotState
 
     model = RobotModel.mycobot()
-    local = MoveGroupCapabilities(model, PlanningPipeline(), load_controllers(None), _NoControllers())
+    local = MoveGroupContext(model, PlanningPipeline(), load_controllers(None), _NoControllers())
     poses = []
     for goal in _GOALS:
         state = RobotState(model)
@@ -353,7 +356,13 @@ def bench_moveit_api(repeat: int, seed: int) -> None:
         return request
 
     # the in-process calls start where the mock robot stands (every joint at 0), stated in full
-    start = {"joint_names": list(model.variable_names), "positions": [0.0] * len(model.variable_names)}
+    start = RobotStateMsg(joint_names=list(model.variable_names), positions=[0.0] * len(model.variable_names))
+    pose_matrices = [p.to_matrix() for p in poses]
+
+    def plan_local(goal: list[float]) -> Any:
+        return plan.plan(local, MotionPlanRequest("arm", JointGoal(dict(zip(_ARM, goal)), 1e-3),
+                                                  allowed_planning_time=5.0, num_planning_attempts=1),
+                         start, display=False)
     with RobotProcesses(bench_domain_id()):
         context = rclpy.Context()
         rclpy.init(context=context)
@@ -385,8 +394,8 @@ def bench_moveit_api(repeat: int, seed: int) -> None:
             for i in range(3):  # warm-up: discovery, caches, IK seed tables (untimed)
                 ok_plan(call(plan_client, plan_request(_GOALS[i % 2])))
                 ok_ik(call(ik_client, ik_request(poses[i % 2])))
-                local.plan({"group": "arm", "goal": {"joints": _GOALS[i % 2]}, "start_state": start, "display": False})
-                local.compute_ik({"group": "arm", "pose": poses[i % 2].to_dict(), "robot_state": start})
+                plan_local(_GOALS[i % 2])
+                kinematics.compute_ik(local, "arm", pose_matrices[i % 2], seed=start)
             samples: dict[str, list[float]] = {"plan": [], "plan_local": [], "ik": [], "ik_local": []}
             medians: list[float] = []
             for index in range(repeat):
@@ -396,17 +405,16 @@ def bench_moveit_api(repeat: int, seed: int) -> None:
                     t0 = time.perf_counter()
                     ok_plan(call(plan_client, plan_request(goal)))
                     t1 = time.perf_counter()
-                    result = local.plan({"group": "arm", "goal": {"joints": goal}, "start_state": start,
-                                         "display": False})
+                    result = plan_local(goal)
                     t2 = time.perf_counter()
-                    if result["error_code"]["val"] != 1:
-                        raise RuntimeError(f"in-process plan failed: {result['error_code']['message']}")
+                    if result.error_code.val != 1:
+                        raise RuntimeError(f"in-process plan failed: {result.error_code.message}")
                     ok_ik(call(ik_client, ik_request(pose)))
                     t3 = time.perf_counter()
-                    answer = local.compute_ik({"group": "arm", "pose": pose.to_dict(), "robot_state": start})
+                    code, _ = kinematics.compute_ik(local, "arm", pose_matrices[k % 2], seed=start)
                     t4 = time.perf_counter()
-                    if answer["error_code"]["val"] != 1:
-                        raise RuntimeError(f"in-process IK failed: {answer['error_code']['message']}")
+                    if code.val != 1:
+                        raise RuntimeError(f"in-process IK failed: {code.message}")
                     for key, value in (("plan", t1 - t0), ("plan_local", t2 - t1), ("ik", t3 - t2),
                                        ("ik_local", t4 - t3)):
                         run[key].append(value)

@@ -1,10 +1,20 @@
-"""move_group's capabilities, between the planning core and the nodes: the monitored scene and
-current state, plan, execute, Cartesian paths, IK/FK, state validity, task-solution execution.
+"""move_group's capabilities, between the planning core and the nodes, MoveIt's way: a
+MoveGroupContext (move_group_context: the monitored scene and current state, the planning
+pipeline, the trajectory execution manager) and one module per capability, each a typed call on
+core types:
 
-Both faces of the planning_server are thin translations into these calls: the JSON /
-std_srvs face (ros/move_group/planning_server.py) and MoveIt's moveit_msgs face (ros/move_group/move_group.py,
-through interfaces_py.moveit_conversions). No rclpy here.
+plan, cartesian_path, kinematics (IK/FK), state_validation, planner_query (planner interfaces
+and parameters), planning_scene (get/apply), execute_trajectory, move_action (plan and execute),
+task_solution (MTC's execute_task_solution), stop.
+
+Two faces translate to and from these calls and nothing else: the moveit_msgs face
+(ros/move_group/move_group.py with ros/move_group/moveit_translation.py) and the JSON face
+(json_face.py, served by ros/move_group/planning_server.py). No rclpy here.
+
+Submodules are not imported here (``from mycobot_planning.capabilities import plan``), so the
+context can be used without loading every capability.
 """
-from .move_group_capabilities import MoveGroupCapabilities, PlanningDefaults, RequestError
+CAPABILITIES = ("plan", "cartesian_path", "kinematics", "state_validation", "planner_query", "planning_scene",
+                "execute_trajectory", "move_action", "task_solution", "stop")
 
-__all__ = ["MoveGroupCapabilities", "PlanningDefaults", "RequestError"]
+__all__ = ["CAPABILITIES"]

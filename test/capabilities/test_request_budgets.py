@@ -1,7 +1,7 @@
 """The planning server's core refuses requests that cannot be right or would never end, lets
 several clients plan at once, and stop() ends running plans (issue 13).
 
-No ROS here: MoveGroupCapabilities with a controller bus that is never used (nothing executes).
+No ROS here: MoveGroupJsonFace with a controller bus that is never used (nothing executes).
 """
 from __future__ import annotations
 
@@ -17,12 +17,9 @@ from interfaces_py.msgs import MoveItErrorCode
 from mycobot_planning.core.trajectory_execution import ControllerInfo, ExecutionSettings
 from mycobot_planning.core.planning_interface.planning_pipeline import PlanningPipeline
 from interfaces_py.msgs import WORKSPACE_BOUND
-from mycobot_planning.capabilities.move_group_capabilities import (
-    MAX_PLANNING_ATTEMPTS,
-    MAX_PLANNING_TIME,
-    MAX_WAYPOINTS,
-    MoveGroupCapabilities,
-)
+from mycobot_planning.capabilities.cartesian_path import MAX_WAYPOINTS
+from mycobot_planning.capabilities.json_face import MoveGroupJsonFace
+from mycobot_planning.capabilities.plan import MAX_PLANNING_ATTEMPTS, MAX_PLANNING_TIME
 from mycobot_planning.core.robot_model.robot_model import RobotModel
 
 ARM = ["link1_to_link2", "link2_to_link3", "link3_to_link4", "link4_to_link5", "link5_to_link6", "link6_to_link6_flange"]
@@ -45,8 +42,8 @@ class IdleBus:
         return None
 
 
-def _core(model: RobotModel, pipeline) -> MoveGroupCapabilities:
-    core = MoveGroupCapabilities(model, pipeline, [ControllerInfo("arm_controller", tuple(ARM))], IdleBus(),
+def _core(model: RobotModel, pipeline) -> MoveGroupJsonFace:
+    core = MoveGroupJsonFace(model, pipeline, [ControllerInfo("arm_controller", tuple(ARM))], IdleBus(),
                               ExecutionSettings())
     names = list(model.variable_names)
     assert core.update_joint_state(names, [0.0] * len(names)) is None
@@ -59,7 +56,7 @@ def pipeline() -> PlanningPipeline:
 
 
 @pytest.fixture()
-def core(mycobot, pipeline) -> MoveGroupCapabilities:
+def core(mycobot, pipeline) -> MoveGroupJsonFace:
     return _core(mycobot, pipeline)
 
 

@@ -1,12 +1,12 @@
 """Scene updates carrying values that cannot be right are refused at the boundary with the
-reason, and leave the scene as it was (issue 13). MoveGroupCapabilities, no ROS."""
+reason, and leave the scene as it was (issue 13). MoveGroupJsonFace, no ROS."""
 from __future__ import annotations
 
 import pytest
 
 from interfaces_py.msgs import MAX_NAME_LENGTH, MessageError, printable
 from mycobot_planning.core.planning_interface.planning_pipeline import PlanningPipeline
-from mycobot_planning.capabilities.move_group_capabilities import RequestError
+from mycobot_planning.capabilities.json_face import RequestError
 
 from test_request_budgets import _core
 

@@ -1,5 +1,5 @@
 """Execution planning and monitoring (core/trajectory_execution/) and the planning server's ROS-free logic
-(capabilities/move_group_capabilities.py), on simulated controllers and a simulated clock: no ROS, no sleeps.
+(capabilities/), on simulated controllers and a simulated clock: no ROS, no sleeps.
 
 The simulated controllers follow the mock controllers' contract (goal id = the command's
 frame_id, statuses executing/succeeded/failed/aborted/stalled/stopped), so what passes here is
@@ -27,8 +27,8 @@ from mycobot_planning.core import PlanningScene
 from mycobot_planning.core.trajectory_execution import ControllerInfo, ControllerState, ExecutionError, ExecutionSettings, TrajectoryExecutionManager, allowed_duration, check_controllers, check_start_state, load_controllers, parse_task_solution, parse_trajectory, prepare_trajectory, select_controllers, split_trajectory
 from mycobot_planning.core.robot_trajectory.robot_trajectory import timed_to_joint_trajectory
 from mycobot_planning.core.planning_interface.planning_pipeline import PlanningPipeline
-from mycobot_planning.capabilities.move_group_capabilities import (
-    MoveGroupCapabilities,
+from mycobot_planning.capabilities.json_face import (
+    MoveGroupJsonFace,
     RequestError,
     goal_from_parameters,
     pose_from_json,
@@ -641,7 +641,7 @@ def pipeline():
 @pytest.fixture()
 def server(mycobot, pipeline):
     bus = SimBus(mycobot)
-    core = MoveGroupCapabilities(mycobot, pipeline, CONTROLLERS, bus, ExecutionSettings(), clock=bus.clock)
+    core = MoveGroupJsonFace(mycobot, pipeline, CONTROLLERS, bus, ExecutionSettings(), clock=bus.clock)
     core.bus = bus
 
     def wait(dt: float) -> None:  # the simulated robot moves, /joint_states reports it

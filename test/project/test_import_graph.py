@@ -208,3 +208,47 @@ def test_a_package_init_that_imports_a_user_of_the_package_is_a_cycle():
     graph = {name: set(module.edges) for name, module in MODULES.items()}
     graph[f"{PACKAGE}.core.planning_interface"].add(f"{PACKAGE}.core.planning_interface.planning_pipeline")
     assert _cycle(graph) is not None
+
+
+CAPABILITIES_PACKAGE = f"{PACKAGE}.capabilities"
+#: capabilities/ modules that are no capability: the context, the JSON face, the IK solver cache.
+CAPABILITY_SUPPORT = {"move_group_context", "json_face", "state_queries"}
+#: the faces that translate to the capabilities' typed calls
+FACES = (f"{CAPABILITIES_PACKAGE}.json_face", f"{PACKAGE}.ros.move_group.move_group")
+
+
+def _capability_modules() -> set[str]:
+    return {name.rsplit(".", 1)[1] for name in MODULES if name.startswith(f"{CAPABILITIES_PACKAGE}.")
+            } - CAPABILITY_SUPPORT
+
+
+def test_every_capability_module_is_listed():
+    from mycobot_planning.capabilities import CAPABILITIES
+
+    assert _capability_modules() == set(CAPABILITIES)
+
+
+@pytest.mark.parametrize("face", FACES)
+def test_both_faces_call_every_capability(face):
+    """A new capability is one module that both faces pick up (and nothing else to edit in core)."""
+    missing = {c for c in _capability_modules() if f"{CAPABILITIES_PACKAGE}.{c}" not in MODULES[face].edges}
+    assert missing == set(), f"{face} does not call {sorted(missing)}"
+
+
+def test_capabilities_depend_on_the_context_and_the_core_not_on_a_face():
+    faces = set(FACES) | {name for name in MODULES if name.startswith(f"{PACKAGE}.ros.")}
+    for name in _capability_modules() | {"move_group_context"}:
+        module = MODULES[f"{CAPABILITIES_PACKAGE}.{name}"]
+        assert not module.edges & faces, f"{module.name} imports a face: {sorted(module.edges & faces)}"
+    context = MODULES[f"{CAPABILITIES_PACKAGE}.move_group_context"]
+    capabilities = {f"{CAPABILITIES_PACKAGE}.{c}" for c in _capability_modules()}
+    assert not context.edges & capabilities, "the context must not import the capabilities that use it"
+
+
+def test_the_pipeline_dispatches_through_the_planner_registry():
+    """No planner is named by the capabilities or the faces: they read the registry."""
+    planners = {name for name in MODULES if name.startswith(f"{PACKAGE}.core.planners.")
+                and not name.startswith(f"{PACKAGE}.core.planners.cartesian")}
+    for name, module in MODULES.items():
+        if name.startswith(f"{CAPABILITIES_PACKAGE}.") or name.startswith(f"{PACKAGE}.ros.move_group."):
+            assert not module.edges & planners, f"{name} imports {sorted(module.edges & planners)}"

@@ -2,7 +2,9 @@
 
 MoveIt users pick a pipeline (``ompl``, ``pilz_industrial_motion_planner``) and a planner id on
 the request; MTC's JointInterpolationPlanner is exposed as a third pipeline so task stages and
-the planning server reach every core planner the same way. Each planner is built once and reused.
+the planning server reach every core planner the same way. Every planner is a PlannerManager
+held in the registry of planner_manager.py (built-ins registered here, third-party ones through
+the ``mycobot_planning.planners`` entry-point group); each is built once per pipeline and reused.
 """
 from __future__ import annotations
 
@@ -14,48 +16,60 @@ import numpy as np
 
 from interfaces_py.msgs import MoveItErrorCode
 
-from ..planners.joint_interpolation.joint_interpolation import plan_joint_interpolation
+from ..planners.joint_interpolation import JOINT_INTERPOLATION_PIPELINE_ID, JointInterpolationPlanner
 from ..kinematic_constraints.kinematic_constraints import dense_violation
-from ..planners.ompl import OmplPlanner
-from ..planners.pilz import KNOWN_PLANNER_IDS as PILZ_PLANNER_IDS
+from ..planners.ompl.planner_manager import OMPL_PIPELINE_ID, OmplPlanner
 from ..planners.pilz import PILZ_PIPELINE_ID, IndustrialMotionPlanner
-from .planning_interface import MotionPlanRequest, MotionPlanResponse, PlanningFailure, failure
+from .planner_manager import PlannerManager, PlannerSettings, planner_factories, register_planner
+from .planning_interface import MotionPlanRequest, MotionPlanResponse, failure
 from ..planning_scene.planning_scene import PlanningScene
 
-OMPL_PIPELINE_ID = "ompl"
-JOINT_INTERPOLATION_PIPELINE_ID = "joint_interpolation"
+__all__ = ["JOINT_INTERPOLATION_PIPELINE_ID", "OMPL_PIPELINE_ID", "PILZ_PIPELINE_ID", "PlanningPipeline"]
+
+register_planner(OMPL_PIPELINE_ID, lambda settings: OmplPlanner(settings.ompl_config))
+register_planner(PILZ_PIPELINE_ID, lambda settings: IndustrialMotionPlanner(settings.cartesian_limits))
+register_planner(JOINT_INTERPOLATION_PIPELINE_ID, lambda settings: JointInterpolationPlanner())
 
 
 class PlanningPipeline:
-    """Dispatches a MotionPlanRequest to the pipeline named by request.pipeline_id."""
+    """Dispatches a MotionPlanRequest to the planner registered under request.pipeline_id."""
 
     def __init__(
         self,
         ompl_config: str | Path | Mapping | None = None,
         cartesian_limits: str | Path | Mapping | None = None,
     ) -> None:
-        self.ompl = OmplPlanner(ompl_config)
-        self.industrial = IndustrialMotionPlanner(cartesian_limits)
+        self.settings = PlannerSettings(ompl_config, cartesian_limits)
+        self.managers: dict[str, PlannerManager] = {
+            pipeline_id: factory(self.settings) for pipeline_id, factory in planner_factories().items()}
+        for pipeline_id, manager in self.managers.items():
+            if manager.pipeline_id != pipeline_id:
+                raise ValueError(f"the planner registered as '{pipeline_id}' says its pipeline id is "
+                                 f"'{manager.pipeline_id}'")
 
     @property
     def pipeline_ids(self) -> list[str]:
-        return [OMPL_PIPELINE_ID, PILZ_PIPELINE_ID, JOINT_INTERPOLATION_PIPELINE_ID]
+        return list(self.managers)
+
+    def manager(self, pipeline_id: str) -> PlannerManager | None:
+        """The planner of ``pipeline_id`` ("" : OMPL, MoveIt's default pipeline), None when unknown."""
+        return self.managers.get(pipeline_id or OMPL_PIPELINE_ID)
+
+    @property
+    def ompl(self) -> OmplPlanner:
+        """The OMPL planner (its configuration: ``pipeline.ompl.config``)."""
+        return self.managers[OMPL_PIPELINE_ID]  # type: ignore[return-value]
 
     def planner_id_problem(self, planner_id: str, groups: Sequence[str] = ()) -> str | None:
-        """Why ``planner_id`` names no planner (None when some pipeline has it): an OMPL
-        configuration of one of ``groups`` (default: every configured group, or any configuration
-        for a group the YAML does not list), or one of the industrial planner's."""
-        if not planner_id or planner_id in PILZ_PLANNER_IDS:
-            return None
-        for group in list(groups) or list(self.ompl.config.groups) or ["arm"]:
-            try:
-                self.ompl._resolve(group, planner_id)
+        """Why ``planner_id`` names no planner of any pipeline (None when one has it) for one of
+        ``groups`` (default: any group)."""
+        problems = []
+        for manager in self.managers.values():
+            problem = manager.planner_id_problem(planner_id, groups)
+            if problem is None:
                 return None
-            except PlanningFailure:
-                continue
-        return (f"unknown planner id '{planner_id}': neither an OMPL planner configuration "
-                f"({', '.join(sorted(self.ompl.config.planner_configs)[:4])}, ...) nor one of the industrial "
-                f"planner's {list(PILZ_PLANNER_IDS)}")
+            problems.append(problem)
+        return f"unknown planner id '{planner_id}': " + "; ".join(problems)
 
     @staticmethod
     def _within_path_constraints(request: MotionPlanRequest, response: MotionPlanResponse) -> MotionPlanResponse:
@@ -84,14 +98,15 @@ class PlanningPipeline:
 
     def plan(self, scene: PlanningScene, request: MotionPlanRequest) -> MotionPlanResponse:
         """Plan with the requested pipeline; unknown pipelines get INVALID_MOTION_PLAN."""
-        pipeline = request.pipeline_id or OMPL_PIPELINE_ID
-        if pipeline == OMPL_PIPELINE_ID:
-            return self.ompl.plan(scene, request)
-        if pipeline == PILZ_PIPELINE_ID:
-            return self._within_path_constraints(request, self.industrial.plan(scene, request))
-        if pipeline == JOINT_INTERPOLATION_PIPELINE_ID:
-            return self._within_path_constraints(request, plan_joint_interpolation(scene, request))
-        return failure(
-            MoveItErrorCode.INVALID_MOTION_PLAN,
-            f"unknown planning pipeline '{pipeline}'; known: {', '.join(self.pipeline_ids)}",
-        ).to_response(time.perf_counter(), request)
+        manager = self.manager(request.pipeline_id)
+        if manager is None:
+            return failure(
+                MoveItErrorCode.INVALID_MOTION_PLAN,
+                f"unknown planning pipeline '{request.pipeline_id}'; known: {', '.join(self.pipeline_ids)}",
+            ).to_response(time.perf_counter(), request)
+        if not manager.can_service_request(request):  # MoveIt's canServiceRequest
+            problem = manager.planner_id_problem(request.planner_id, [request.group])
+            if problem is not None:  # otherwise the planner says in its own words what it cannot do
+                return failure(MoveItErrorCode.INVALID_MOTION_PLAN, problem).to_response(time.perf_counter(), request)
+        response = manager.plan(scene, request)
+        return response if manager.enforces_path_constraints else self._within_path_constraints(request, response)

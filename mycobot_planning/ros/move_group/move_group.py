@@ -4,9 +4,9 @@ move_group's default names, answered by the planning_server's core.
 The planning_server process hosts this node beside its own (``planning_server``, the JSON and
 std_srvs face). It is named ``move_group`` and carries ``robot_description`` and
 ``robot_description_semantic``, because MoveIt's clients (pymoveit2, MoveGroupInterface, RViz)
-read the robot from the node of that name. Every request is translated by
-interfaces_py.moveit_conversions into the core's request form and answered by the same
-MoveGroupCapabilities calls as the JSON face, so nothing is interpreted twice.
+read the robot from the node of that name. Every request is translated (moveit_translation.py)
+into the typed call of its capability module (mycobot_planning.capabilities), the calls the JSON
+face makes too, so nothing is interpreted twice.
 
 * actions: ``/move_action`` (MoveGroup: plan only, or plan and execute; feedback PLANNING,
   MONITOR, IDLE), ``/execute_trajectory`` (ExecuteTrajectory), ``/execute_task_solution``
@@ -21,7 +21,6 @@ MoveGroupCapabilities calls as the JSON face, so nothing is interpreted twice.
 from __future__ import annotations
 
 import threading
-import time
 import traceback
 from typing import Any, Callable
 
@@ -60,22 +59,39 @@ from interfaces_py import names
 from interfaces_py.moveit_conversions import (
     ConversionError,
     attached_object_from_msg,
-    cartesian_params_from_request,
     collision_object_from_msg,
-    error_code_to_msg,
-    plan_params_from_request,
     planning_scene_from_msg,
     planning_scene_to_msg,
-    pose_from_msg,
     pose_to_msg,
-    robot_state_from_msg,
-    robot_state_to_msg,
-    robot_trajectory_from_msg,
-    robot_trajectory_to_msg,
 )
-from interfaces_py.msgs import JointTrajectory
+from interfaces_py.msgs import JointTrajectory, MoveItErrorCode, Pose, RobotState as RobotStateMsg
 from interfaces_py.mtc_conversions import task_solution_from_msg
-from mycobot_planning.capabilities.move_group_capabilities import MoveGroupCapabilities, RequestError
+from mycobot_planning.capabilities import (
+    cartesian_path,
+    execute_trajectory,
+    kinematics,
+    move_action,
+    plan,
+    planner_query,
+    planning_scene,
+    state_validation,
+    stop,
+    task_solution,
+)
+from mycobot_planning.capabilities.json_face import RequestError
+from mycobot_planning.capabilities.move_group_context import MoveGroupContext
+from mycobot_planning.capabilities.plan import PlanResult
+from mycobot_planning.core.planning_interface.planning_interface import JointGoal, MotionPlanRequest
+from mycobot_planning.core.trajectory_execution import ExecutionError, parse_task_solution
+from mycobot_planning.ros.move_group.moveit_translation import (
+    cartesian_request_from_msg,
+    joint_trajectory_from_ros,
+    motion_plan_request_from_msg,
+    pose_from_ros,
+    robot_state_from_ros,
+    robot_state_to_ros,
+    robot_trajectory_to_ros,
+)
 
 LATCHED_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 INPUT_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
@@ -101,11 +117,9 @@ def flatten_parameters(tree: dict[str, Any], prefix: str) -> list[tuple[str, Any
     return out
 
 
-def _code(code: dict[str, Any] | None) -> MoveItErrorCodes:
-    msg = error_code_to_msg(code)
-    if msg.val not in _MOVEIT_CODES:
-        msg.val = MoveItErrorCodes.FAILURE
-    return msg
+def _typed_code(code: MoveItErrorCode) -> MoveItErrorCodes:
+    val = code.val if code.val in _MOVEIT_CODES else MoveItErrorCodes.FAILURE
+    return MoveItErrorCodes(val=val, message=code.message, source=code.source)
 
 
 def _failure(val: int, message: str, source: str = "move_group") -> MoveItErrorCodes:
@@ -116,7 +130,7 @@ def _failure(val: int, message: str, source: str = "move_group") -> MoveItErrorC
 class MoveGroupFace(Node):
     """The ``move_group`` node of the planning_server process (see module docstring)."""
 
-    def __init__(self, core: MoveGroupCapabilities, urdf: str, srdf: str, joint_limits: dict | None,
+    def __init__(self, core: MoveGroupContext, urdf: str, srdf: str, joint_limits: dict | None,
                  kinematics: dict | None, context: Any, log: Callable[[str, str], None]) -> None:
         super().__init__(names.MOVE_GROUP_NODE, context=context)
         self.core = core
@@ -210,84 +224,67 @@ class MoveGroupFace(Node):
         msg = DisplayTrajectory()
         msg.model_id = self.core.model.name
         start = dict(zip(trajectory.joint_names, trajectory.points[0].positions)) if trajectory.points else {}
-        current, _ = self.core.joint_positions()
-        state = dict(current or {})
+        state = dict(self.core.joint_positions()[0] or {})
         state.update(start)
-        msg.trajectory_start = robot_state_to_msg({"joint_names": list(state), "positions": list(state.values())})
-        msg.trajectory = [robot_trajectory_to_msg({"joint_trajectory": trajectory.to_dict()},
-                                                  self.core.model.root_link)]
+        msg.trajectory_start = robot_state_to_ros(state)
+        msg.trajectory = [robot_trajectory_to_ros(trajectory, self.core.model.root_link)]
         self._display_pub.publish(msg)
 
-    def _start_state_msg(self, trajectory: dict[str, Any] | None, given: dict[str, Any] | None) -> Any:
-        """The state a plan starts from: the current state, the request's start state on top,
-        the trajectory's first point on top of that."""
-        current, _ = self.core.joint_positions()
-        state = dict(current or {})
-        if given:
-            state.update(zip(given.get("joint_names", []), given.get("positions", [])))
-        if trajectory:
-            jt = trajectory["joint_trajectory"]
-            if jt["points"]:
-                state.update(zip(jt["joint_names"], jt["points"][0]["positions"]))
-        return robot_state_to_msg({"joint_names": list(state), "positions": list(state.values())},
-                                  self.get_clock().now().to_msg())
-
     # ------------------------------------------------------------------ planning
-    def _plan(self, request: Any) -> tuple[dict[str, Any], dict[str, Any], float]:
-        """Plan a MotionPlanRequest: each goal_constraints entry in turn until one succeeds
-        (MoveIt: "any of them"). Returns (core result, params, planning time)."""
-        started = time.perf_counter()
-        params, goals = plan_params_from_request(request)
-        self._complete_joint_goals(params, goals)
-        result: dict[str, Any] = {}
-        for goal in goals:
-            result = self.core.plan({**params, "goal": goal})
-            if result.get("error_code", {}).get("val") == MoveItErrorCodes.SUCCESS:
-                break
-        return result, params, time.perf_counter() - started
+    def _plan_request(self, msg: Any) -> tuple[list[tuple[MotionPlanRequest, str]], RobotStateMsg | None, Any]:
+        """A moveit_msgs/MotionPlanRequest as the plan capability's arguments, joint goals
+        completed (see _complete_joint_goals)."""
+        requests, start, path = motion_plan_request_from_msg(msg)
+        self._complete_joint_goals([r for r, _ in requests], start)
+        return requests, start, path
 
-    def _complete_joint_goals(self, params: dict[str, Any], goals: list[dict[str, Any]]) -> None:
+    def _complete_joint_goals(self, requests: list[MotionPlanRequest], start: RobotStateMsg | None) -> None:
         """Joints of the group that a goal's joint constraints leave out keep their start-state
         values (MoveIt would sample them anywhere in their bounds)."""
-        group = params.get("group") or ""
-        if not self.core.model.has_group(group):
-            return  # the core answers INVALID_GROUP_NAME
-        start = dict(self.core.joint_positions()[0] or {})
-        given = params.get("start_state") or {}
-        start.update(zip(given.get("joint_names", []), given.get("positions", [])))
-        for goal in goals:
-            joints = goal.get("joints")
-            if isinstance(joints, dict):
-                for name in self.core.model.group(group).joint_names:
-                    if name not in joints and name in start:
-                        joints[name] = float(start[name])
+        joint_requests = [r for r in requests if isinstance(r.goal, JointGoal) and isinstance(r.goal.values, dict)]
+        if not joint_requests or not self.core.model.has_group(joint_requests[0].group):
+            return  # the capability answers INVALID_GROUP_NAME
+        values = dict(self.core.joint_positions()[0] or {})
+        if start is not None:
+            values.update(start.joint_positions())
+        for request in joint_requests:
+            for name in self.core.model.group(request.group).joint_names:
+                if name not in request.goal.values and name in values:
+                    request.goal.values[name] = float(values[name])
+
+    def _trajectory_start(self, result: PlanResult) -> Any:
+        """The state a plan starts from, as the response's trajectory_start."""
+        state = result.start_state
+        values = state.to_joint_dict(include_mimic=False) if state is not None else dict(
+            self.core.joint_positions()[0] or {})
+        return robot_state_to_ros(values, self.get_clock().now().to_msg())
 
     def _srv_plan(self, request: GetMotionPlan.Request, response: GetMotionPlan.Response) -> GetMotionPlan.Response:
         try:
-            result, params, elapsed = self._plan(request.motion_plan_request)
+            result = plan.plan_any(self.core, *self._plan_request(request.motion_plan_request))
         except ConversionError as exc:
             response.motion_plan_response.error_code = _failure(exc.code, exc.message, "plan_kinematic_path")
             response.motion_plan_response.group_name = request.motion_plan_request.group_name
             self._log("warning", f"plan_kinematic_path: refused: {exc.message}")
             return response
         out = response.motion_plan_response
-        out.group_name = result.get("group") or request.motion_plan_request.group_name
-        out.error_code = _code(result.get("error_code"))
-        out.planning_time = float(result.get("planning_time", elapsed))
-        if result.get("trajectory"):
-            out.trajectory = robot_trajectory_to_msg(result["trajectory"], self.core.model.root_link)
-            out.trajectory_start = self._start_state_msg(result["trajectory"], params.get("start_state"))
+        out.group_name = result.group or request.motion_plan_request.group_name
+        out.error_code = _typed_code(result.error_code)
+        out.planning_time = float(result.planning_time)
+        if result.trajectory is not None:
+            out.trajectory = robot_trajectory_to_ros(result.trajectory, self.core.model.root_link)
+            out.trajectory_start = self._trajectory_start(result)
         return response
 
     def _srv_cartesian(self, request: GetCartesianPath.Request,
                        response: GetCartesianPath.Response) -> GetCartesianPath.Response:
-        params = cartesian_params_from_request(request)
-        result = self.core.compute_cartesian_path(params)
-        response.error_code = _code(result.get("error_code"))
-        response.fraction = float(result.get("fraction", 0.0))
-        if result.get("trajectory"):
-            response.solution = robot_trajectory_to_msg(result["trajectory"], self.core.model.root_link)
-            response.start_state = self._start_state_msg(result["trajectory"], params.get("start_state"))
+        result = cartesian_path.compute_cartesian_path(self.core, cartesian_request_from_msg(request))
+        response.error_code = _typed_code(result.error_code)
+        response.fraction = float(result.fraction)
+        if result.trajectory is not None:
+            response.solution = robot_trajectory_to_ros(result.trajectory, self.core.model.root_link)
+            response.start_state = robot_state_to_ros(result.start_state.to_joint_dict(include_mimic=False),
+                                                      self.get_clock().now().to_msg())
         return response
 
     # ------------------------------------------------------------------ kinematics and validity
@@ -297,59 +294,50 @@ class MoveGroupFace(Node):
             raise ConversionError(MoveItErrorCodes.FAILURE,
                                   "pose_stamped_vector (several IK links at once) is not supported; use pose_stamped")
         timeout = ik.timeout.sec + ik.timeout.nanosec * 1e-9
-        params: dict[str, Any] = {
-            "group": ik.group_name, "pose": pose_from_msg(ik.pose_stamped.pose),
-            "frame": ik.pose_stamped.header.frame_id or "world", "link": ik.ik_link_name or None,
-            "avoid_collisions": bool(ik.avoid_collisions), "timeout": timeout if timeout > 0 else None,
-        }
-        seed = robot_state_from_msg(ik.robot_state)
-        if seed is not None:
-            params["robot_state"] = seed
-        result = self.core.compute_ik(params)
-        response.error_code = _code(result.get("error_code"))
-        if result.get("solution"):
-            response.solution = robot_state_to_msg(result["solution"], self.get_clock().now().to_msg())
+        code, state = kinematics.compute_ik(self.core, ik.group_name, pose_from_ros(ik.pose_stamped.pose, "IK pose"),
+                                            ik.pose_stamped.header.frame_id or "world", ik.ik_link_name,
+                                            robot_state_from_ros(ik.robot_state), bool(ik.avoid_collisions),
+                                            max(timeout, 0.0))
+        response.error_code = _typed_code(code)
+        if state is not None:
+            response.solution = robot_state_to_ros(state.to_joint_dict(include_mimic=False),
+                                                   self.get_clock().now().to_msg())
         return response
 
     def _srv_fk(self, request: GetPositionFK.Request, response: GetPositionFK.Response) -> GetPositionFK.Response:
-        params: dict[str, Any] = {"links": list(request.fk_link_names), "frame": request.header.frame_id or "world"}
-        state = robot_state_from_msg(request.robot_state)
-        if state is not None:
-            params["robot_state"] = state
-        result = self.core.compute_fk(params)
-        response.error_code = _code(result.get("error_code"))
+        frame = request.header.frame_id or "world"
+        code, poses = kinematics.compute_fk(self.core, list(request.fk_link_names), frame,
+                                            robot_state_from_ros(request.robot_state))
+        response.error_code = _typed_code(code)
         stamp = self.get_clock().now().to_msg()
-        for link, pose in result.get("poses", {}).items():
+        for link, pose in poses.items():
             stamped = PoseStamped()
-            stamped.header.frame_id = result.get("frame", "world")
+            stamped.header.frame_id = frame
             stamped.header.stamp = stamp
-            stamped.pose = pose_to_msg(pose)
+            stamped.pose = pose_to_msg(Pose.from_matrix(pose).to_dict())
             response.pose_stamped.append(stamped)
             response.fk_link_names.append(link)
         return response
 
     def _srv_validity(self, request: GetStateValidity.Request,
                       response: GetStateValidity.Response) -> GetStateValidity.Response:
-        params: dict[str, Any] = {"group": request.group_name or None}
-        state = robot_state_from_msg(request.robot_state)
-        if state is not None:
-            params["robot_state"] = state
-        result = self.core.check_state_validity(params)
-        if result["error_code"]["val"] != MoveItErrorCodes.SUCCESS:
-            raise ConversionError(result["error_code"]["val"], result["error_code"]["message"])
-        response.valid = bool(result["valid"])
-        for contact in result["contacts"]:
+        code, answer = state_validation.check_state_validity(self.core, robot_state_from_ros(request.robot_state),
+                                                             request.group_name)
+        if code.val != MoveItErrorCodes.SUCCESS:
+            raise ConversionError(code.val, code.message)
+        response.valid = bool(answer.valid)
+        for body_a, body_b, depth in answer.contacts:
             info = ContactInformation()
             info.header.frame_id = "world"
-            info.contact_body_1, info.contact_body_2 = contact["body_a"], contact["body_b"]
-            info.depth = float(contact["depth"])
+            info.contact_body_1, info.contact_body_2 = body_a, body_b
+            info.depth = float(depth)
             response.contacts.append(info)
         return response
 
     # ------------------------------------------------------------------ scene
     def _srv_get_scene(self, request: GetPlanningScene.Request,
                        response: GetPlanningScene.Response) -> GetPlanningScene.Response:
-        msg, _ = self.core.scene_snapshot()
+        msg = planning_scene.get_planning_scene(self.core)
         response.scene = planning_scene_to_msg(msg.to_dict(), int(request.components.components),
                                                self.get_clock().now().to_msg())
         return response
@@ -357,7 +345,7 @@ class MoveGroupFace(Node):
     def _srv_apply_scene(self, request: ApplyPlanningScene.Request,
                          response: ApplyPlanningScene.Response) -> ApplyPlanningScene.Response:
         try:
-            self.core.apply_planning_scene(planning_scene_from_msg(request.scene))
+            planning_scene.apply_planning_scene(self.core, planning_scene_from_msg(request.scene))
         except (ConversionError, RequestError) as exc:
             self._log("warning", f"apply_planning_scene: refused: {exc.message}")
             response.success = False
@@ -400,21 +388,22 @@ class MoveGroupFace(Node):
     def _on_execution_event(self, msg: String) -> None:
         if msg.data == "stop":
             self._log("info", f"{names.TRAJECTORY_EXECUTION_EVENT}: stop")
-            self.core.stop()
+            stop.stop(self.core)
         else:
             self._log("warning", f"{names.TRAJECTORY_EXECUTION_EVENT}: unknown event {msg.data!r} (known: 'stop')")
 
     # ------------------------------------------------------------------ planner interfaces
     def _srv_query_planners(self, request: QueryPlannerInterfaces.Request,
                             response: QueryPlannerInterfaces.Response) -> QueryPlannerInterfaces.Response:
-        for entry in self.core.planner_interfaces():
+        for entry in planner_query.query_planner_interfaces(self.core):
             response.planner_interfaces.append(PlannerInterfaceDescription(
-                name=entry["name"], pipeline_id=entry["pipeline_id"], planner_ids=entry["planner_ids"]))
+                name=entry.name, pipeline_id=entry.pipeline_id, planner_ids=entry.planner_ids))
         return response
 
     def _srv_get_planner_params(self, request: GetPlannerParams.Request,
                                 response: GetPlannerParams.Response) -> GetPlannerParams.Response:
-        params = self.core.get_planner_params(request.pipeline_id, request.planner_config, request.group)
+        params = planner_query.get_planner_params(self.core, request.pipeline_id, request.planner_config,
+                                                  request.group)
         response.params = PlannerParams(keys=list(params), values=list(params.values()),
                                         descriptions=[""] * len(params))
         return response
@@ -422,21 +411,23 @@ class MoveGroupFace(Node):
     def _srv_set_planner_params(self, request: SetPlannerParams.Request,
                                 response: SetPlannerParams.Response) -> SetPlannerParams.Response:
         p = request.params
-        problem = self.core.set_planner_params(request.pipeline_id, request.planner_config,
-                                               dict(zip(p.keys, p.values)), bool(request.replace))
+        problem = planner_query.set_planner_params(self.core, request.pipeline_id, request.planner_config,
+                                                   dict(zip(p.keys, p.values)), bool(request.replace))
         if problem:
             self._log("warning", f"set_planner_params: refused: {problem}")
         return response
 
     # ------------------------------------------------------------------ actions
-    def _execute_with_cancel(self, goal_handle: Any, run: Callable[[], dict[str, Any]]) -> dict[str, Any]:
-        """Run an execution, stopping it when the goal's client cancels."""
+    def _execute_with_cancel(self, goal_handle: Any, run: Callable[[], Any],
+                             armed: threading.Event | None = None) -> Any:
+        """Run an execution, stopping it when the goal's client cancels (once ``armed`` is set,
+        when given: a plan that is still running is not stopped, it ends and does not execute)."""
         done = threading.Event()
 
         def watch() -> None:
             while not done.wait(CANCEL_POLL):
-                if goal_handle.is_cancel_requested:
-                    self.core.stop()
+                if goal_handle.is_cancel_requested and (armed is None or armed.is_set()):
+                    stop.stop(self.core)
                     return
 
         watcher = threading.Thread(target=watch, name="cancel watcher", daemon=True)
@@ -465,39 +456,55 @@ class MoveGroupFace(Node):
             if (len(diff.world.collision_objects) or len(diff.robot_state.joint_state.name)
                     or len(diff.robot_state.attached_collision_objects)):
                 try:
-                    self.core.apply_planning_scene(planning_scene_from_msg(diff))
+                    planning_scene.apply_planning_scene(self.core, planning_scene_from_msg(diff))
                 except RequestError as exc:
                     raise ConversionError(MoveItErrorCodes.FAILURE,
                                           f"planning_scene_diff refused: {exc.message}") from None
-            feedback.state = "PLANNING"
-            goal_handle.publish_feedback(feedback)
-            planned, params, elapsed = self._plan(goal.request)
+            requests, start, path = self._plan_request(goal.request)
         except ConversionError as exc:
             self._log("warning", f"move_action: refused: {exc.message}")
             result.error_code = _failure(exc.code, exc.message, "move_action")
             goal_handle.abort()
             return result
-        result.planning_time = float(planned.get("planning_time", elapsed))
-        code = _code(planned.get("error_code"))
-        if code.val != MoveItErrorCodes.SUCCESS or not planned.get("trajectory"):
+        feedback.state = "PLANNING"
+        goal_handle.publish_feedback(feedback)
+
+        def planned_ok(planned: PlanResult) -> bool:
+            """Between planning and execution: the plan goes into the result; a cancelled goal
+            does not move; the feedback says MONITOR."""
+            result.planned_trajectory = robot_trajectory_to_ros(planned.trajectory, self.core.model.root_link)
+            result.trajectory_start = self._trajectory_start(planned)
+            if goal_handle.is_cancel_requested:
+                return False
+            feedback.state = "MONITOR"
+            goal_handle.publish_feedback(feedback)
+            executing.set()
+            return True
+
+        executing = threading.Event()
+        planned, executed = self._execute_with_cancel(goal_handle, lambda: move_action.plan_and_execute(
+            self.core, requests, start, path, plan_only=options.plan_only, before_execution=planned_ok), executing)
+        if planned is None:  # refused: another execution runs
+            result.error_code = _typed_code(executed.error_code)
+            goal_handle.abort()
+            return result
+        result.planning_time = float(planned.planning_time)
+        code = _typed_code(planned.error_code)
+        if code.val != MoveItErrorCodes.SUCCESS or planned.trajectory is None:
             result.error_code = code
             self._finish(goal_handle, code)
             return result
-        result.planned_trajectory = robot_trajectory_to_msg(planned["trajectory"], self.core.model.root_link)
-        result.trajectory_start = self._start_state_msg(planned["trajectory"], params.get("start_state"))
-        if goal_handle.is_cancel_requested:
-            result.error_code = _failure(MoveItErrorCodes.PREEMPTED, "canceled after planning")
-            goal_handle.canceled()
-            return result
         if options.plan_only:
+            result.planned_trajectory = robot_trajectory_to_ros(planned.trajectory, self.core.model.root_link)
+            result.trajectory_start = self._trajectory_start(planned)
             result.error_code = code
             goal_handle.succeed()
             return result
-        feedback.state = "MONITOR"
-        goal_handle.publish_feedback(feedback)
-        executed = self._execute_with_cancel(goal_handle, lambda: self.core.execute(
-            {"trajectory": planned["trajectory"]}))
-        result.error_code = _code(executed.get("error_code"))
+        if executed is None:  # cancelled after planning
+            result.error_code = _failure(MoveItErrorCodes.PREEMPTED, "canceled after planning")
+            goal_handle.canceled()
+            return result
+        result.error_code = _typed_code(executed.error_code)
         if result.error_code.val == MoveItErrorCodes.SUCCESS:
             result.executed_trajectory = result.planned_trajectory
         feedback.state = "IDLE"
@@ -510,15 +517,15 @@ class MoveGroupFace(Node):
         MTC's execute_task_solution capability does; cancel stops it (PREEMPTED)."""
         result = ExecuteTaskSolution.Result()
         try:
-            solution = task_solution_from_msg(goal_handle.request.solution)
-        except ConversionError as exc:
+            steps = parse_task_solution(task_solution_from_msg(goal_handle.request.solution))
+        except (ConversionError, ExecutionError) as exc:
             self._log("warning", f"execute_task_solution: refused: {exc.message}")
             result.error_code = _failure(exc.code, exc.message, "execute_task_solution")
             goal_handle.abort()
             return result
         executed = self._execute_with_cancel(goal_handle,
-                                             lambda: self.core.execute_task_solution({"solution": solution}))
-        result.error_code = _code(executed.get("error_code"))
+                                             lambda: task_solution.execute_task_solution(self.core, steps))
+        result.error_code = _typed_code(executed.error_code)
         self._finish(goal_handle, result.error_code)
         return result
 
@@ -526,18 +533,17 @@ class MoveGroupFace(Node):
         goal = goal_handle.request
         result = ExecuteTrajectory.Result()
         try:
-            trajectory = robot_trajectory_from_msg(goal.trajectory)
+            trajectory, _ = joint_trajectory_from_ros(goal.trajectory)
         except ConversionError as exc:
             self._log("warning", f"execute_trajectory: refused: {exc.message}")
             result.error_code = _failure(exc.code, exc.message, "execute_trajectory")
             goal_handle.abort()
             return result
-        params: dict[str, Any] = {"trajectory": trajectory}
-        if len(goal.controller_names):
-            params["controllers"] = list(goal.controller_names)
+        controllers = list(goal.controller_names) or None
         feedback = ExecuteTrajectory.Feedback(state="MONITOR")
         goal_handle.publish_feedback(feedback)
-        executed = self._execute_with_cancel(goal_handle, lambda: self.core.execute(params))
-        result.error_code = _code(executed.get("error_code"))
+        executed = self._execute_with_cancel(goal_handle, lambda: execute_trajectory.execute_trajectory(
+            self.core, trajectory, controllers))
+        result.error_code = _typed_code(executed.error_code)
         self._finish(goal_handle, result.error_code)
         return result

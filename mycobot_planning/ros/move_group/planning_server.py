@@ -1,4 +1,4 @@
-"""planning_server: the move_group stand-in (thin rclpy shell around MoveGroupCapabilities).
+"""planning_server: the move_group stand-in (thin rclpy shell around move_group's capabilities).
 
 The full story: docs/nodes.md, section mycobot_planning.ros.move_group.planning_server.
 """
@@ -26,8 +26,8 @@ from interfaces_py.background_spin import BackgroundSpin
 from interfaces_py.json_rpc import BAD_REQUEST, JsonRpcServer, RpcError, decode_request, log_safe
 from interfaces_py.msgs import CollisionObject, JointTrajectory, MoveItErrorCode
 from interfaces_py.ros_conversions import collision_object_to_markers, joint_trajectory_to_msg
-from mycobot_planning.capabilities.move_group_capabilities import (
-    MoveGroupCapabilities,
+from mycobot_planning.capabilities.json_face import (
+    MoveGroupJsonFace,
     PlanningDefaults,
     RequestError,
     goal_from_parameters,
@@ -136,7 +136,7 @@ class PlanningServer(Node):
         self._monitor_executor = SingleThreadedExecutor(context=self.context)
         self._monitor_executor.add_node(self._monitor)
         self._bus = ActionControllerBus(self, self._monitor, controllers, self._on_feedback)
-        self.core = MoveGroupCapabilities(model, pipeline, controllers, self._bus, self._execution_settings(),
+        self.core = MoveGroupJsonFace(model, pipeline, controllers, self._bus, self._execution_settings(),
                                        self._planning_defaults(), log=self._log)
         self._goal_last_set: str | None = None
         self._params.on_change(self._on_params)
@@ -315,8 +315,8 @@ class PlanningServer(Node):
             ParameterSpec(ex + "goal_tolerance", 0.02,
                           "largest distance (rad or m) between the last point and /joint_states for an execution "
                           "to succeed; 0 trusts the controllers", range=(0.0, 10.0)),
-            ParameterSpec("planning_pipeline", "ompl", "default planning pipeline: ompl, "
-                          "pilz_industrial_motion_planner or joint_interpolation", validator=pipeline_check),
+            ParameterSpec("planning_pipeline", "ompl", "default planning pipeline, one of the registered planners: "
+                          + ", ".join(pipeline.pipeline_ids), validator=pipeline_check),
             ParameterSpec("planner_id", "", "default planner id (empty: the pipeline's default), e.g. "
                           "'RRTConnectkConfigDefault' or, for the industrial pipeline, PTP, LIN or CIRC",
                           validator=planner_check),
@@ -572,13 +572,13 @@ class PlanningServer(Node):
 
     def _rpc_get_planning_scene(self, params: Mapping[str, Any]) -> Any:
         self._check_keys(params, set(), "get_planning_scene")
-        return self.core.scene_msg().to_dict()
+        return self.core.get_planning_scene()
 
     def _rpc_apply_planning_scene(self, params: Mapping[str, Any]) -> Any:
         self._check_keys(params, {"scene"}, "apply_planning_scene")
         if "scene" not in params:
             raise RpcError(BAD_REQUEST, "apply_planning_scene needs a 'scene' (PlanningScene)")
-        return self._scene_rpc(lambda: self.core.apply_planning_scene(params["scene"]))
+        return self._scene_rpc(lambda: self.core.apply_planning_scene_json(params["scene"]))
 
     def _rpc_apply_collision_object(self, params: Mapping[str, Any]) -> Any:
         self._check_keys(params, {"object", "objects"}, "apply_collision_object")

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 import time
+from typing import Mapping, Sequence
 
 import numpy as np
 
@@ -33,6 +34,8 @@ from ...robot_state.robot_state import RobotState, as_vector
 
 __all__ = [
     "DEFAULT_MAX_STEP",
+    "JOINT_INTERPOLATION_PIPELINE_ID",
+    "JointInterpolationPlanner",
     "PLANNER_ID",
     "interpolate_joint_path",
     "plan_joint_interpolation",
@@ -42,6 +45,8 @@ DEFAULT_MAX_STEP = 0.01
 """Largest joint motion (rad or m) between two checked states of the line (see docs/core.md (mycobot_planning.core.planners.joint_interpolation))."""
 
 PLANNER_ID = "JointInterpolation"
+#: the request's pipeline_id of this planner (MTC's JointInterpolationPlanner as a pipeline)
+JOINT_INTERPOLATION_PIPELINE_ID = "joint_interpolation"
 
 # Share of allowed_planning_time that IK may use for a pose goal (the line itself takes ms).
 _IK_TIME_SHARE = 0.5
@@ -185,3 +190,47 @@ def _pose_goal_state(scene, jmg, start: RobotState, request: MotionPlanRequest) 
     rng = np.random.default_rng(request.seed)
     budget = max(float(request.allowed_planning_time) * _IK_TIME_SHARE, 1e-3)
     return goal_states(scene, jmg, start, request.goal, max(1, int(request.num_ik_goals)), budget, rng)[0]
+
+
+class JointInterpolationPlanner:
+    """The ``joint_interpolation`` pipeline as a PlannerManager (core.planning_interface.planner_manager)."""
+
+    pipeline_id = JOINT_INTERPOLATION_PIPELINE_ID
+    description = "Joint interpolation (MTC's JointInterpolationPlanner)"
+    #: a line does not search: the pipeline checks it against path constraints
+    enforces_path_constraints = False
+
+    def __init__(self, max_step: float = DEFAULT_MAX_STEP) -> None:
+        self.max_step = max_step
+
+    def planner_ids(self, group: str = "") -> list[str]:
+        return [JOINT_INTERPOLATION_PIPELINE_ID]
+
+    def planner_id_problem(self, planner_id: str, groups: Sequence[str] = ()) -> str | None:
+        """The line has one planner (a request's planner id does not change it, as in MTC)."""
+        if planner_id in ("", JOINT_INTERPOLATION_PIPELINE_ID, PLANNER_ID):
+            return None
+        return f"'{planner_id}' is not the joint interpolation planner ('{PLANNER_ID}')"
+
+    def can_service_request(self, request: MotionPlanRequest) -> bool:
+        return isinstance(request.goal, (JointGoal, NamedGoal, PoseGoal))
+
+    def plan(self, scene: PlanningScene, request: MotionPlanRequest) -> MotionPlanResponse:
+        return plan_joint_interpolation(scene, request, self.max_step)
+
+    def planner_params(self, planner_id: str, group: str = "") -> dict[str, str]:
+        return {"max_step": str(self.max_step)}
+
+    def set_planner_params(self, planner_id: str, params: Mapping[str, str], replace: bool = False) -> str | None:
+        unknown = sorted(set(params) - {"max_step"})
+        if unknown:
+            return f"unknown joint interpolation parameters {unknown}; known: ['max_step']"
+        if "max_step" in params:
+            try:
+                value = float(params["max_step"])
+            except ValueError:
+                return f"max_step must be a number, got {params['max_step']!r}"
+            if not math.isfinite(value) or value <= 0:
+                return f"max_step must be > 0, got {value:g}"
+            self.max_step = value
+        return None

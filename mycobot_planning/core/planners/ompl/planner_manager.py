@@ -10,12 +10,14 @@ when it is valid it is the plan, the shortest there is, checked in full as every
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
 import numpy as np
+import yaml
 
 from interfaces_py.msgs import MoveItErrorCode
 
@@ -29,6 +31,8 @@ from ...planning_interface.planning_interface import (
     MotionPlanRequest,
     MotionPlanResponse,
     PlanningFailure,
+    JointGoal,
+    NamedGoal,
     PoseGoal,
     check_group,
     check_path_constraints_at_ends,
@@ -69,15 +73,79 @@ IK_TIME_SHARE = 0.25
 MAX_REPLANS = 3
 
 
+#: the request's pipeline_id of OMPL (MoveIt's)
+OMPL_PIPELINE_ID = "ompl"
+
+
 class OmplPlanner:
-    """Plans with OMPL under a MoveIt-format ompl_planning.yaml (config/ompl_planning.yaml by default)."""
+    """Plans with OMPL under a MoveIt-format ompl_planning.yaml (config/ompl_planning.yaml by
+    default); MoveIt's OMPL PlannerManager (core.planning_interface.planner_manager)."""
+
+    pipeline_id = OMPL_PIPELINE_ID
+    description = "OMPL"
+    enforces_path_constraints = True
 
     def __init__(self, config: OmplConfig | str | Path | Mapping | None = None) -> None:
         if config is None:
             config = config_file("ompl_planning.yaml")
         self.config: OmplConfig = config if isinstance(config, OmplConfig) else load_ompl_config(config)
 
-    def _resolve(self, group: str, planner_id: str) -> ResolvedPlanner:
+    # ------------------------------------------------------------------ PlannerManager
+    def planner_ids(self, group: str = "") -> list[str]:
+        """The group's planner configurations (every configuration for a group the YAML does not
+        list, or for "")."""
+        if group and group in self.config.groups:
+            return list(self.config.groups[group].planner_configs)
+        return sorted(self.config.planner_configs)
+
+    def planner_id_problem(self, planner_id: str, groups: Sequence[str] = ()) -> str | None:
+        if not planner_id:
+            return None
+        problems = []
+        for group in list(groups) or list(self.config.groups) or ["arm"]:
+            try:
+                self.resolve(group, planner_id)
+                return None
+            except PlanningFailure as exc:
+                problems.append(exc.message)
+        if len(groups) == 1:
+            return problems[0]
+        known = sorted(self.config.planner_configs)
+        return (f"'{planner_id}' is no OMPL planner configuration ({', '.join(known[:4])}"
+                f"{', ...' if len(known) > 4 else ''})")
+
+    def can_service_request(self, request: MotionPlanRequest) -> bool:
+        if not isinstance(request.goal, (JointGoal, NamedGoal, PoseGoal)):
+            return False
+        return self.planner_id_problem(request.planner_id, [request.group]) is None
+
+    def planner_params(self, planner_id: str, group: str = "") -> dict[str, str]:
+        config = self.config.planner_configs.get(planner_id)
+        if config is None:
+            return {}
+        params = {k: str(v) for k, v in config.params.items()}
+        params["type"] = config.type
+        return params
+
+    def set_planner_params(self, planner_id: str, params: Mapping[str, str], replace: bool = False) -> str | None:
+        current = self.config
+        config = current.planner_configs.get(planner_id)
+        if config is None:
+            return (f"unknown planner configuration {planner_id!r}; known: "
+                    f"{', '.join(sorted(current.planner_configs))}")
+        values: dict[str, Any] = {} if replace else dict(config.params)
+        for key, text in params.items():
+            if key == "type":
+                continue
+            try:
+                values[key] = yaml.safe_load(text) if isinstance(text, str) else text
+            except yaml.YAMLError:
+                values[key] = text
+        self.config = dataclasses.replace(current, planner_configs={
+            **current.planner_configs, planner_id: dataclasses.replace(config, params=values)})
+        return None
+
+    def resolve(self, group: str, planner_id: str) -> ResolvedPlanner:
         """The planner for a group; groups the YAML does not list (any URDF + SRDF robot) get every
         configured planner with RRTConnect as the default, as MoveIt's setup assistant would write."""
         config = self.config
@@ -121,7 +189,7 @@ class OmplPlanner:
         check_request_numbers(request)
         jmg = check_group(model, request.group)
         velocity_scaling, acceleration_scaling = check_scaling(model, request)
-        resolved = self._resolve(jmg.name, request.planner_id)
+        resolved = self.resolve(jmg.name, request.planner_id)
         start = start_state_of(scene, request)
         rng = np.random.default_rng(request.seed)
         budget = float(request.allowed_planning_time)

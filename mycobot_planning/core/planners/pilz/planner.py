@@ -4,7 +4,7 @@ from __future__ import annotations
 import math
 import time
 from pathlib import Path
-from typing import Mapping
+from typing import Mapping, Sequence
 
 from interfaces_py.msgs import MoveItErrorCode
 
@@ -49,6 +49,31 @@ class IndustrialMotionPlanner:
     def plan(self, scene: PlanningScene, request: MotionPlanRequest) -> MotionPlanResponse:
         return plan_industrial(scene, request, self.cartesian_limits, self.sample_time,
                                collision_check_resolution=self.collision_check_resolution)
+
+    # ------------------------------------------------------------------ PlannerManager
+    pipeline_id = PILZ_PIPELINE_ID
+    description = "Pilz Industrial Motion Planner"
+    #: PTP, LIN and CIRC do not search: the pipeline checks their path against path constraints
+    enforces_path_constraints = False
+
+    def planner_ids(self, group: str = "") -> list[str]:
+        return list(KNOWN_PLANNER_IDS)
+
+    def planner_id_problem(self, planner_id: str, groups: Sequence[str] = ()) -> str | None:
+        if not planner_id or planner_id in KNOWN_PLANNER_IDS:
+            return None
+        return f"'{planner_id}' is none of the industrial planner's {list(KNOWN_PLANNER_IDS)}"
+
+    def can_service_request(self, request: MotionPlanRequest) -> bool:
+        return request.planner_id in KNOWN_PLANNER_IDS
+
+    def planner_params(self, planner_id: str, group: str = "") -> dict[str, str]:
+        """None: the industrial planner ids share the Cartesian limits of pilz_cartesian_limits_file."""
+        return {}
+
+    def set_planner_params(self, planner_id: str, params: Mapping[str, str], replace: bool = False) -> str | None:
+        return (f"pipeline '{PILZ_PIPELINE_ID}' has no settable planner parameters (its Cartesian limits come from "
+                "pilz_cartesian_limits_file)")
 
 
 def plan_industrial(

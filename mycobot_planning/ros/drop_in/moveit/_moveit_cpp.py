@@ -33,8 +33,7 @@ from interfaces_py.background_spin import BackgroundSpin
 from interfaces_py.moveit_conversions import attached_object_from_msg, planning_scene_from_msg
 from interfaces_py.msgs import MoveItErrorCode
 from interfaces_py.ros_message_reading import ConversionError, collision_object_from_msg
-from mycobot_planning.core.planners.pilz.common import PILZ_PIPELINE_ID
-from mycobot_planning.core.planning_interface.planning_pipeline import JOINT_INTERPOLATION_PIPELINE_ID, OMPL_PIPELINE_ID, PlanningPipeline
+from mycobot_planning.core.planning_interface.planning_pipeline import PlanningPipeline
 from mycobot_planning.core.planning_scene.planning_scene_monitor import PlanningSceneMonitor as CoreSceneMonitor
 from mycobot_planning.core.planning_scene.planning_scene_monitor import RequestError
 from mycobot_planning.core.robot_model.robot_model import RobotModel as CoreRobotModel
@@ -54,8 +53,6 @@ __all__ = ["LockedPlanningSceneContextManagerRO", "LockedPlanningSceneContextMan
            "PlanningSceneMonitor"]
 
 _LOGGER = rclpy.logging.get_logger("moveit_py")
-#: the pipelines the core plans with (MoveIt's pipeline names)
-KNOWN_PIPELINES = (OMPL_PIPELINE_ID, PILZ_PIPELINE_ID, JOINT_INTERPOLATION_PIPELINE_ID)
 
 
 class LockedPlanningSceneContextManagerRO:
@@ -289,17 +286,18 @@ class MoveItPy:
         """planning_pipelines.pipeline_names: the ones the core has (the others are logged and
         answer "No planning pipeline available"). Without the parameter, all of the core's."""
         requested = self._parameter("planning_pipelines.pipeline_names", None)
-        if not requested:
-            requested = list(KNOWN_PIPELINES)
-            _LOGGER.info(f"planning_pipelines.pipeline_names is not set: loading {requested}")
         shared = PlanningPipeline()
+        known = shared.pipeline_ids  # every registered planner (core.planning_interface.planner_manager)
+        if not requested:
+            requested = list(known)
+            _LOGGER.info(f"planning_pipelines.pipeline_names is not set: loading {requested}")
         loaded = {}
         for name in requested:
-            if name in KNOWN_PIPELINES:
+            if name in known:
                 loaded[str(name)] = shared
             else:
                 _LOGGER.error(f"Failed to load planning pipeline '{name}': not one of the pipelines here "
-                              f"({', '.join(KNOWN_PIPELINES)})")
+                              f"({', '.join(known)})")
         if not loaded:
             raise RuntimeError("Failed to load planning pipelines from parameter server")
         return loaded

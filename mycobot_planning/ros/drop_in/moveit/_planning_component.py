@@ -13,19 +13,17 @@ from __future__ import annotations
 import time
 from typing import TYPE_CHECKING, Any, Callable, Sequence
 
-import numpy as np
 import rclpy.logging
 
-from interfaces_py.moveit_conversions import goal_from_constraints
 from interfaces_py.msgs import MoveItErrorCode
-from interfaces_py.pose_conversion import PoseError, pose_matrix
 from interfaces_py.ros_message_reading import ConversionError
 from mycobot_planning.core.errors import PlanningError
 from mycobot_planning.core.kinematic_constraints.kinematic_constraints import ConstraintError
-from mycobot_planning.core.planning_interface.planning_interface import JointGoal, MotionPlanRequest, PoseGoal
+from mycobot_planning.core.planning_interface.planning_interface import MotionPlanRequest, PoseGoal
 from mycobot_planning.core.planning_scene.planning_scene import PlanningScene as CorePlanningScene
 from mycobot_planning.core.robot_state.robot_state import RobotState as CoreRobotState
 from mycobot_planning.core.robot_trajectory.robot_trajectory import limit_waypoint_distance
+from mycobot_planning.ros.move_group.moveit_translation import goal_from_constraints
 from mycobot_planning.task.path_constraints import as_path_constraints
 
 from .core.kinematic_constraints import joint_goal_constraints, pose_goal_constraints
@@ -301,23 +299,17 @@ class PlanningComponent:
     def _goal(self, constraints: Any, scene: CorePlanningScene) -> Any:
         """A moveit_msgs/Constraints as the core's goal (a pose goal posed in the world frame)."""
         try:
-            data = goal_from_constraints(constraints)
+            goal, frame = goal_from_constraints(constraints)
         except ConversionError as exc:
             raise ValueError(str(exc)) from None
         except (AttributeError, TypeError) as exc:
             raise ValueError(f"goal constraints must be moveit_msgs/Constraints: {exc}") from None
-        if "joints" in data:
-            return JointGoal(data["joints"], tolerance=float(data["tolerance"]))
-        try:
-            frame = data.get("frame") or "world"
-            base = np.eye(4) if frame == "world" else scene.frame_pose(frame)
-            offset = data.get("ik_frame_offset")
-            return PoseGoal(base @ pose_matrix(data["pose"], "goal pose"), link=data.get("link"),
-                            ik_frame_offset=None if offset is None else pose_matrix(offset, "target_point_offset"),
-                            position_tolerance=float(data["position_tolerance"]),
-                            orientation_tolerance=float(data["orientation_tolerance"]))
-        except (PoseError, PlanningError, KeyError) as exc:
-            raise ValueError(f"pose goal: {exc}") from None
+        if isinstance(goal, PoseGoal) and frame not in ("world", "/world"):
+            try:
+                goal.pose = scene.frame_pose(frame) @ goal.pose
+            except PlanningError as exc:
+                raise ValueError(f"pose goal: {exc}") from None
+        return goal
 
 
 def shortest_solution(responses: list[MotionPlanResponse]) -> MotionPlanResponse:

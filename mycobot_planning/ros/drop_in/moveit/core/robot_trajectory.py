@@ -7,10 +7,11 @@ from typing import Any, Iterator
 import numpy as np
 from moveit_msgs.msg import RobotTrajectory as RobotTrajectoryMsg
 
-from interfaces_py.moveit_conversions import robot_trajectory_from_msg, robot_trajectory_to_msg
+from interfaces_py.moveit_conversions import robot_trajectory_to_msg
 from interfaces_py.msgs import JointTrajectory, RobotTrajectory as RobotTrajectoryData
 from mycobot_planning.core.planning_interface.planning_interface import time_group_path
 from mycobot_planning.core.robot_state.robot_state import RobotState as CoreRobotState
+from mycobot_planning.ros.move_group.moveit_translation import joint_trajectory_from_ros
 from mycobot_planning.core.robot_trajectory.robot_trajectory import (
     TimedTrajectory,
     joint_trajectory_to_timed,
@@ -98,10 +99,9 @@ class RobotTrajectory:
 
     def set_robot_trajectory_msg(self, robot_state: Any, msg: RobotTrajectoryMsg) -> None:
         """Take the joint trajectory of ``msg``; ``robot_state`` gives the joints it does not name."""
-        data = RobotTrajectoryData.from_dict(robot_trajectory_from_msg(msg))
+        joint, _ = joint_trajectory_from_ros(msg)
         self._start = core_state(robot_state).copy()
-        self._trajectory = joint_trajectory_to_timed(data.joint_trajectory)
-        self.joint_model_group_name = data.group_name or self.joint_model_group_name
+        self._trajectory = joint_trajectory_to_timed(joint)
 
     def apply_totg_time_parameterization(self, velocity_scaling_factor: float, acceleration_scaling_factor: float,
                                          path_tolerance: float = 0.1, resample_dt: float = 0.1,

@@ -1,0 +1,45 @@
+"""move_group's planner query capability (MoveIt: MoveGroupQueryPlannersService,
+/query_planner_interface, /get_planner_params, /set_planner_params): whatever planners the
+registry holds (core.planning_interface.planner_manager)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Mapping
+
+from .move_group_context import MoveGroupContext
+
+__all__ = ["PlannerInterfaceDescription", "get_planner_params", "query_planner_interfaces", "set_planner_params"]
+
+
+@dataclass
+class PlannerInterfaceDescription:
+    """moveit_msgs/PlannerInterfaceDescription."""
+
+    name: str
+    pipeline_id: str
+    planner_ids: list[str]
+
+
+def query_planner_interfaces(ctx: MoveGroupContext) -> list[PlannerInterfaceDescription]:
+    return [PlannerInterfaceDescription(manager.description, pipeline_id, manager.planner_ids())
+            for pipeline_id, manager in ctx.pipeline.managers.items()]
+
+
+def get_planner_params(ctx: MoveGroupContext, pipeline_id: str, planner_config: str, group: str = "") -> dict[str, str]:
+    """The parameters of one planner configuration ({} when unknown), as strings."""
+    manager = ctx.pipeline.manager(pipeline_id)
+    return manager.planner_params(planner_config, group) if manager is not None else {}
+
+
+def set_planner_params(ctx: MoveGroupContext, pipeline_id: str, planner_config: str, params: Mapping[str, str],
+                       replace: bool = False) -> str | None:
+    """Change a planner configuration's parameters (every plan after this uses them); None when applied,
+    else why not (nothing changed)."""
+    if ctx.pipeline.manager(pipeline_id) is None:
+        return f"unknown planning pipeline {pipeline_id!r}; known: {', '.join(ctx.pipeline.pipeline_ids)}"
+    problem = ctx.pipeline.manager(pipeline_id).set_planner_params(planner_config, params, replace)
+    if problem is not None:
+        return problem
+    ctx.log("info", f"planner configuration {pipeline_id or 'ompl'}/{planner_config}: parameters now "
+                    f"{get_planner_params(ctx, pipeline_id, planner_config)}")
+    return None
