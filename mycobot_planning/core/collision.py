@@ -16,6 +16,7 @@ from urllib.parse import unquote, urlparse
 import coal
 import numpy as np
 import pinocchio as pin
+from scipy.spatial import ConvexHull
 
 from ..paths import package_share_dirs
 from .errors import SceneError
@@ -365,21 +366,69 @@ def _warn_always_colliding(robot: str, a: str, b: str) -> None:
     )
 
 
+#: How far outside its hull a mesh vertex may lie (m) for the hull still to be used: qhull may
+#: leave a vertex a rounding error outside a merged facet; the pre-test margin covers far more.
+_HULL_CONTAINMENT_TOLERANCE = 1e-9
+#: A mesh is pre-tested as its hull only when no vertex lies deeper inside the hull than this (m):
+#: the mesh is convex (the Panda's, Talos's), so the hull is the same solid. A concave mesh's
+#: hull touches its neighbours' in many free states (the UR5's links, 1-4 cm deep), each costing
+#: the pre-test and then the exact check: slower than the exact check alone (docs/core.md).
+_HULL_TIGHTNESS = 1e-3
+#: Meshes of more vertices, or whose check needs more vertex-facet products (about 0.1 s), are
+#: not pre-tested: convex meshes that large are rare, and their exact check stays what it was.
+_HULL_MAX_VERTICES = 5000
+_HULL_CHECK_PRODUCTS = 20_000_000
+#: The hull pre-test calls a pair apart only when the hulls are further apart than this (m), far
+#: above GJK's relative tolerance (1e-6) and the containment tolerance: hulls that merely touch,
+#: or that GJK leaves a rounding error apart, send the state to the exact check.
+HULL_PRE_TEST_MARGIN = 1e-4
+
+
 def _convex_hull(geometry: coal.CollisionGeometry) -> coal.CollisionGeometry | None:
-    """The convex hull of a triangle mesh (a Coal Convex holding the mesh), or None for shapes
-    that are convex already, or a hull that cannot be made (a flat or degenerate mesh)."""
-    if not isinstance(geometry, coal.BVHModelBase) or geometry.num_vertices < 4:
+    """The convex hull of a convex triangle mesh, checked to contain every vertex; None for shapes
+    that are not meshes, concave meshes (see _HULL_TIGHTNESS), or when no hull can be made or
+    checked (a flat or degenerate mesh).
+
+    Coal's ``buildConvexHull`` runs qhull; every mesh vertex is then tested against the facet
+    planes of the hull's own points (scipy's qhull, on those points only), so the hull is used
+    only when it contains the mesh as loaded (same frame, scale already applied). Not
+    ``buildConvexRepresentation``: that wraps the mesh's own vertices and triangles as a Convex
+    without computing a hull, and GJK's support function, which climbs from vertex to
+    neighbouring vertex, stops at the first local maximum of a non-convex mesh (docs/core.md)."""
+    if not isinstance(geometry, coal.BVHModelBase) or not 4 <= geometry.num_vertices <= _HULL_MAX_VERTICES:
         return None
     try:
         copy = geometry.clone()
-        copy.buildConvexRepresentation(False)
+        copy.buildConvexHull(True, "Qt")
         hull = copy.convex
-        hull.computeLocalAABB()
-    except Exception:  # qhull refuses flat or degenerate point sets
+        points = np.array(hull.points(), dtype=float)
+        planes = ConvexHull(points).equations  # (n, 4): outward unit normal, offset
+    except Exception:  # qhull refuses flat or degenerate point sets (and "too many neighbors")
         return None
+    vertices = np.asarray(geometry.vertices(), dtype=float)
+    if len(vertices) * len(planes) > _HULL_CHECK_PRODUCTS:
+        return None
+    sample = vertices[::max(1, len(vertices) // 1000)]  # a concave mesh shows on a few vertices
+    if _signed_distances(sample, planes).min() < -_HULL_TIGHTNESS:
+        return None
+    signed = _signed_distances(vertices, planes)
+    if not (signed.max() <= _HULL_CONTAINMENT_TOLERANCE and signed.min() >= -_HULL_TIGHTNESS):
+        return None
+    hull.computeLocalAABB()
     if not hull.aabb_local.volume() > 0.0:
         return None
     return hull
+
+
+def _signed_distances(points: np.ndarray, planes: np.ndarray) -> np.ndarray:
+    """Each point's signed distance to a convex hull's boundary (> 0 outside): its largest value
+    over the hull's facet planes (unit normal, offset), in blocks of at most a million products."""
+    out = np.full(len(points), -np.inf)
+    step = max(1, 1_000_000 // max(1, len(points)))
+    for k in range(0, len(planes), step):
+        block = planes[k:k + step]
+        np.maximum(out, np.max(points @ block[:, :3].T + block[:, 3], axis=1), out=out)
+    return out
 
 
 def _se3(matrix: np.ndarray) -> pin.SE3:
@@ -508,6 +557,7 @@ class CompiledScene:
             self.manager = manager_type(pin_model, gm, gd)
         self._distance_data: dict[tuple, tuple[pin.GeometryData, list[int]]] = {}
         self.hull_manager = self._hull_manager(robot, gm, gd) if self.manager is not None else None
+        self.collides_all_pairs = self._make_all_pairs_checker()
         self.collides = self._make_checker()
 
     def _hull_manager(self, robot: RobotCollisionInfo, gm: pin.GeometryModel, gd: pin.GeometryData):
@@ -534,7 +584,7 @@ class CompiledScene:
             hull_gm.addCollisionPair(pin.CollisionPair(i, j))
         hull_gd = hull_gm.createData()
         for request in hull_gd.collisionRequests:
-            request.security_margin = SECURITY_MARGIN
+            request.security_margin = SECURITY_MARGIN + HULL_PRE_TEST_MARGIN
         for k in range(len(self.pairs)):
             if not gd.activeCollisionPairs[k]:
                 hull_gd.deactivateCollisionPair(k)
@@ -543,37 +593,46 @@ class CompiledScene:
         return manager_type(self.pin_model, hull_gm, hull_gd)
 
     # ------------------------------------------------------------------ collision
-    def _make_checker(self):
-        """The hot path: a closure doing exactly one Pinocchio call per configuration."""
-        compute = pin.computeCollisions
+    def _make_all_pairs_checker(self):
+        """The plain exact check: every active pair's narrow phase in turn (no broad phase, no
+        pre-test), one Pinocchio call per configuration. What judges the fast path: the
+        trajectory validator decides with it, so it never shares the checker it judges."""
         pin_model, data = self.pin_model, self.data
+        gm, gd = self.geometry_model, self.geometry_data
+        compute = pin.computeCollisions
         if not self.pairs:
             def no_pairs(q: np.ndarray) -> bool:
                 return False
 
             return no_pairs
-        if self.manager is not None:
-            manager = self.manager
-            hull_manager = self.hull_manager
-            if hull_manager is not None:
-                hull_data = self._hull_pin_data
 
-                def hulls_then_meshes(q: np.ndarray) -> bool:
-                    return compute(pin_model, hull_data, hull_manager, q, True) and \
-                        compute(pin_model, data, manager, q, True)
-
-                return hulls_then_meshes
-
-            def broadphase(q: np.ndarray) -> bool:
-                return compute(pin_model, data, manager, q, True)
-
-            return broadphase
-        gm, gd = self.geometry_model, self.geometry_data
-
-        def plain(q: np.ndarray) -> bool:
+        def all_pairs(q: np.ndarray) -> bool:
             return compute(pin_model, data, gm, gd, q, True)
 
-        return plain
+        return all_pairs
+
+    def _make_checker(self):
+        """The hot path: a closure doing exactly one Pinocchio call per configuration (two where
+        the hull pre-test finds a contact); the all-pairs check where there is no broad phase."""
+        if self.manager is None:
+            return self.collides_all_pairs
+        compute = pin.computeCollisions
+        pin_model, data = self.pin_model, self.data
+        manager = self.manager
+        hull_manager = self.hull_manager
+        if hull_manager is not None:
+            hull_data = self._hull_pin_data
+
+            def hulls_then_meshes(q: np.ndarray) -> bool:
+                return compute(pin_model, hull_data, hull_manager, q, True) and \
+                    compute(pin_model, data, manager, q, True)
+
+            return hulls_then_meshes
+
+        def broadphase(q: np.ndarray) -> bool:
+            return compute(pin_model, data, manager, q, True)
+
+        return broadphase
 
     def contacts(self, q: np.ndarray, max_contacts: int | None = None) -> list[Contact]:
         """Every colliding active pair at q (a full pass without early exit), with depths."""

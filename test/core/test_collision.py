@@ -467,6 +467,53 @@ def test_panda_hull_pre_test_keeps_the_mesh_verdict(panda):
     assert list(scene.colliding_rows("arm", RobotState(panda), rows)) == verdicts
 
 
+def _mesh_geometries(model: RobotModel) -> list:
+    import coal
+
+    return [g.geometry for g in model.pin_collision_model.geometryObjects if isinstance(g.geometry, coal.BVHModelBase)]
+
+
+def _vertices_missed_by(shape, mesh) -> int:
+    """Mesh vertices a 1 mm sphere (its centre 0.9 mm outside the vertex, away from the mesh's
+    centre, so the sphere holds the vertex) touches without GJK finding the shape in contact:
+    zero for any shape that contains the mesh."""
+    import coal
+
+    vertices = np.asarray(mesh.vertices(), dtype=float)
+    centre = vertices.mean(axis=0)
+    request, missed = coal.CollisionRequest(), 0
+    for v in vertices:
+        away = (v - centre) / np.linalg.norm(v - centre)
+        result = coal.CollisionResult()
+        if not coal.collide(shape, coal.Transform3s(), coal.Sphere(1e-3),
+                            coal.Transform3s(np.eye(3), v + 0.9e-3 * away), request, result):
+            missed += 1
+    return missed
+
+
+def test_link_hulls_contain_their_mesh_as_gjk_sees_it(monkeypatch, panda):
+    """The pre-test's premise, on the UR5's concave meshes (their hulls made although the scene
+    does not use them) and the Panda's convex ones: every vertex of a mesh is inside its hull for
+    GJK. A mesh's own vertices and triangles wrapped as a Convex (what the pre-test used before
+    issue 25) fail this: GJK's support function stops at local maxima of a concave mesh."""
+    import coal
+
+    from mycobot_planning.core import collision
+
+    robots = example_robot_data_dir()
+    ur5 = RobotModel.from_strings((robots / "ur_description/urdf/ur5_robot.urdf").read_text(), '<robot name=""/>',
+                                  package_dirs=[str(robots.parent.parent)])
+    assert all(collision._convex_hull(m) is None for m in _mesh_geometries(ur5))  # concave: no pre-test
+    assert all(collision._convex_hull(m) is not None for m in _mesh_geometries(panda))
+    monkeypatch.setattr(collision, "_HULL_TIGHTNESS", math.inf)
+    for mesh in _mesh_geometries(ur5) + _mesh_geometries(panda):
+        hull = collision._convex_hull(mesh)
+        assert hull is not None and _vertices_missed_by(hull, mesh) == 0
+    wrapped = _mesh_geometries(ur5)[2].clone()  # upper_arm_link
+    wrapped.buildConvexRepresentation(False)
+    assert isinstance(wrapped.convex, coal.ConvexBase) and _vertices_missed_by(wrapped.convex, wrapped) > 100
+
+
 def test_hulls_that_always_touch_leave_every_verdict_to_the_meshes(monkeypatch):
     """With every link's 'hull' a 3 m sphere, the hulls find every state in collision, and the
     meshes still decide: the verdicts are the plain mesh scene's."""
