@@ -626,6 +626,7 @@ class PlanningScene:
         values: np.ndarray,
         order: np.ndarray | None = None,
         stop_at_first: bool = False,
+        all_pairs: bool = False,
     ) -> np.ndarray:
         """Collision verdicts (True: in collision; joint limits not considered) for many states
         at once: each row of ``values`` fills the group's variables (a group name, or variable
@@ -635,7 +636,11 @@ class PlanningScene:
 
         ``order`` (row indices) is the order the rows are checked in; with ``stop_at_first`` the
         checks end at the first colliding row, which is then the only True (rows not reached
-        are False)."""
+        are False).
+
+        ``all_pairs=True`` decides with the plain exact check of every active pair (no broad phase,
+        no pre-test), the same verdicts at several times the cost: for a checker that must not
+        share the one it judges (the trajectory validator)."""
         values = np.asarray(values, dtype=float)
         if values.ndim != 2:
             raise StateError(f"expected a 2-D array of states, got shape {values.shape}")
@@ -643,7 +648,8 @@ class PlanningScene:
         if values.shape[1] != len(indices):
             raise StateError(f"expected {len(indices)} values per state, got {values.shape[1]}")
         full = np.array(self._state_or_current(reference_state).positions, dtype=float)
-        collides = self._compiled().collides
+        compiled = self._compiled()
+        collides = compiled.collides_all_pairs if all_pairs else compiled.collides
         count = values.shape[0]
         slots = self._model.q_slots(indices)
         if slots is not None:
@@ -678,12 +684,15 @@ class PlanningScene:
         compiled = self._compiled()
         return bool(compiled.collides(self._robot.to_q(np.asarray(state.positions, dtype=float))))
 
-    def check_collision(self, state: RobotState | None = None, max_contacts: int | None = None) -> CollisionReport:
-        """Collision verdict plus the contacts (every colliding pair, up to max_contacts)."""
+    def check_collision(
+        self, state: RobotState | None = None, max_contacts: int | None = None, all_pairs: bool = False
+    ) -> CollisionReport:
+        """Collision verdict plus the contacts (every colliding pair, up to max_contacts).
+        ``all_pairs=True``: the verdict is the plain exact check's (see colliding_rows)."""
         state = self._state_or_current(state)
         compiled = self._compiled()
         q = self._robot.to_q(np.asarray(state.positions, dtype=float))
-        if not compiled.collides(q):
+        if not (compiled.collides_all_pairs if all_pairs else compiled.collides)(q):
             return CollisionReport(False, [])
         contacts = compiled.contacts(q, max_contacts)
         return CollisionReport(True, contacts)

@@ -410,24 +410,17 @@ def _check_collisions(
     first_collision: bool = False,
 ) -> None:
     model = scene.robot_model
-    # Collisions only: the limits are the limit check's business.
+    # Collisions only (the limits are the limit check's business), by the plain exact check of
+    # every pair: the planners decide with the scene's fast checker, so it is not the judge.
     if first_collision:
-        invalid = scene.colliding_rows(indices, start, q, order=halving_order(q.shape[0]), stop_at_first=True)
+        invalid = scene.colliding_rows(indices, start, q, order=halving_order(q.shape[0]), stop_at_first=True,
+                                       all_pairs=True)
     else:
-        invalid = scene.colliding_rows(indices, start, q)
+        invalid = scene.colliding_rows(indices, start, q, all_pairs=True)
     if not np.any(invalid):
         return
     full = np.tile(np.asarray(start.positions, dtype=float), (q.shape[0], 1))
     full[:, indices] = q
-    # Without a direct configuration map the checker also rejects states outside the joint
-    # limits: settle those with a collision-only query.
-    lower, upper = model.lower_limits, model.upper_limits
-    for i in np.flatnonzero(invalid):
-        row = full[i]
-        if np.any(row < lower) or np.any(row > upper):
-            invalid[i] = scene.is_state_colliding(RobotState(model, row))
-    if not np.any(invalid):
-        return
     # Colliding stretches: runs of consecutive colliding samples.
     idx = np.flatnonzero(invalid)
     breaks = np.flatnonzero(np.diff(idx) > 1)
@@ -437,7 +430,7 @@ def _check_collisions(
         if n >= _MAX_COLLISION_REPORTS:
             findings.add(f"collisions in {len(run_starts) - n} more stretches", None)
             break
-        report = scene.check_collision(RobotState(model, full[a]), max_contacts=3)
+        report = scene.check_collision(RobotState(model, full[a]), max_contacts=3, all_pairs=True)
         contacts = [str(c) for c in report.contacts] or ["contact not reported by the scene"]
         for c in contacts:
             if c not in findings.contacts:
