@@ -624,7 +624,10 @@ class RobotModel:
         return name in self._child_joints
 
     def frame_id(self, name: str) -> int:
-        """Pinocchio frame id of a link or frame; 'world' is the model root when not a link."""
+        """Pinocchio frame id of a link or frame; 'world' is the model root when not a link. A
+        link wins over a joint of the same name (z1's 'gripperStator' is both)."""
+        if self.pin_model.existFrame(name, pin.FrameType.BODY):
+            return self.pin_model.getFrameId(name, pin.FrameType.BODY)
         if self.pin_model.existFrame(name):
             return self.pin_model.getFrameId(name)
         if name == "world" or any(vj.parent_frame == name for vj in self.srdf.virtual_joints):
