@@ -45,6 +45,7 @@ setup(
             f"perception_server = {PACKAGE}.nodes.perception_server:main",
             f"task_viewer = {PACKAGE}.nodes.task_viewer:main",
             f"plot_solution = {PACKAGE}.nodes.plot_solution:main",
+            f"run_objective = {PACKAGE}.nodes.run_objective:main",
             f"setup_assistant = {PACKAGE}.setup_assistant.__main__:main",
             f"ros2 = {PACKAGE}.ros2cli.__main__:main",
         ],

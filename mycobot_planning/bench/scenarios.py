@@ -14,6 +14,7 @@ from mycobot_planning.core.transforms import make_pose
 
 from .common import emit, machine, spread, stats, timed
 from .driver_scenarios import bench_driver_tracking
+from .objectives_scenarios import OBJECTIVES_SCENARIOS
 from .peers.parts import bench_peers_parts
 from .perception_scenarios import bench_perception
 from .pick_place_scenarios import PICK_PLACE_SCENARIOS
@@ -246,4 +247,5 @@ SCENARIOS: dict[str, Callable[..., None]] = {
     **PICK_PLACE_SCENARIOS,
     **VIEWER_SCENARIOS,
     **TIME_PARAMETERIZATION_SCENARIOS,
+    **OBJECTIVES_SCENARIOS,
 }

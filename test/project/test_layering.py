@@ -14,7 +14,7 @@ import mycobot_planning
 ROOT = Path(mycobot_planning.__file__).parent
 PACKAGE = "mycobot_planning"
 #: Layers that must run without ROS.
-ROS_FREE = ("core", "task", "perception", "capabilities", "mock_control", "visualization")
+ROS_FREE = ("core", "task", "perception", "capabilities", "mock_control", "visualization", "behavior_tree")
 #: Not part of the runtime library.
 OUTSIDE_RUNTIME = ("demos", "bench")
 #: The seeds' demo programs as nodes: entry points that build a demo and run it.
