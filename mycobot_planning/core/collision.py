@@ -431,6 +431,19 @@ def _signed_distances(points: np.ndarray, planes: np.ndarray) -> np.ndarray:
     return out
 
 
+def _set_collision_requests(data: pin.GeometryData, margin: float) -> None:
+    """Every pair's request: first contact only, no contact details, the given margin, and GJK
+    started afresh. Pinocchio's own requests warm-start GJK from the pair's previous answer, which
+    only the all-pairs loop updates (the broad phase works on a copy of the request), so a state
+    near the margin got a verdict that depended on which states had been checked before, by which
+    path (a myCobot state 1.04 µm from contact: free for the planner, colliding for the validator
+    after it had checked the states before it)."""
+    for k in range(len(data.collisionRequests)):
+        request = coal.CollisionRequest(coal.CollisionRequestFlag.NO_REQUEST, 1)
+        request.security_margin = margin
+        data.collisionRequests[k] = request
+
+
 def _se3(matrix: np.ndarray) -> pin.SE3:
     return pin.SE3(np.array(matrix[:3, :3]), np.array(matrix[:3, 3]))
 
@@ -526,8 +539,7 @@ class CompiledScene:
         self.pairs = pairs
         self.geometry_model = gm
         gd = gm.createData()
-        for request in gd.collisionRequests:
-            request.security_margin = SECURITY_MARGIN
+        _set_collision_requests(gd, SECURITY_MARGIN)
         self.geometry_data = gd
         self._pair_is_world = [kinds[i] == OBJECT or kinds[j] == OBJECT for i, j in pairs]
 
@@ -561,14 +573,15 @@ class CompiledScene:
         self.collides = self._make_checker()
 
     def _hull_manager(self, robot: RobotCollisionInfo, gm: pin.GeometryModel, gd: pin.GeometryData):
-        """The same geometry, pairs and margins with every link mesh replaced by its convex hull,
-        behind its own broad phase; None when no link has a hull.
+        """The same geometry and pairs with every convex link mesh replaced by its checked hull
+        (_convex_hull), behind its own broad phase, the margin widened by HULL_PRE_TEST_MARGIN;
+        None when no link has a hull.
 
-        A hull contains its mesh, so a state the hulls find free is free, and the meshes are
-        consulted only for states the hulls find in collision: every verdict is still the
-        meshes' own. Convex-convex tests (GJK) are cheaper than mesh-mesh BVH traversals: on
-        the Panda's meshes a free state costs about a quarter less; a state the hulls find in
-        collision but the meshes do not (an object in a link's concavity) costs both checks."""
+        A hull contains its mesh, so a state the hulls find more than the margin apart is free,
+        and the meshes decide every other state: every verdict is still the meshes' own.
+        Convex-convex tests (GJK) are cheaper than mesh-mesh BVH traversals: on the Panda with a
+        box, a free state within 2 cm of a contact costs 9.4 µs instead of 17.3 µs; a colliding
+        state costs both checks (34 µs instead of 25 µs)."""
         hulls = robot.hull_geometries
         if not any(h is not None for h in hulls):
             return None
@@ -583,8 +596,7 @@ class CompiledScene:
         for i, j in self.pairs:
             hull_gm.addCollisionPair(pin.CollisionPair(i, j))
         hull_gd = hull_gm.createData()
-        for request in hull_gd.collisionRequests:
-            request.security_margin = SECURITY_MARGIN + HULL_PRE_TEST_MARGIN
+        _set_collision_requests(hull_gd, SECURITY_MARGIN + HULL_PRE_TEST_MARGIN)
         for k in range(len(self.pairs)):
             if not gd.activeCollisionPairs[k]:
                 hull_gd.deactivateCollisionPair(k)

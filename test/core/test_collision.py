@@ -467,6 +467,27 @@ def test_panda_hull_pre_test_keeps_the_mesh_verdict(panda):
     assert list(scene.colliding_rows("arm", RobotState(panda), rows)) == verdicts
 
 
+def test_a_verdict_does_not_depend_on_the_states_checked_before(model):
+    """A myCobot state 1.04 µm from contact (link3 and link6, cylinders; the margin is 1 µm)
+    from the seeds' pick and place: Pinocchio's requests warm-started GJK from each pair's last
+    answer, so the all-pairs check of a nearby state first turned this one's verdict to
+    'colliding', and the validator rejected what the planner had accepted."""
+    end = [0.13615659108822725, -1.1493759242194637, -1.2999217657363873, 2.4493073418585474,
+           -1.9687418711556544, -8.90221767628182e-06, 0.0]
+    near = [0.13588619873102425, -1.1470933871569668, -1.2973402608117435, 2.4444432807037657,
+            -1.9648321613794961, -8.884538828694748e-06, 0.0]
+    indices = np.arange(len(model.variable_names))
+    scene = PlanningScene(model)
+    assert 1e-6 < scene.distance(RobotState(model, end)).min_distance < 1.1e-6
+    fresh = scene.is_state_colliding(RobotState(model, end))
+    for first in (near, end, near):
+        for all_pairs in (True, False):
+            other = PlanningScene(model)
+            other.colliding_rows(indices, RobotState(model), np.array([first]), all_pairs=all_pairs)
+            assert other.is_state_colliding(RobotState(model, end)) == fresh
+            assert other.colliding_rows(indices, RobotState(model), np.array([end]), all_pairs=True)[0] == fresh
+
+
 def _mesh_geometries(model: RobotModel) -> list:
     import coal
 
