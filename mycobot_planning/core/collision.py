@@ -573,9 +573,11 @@ class CompiledScene:
         self.collides = self._make_checker()
 
     def _hull_manager(self, robot: RobotCollisionInfo, gm: pin.GeometryModel, gd: pin.GeometryData):
-        """The same geometry and pairs with every convex link mesh replaced by its checked hull
+        """The same geometry and pairs with every link mesh replaced by its checked hull
         (_convex_hull), behind its own broad phase, the margin widened by HULL_PRE_TEST_MARGIN;
-        None when no link has a hull.
+        None unless every mesh of the scene has a hull (convex link meshes, no world or attached
+        mesh): a hull against a mesh is tested triangle by triangle, which on Tiago (some link
+        meshes convex, some not) made a free state near the torso cost 5.6 ms instead of 16 µs.
 
         A hull contains its mesh, so a state the hulls find more than the margin apart is free,
         and the meshes decide every other state: every verdict is still the meshes' own.
@@ -583,7 +585,8 @@ class CompiledScene:
         box, a free state within 2 cm of a contact costs 9.4 µs instead of 17.3 µs; a colliding
         state costs both checks (34 µs instead of 25 µs)."""
         hulls = robot.hull_geometries
-        if not any(h is not None for h in hulls):
+        meshes = [k for k, g in enumerate(gm.geometryObjects) if isinstance(g.geometry, coal.BVHModelBase)]
+        if not meshes or any(k >= len(hulls) or hulls[k] is None for k in meshes):
             return None
         hull_gm = pin.GeometryModel()
         for index, geom in enumerate(gm.geometryObjects):

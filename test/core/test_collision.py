@@ -559,3 +559,24 @@ def test_hulls_that_always_touch_leave_every_verdict_to_the_meshes(monkeypatch):
     verdicts = list(scene.colliding_rows("arm", RobotState(inflated), rows))
     assert verdicts == _exact_verdicts(scene, rows)
     assert 0 < sum(verdicts) < len(rows)
+
+
+def test_a_scene_with_a_mesh_without_hull_is_not_pre_tested(panda):
+    """The hull pre-test runs only when every mesh of the scene has a hull: a hull against a
+    mesh is tested triangle by triangle (slower than the meshes alone, e.g. Tiago's mixed
+    links). A world mesh has no hull, so the Panda with a mesh cube is checked by the meshes
+    alone, and its verdicts are still the exact ones."""
+    s = 0.05
+    vertices = [[-s, -s, -s], [s, -s, -s], [-s, s, -s], [s, s, -s], [-s, -s, s], [s, -s, s], [-s, s, s], [s, s, s]]
+    triangles = [[0, 1, 2], [1, 3, 2], [4, 6, 5], [5, 6, 7], [0, 4, 1], [1, 4, 5],
+                 [2, 3, 6], [3, 7, 6], [0, 2, 4], [2, 6, 4], [1, 5, 3], [3, 5, 7]]
+    scene = PlanningScene(panda)
+    assert scene._compiled().hull_manager is not None
+    scene.add_object(CollisionObject(id="cube", pose=Pose.from_matrix(make_pose([0.5, 0.0, 0.5])),
+                                     meshes=[Mesh.from_triangles(vertices, triangles)], mesh_poses=[Pose()]))
+    assert scene._compiled().hull_manager is None
+    jmg = panda.group("arm")
+    rng = np.random.default_rng(6)
+    rows = rng.uniform(panda.lower_limits[jmg.variable_indices], panda.upper_limits[jmg.variable_indices], (150, 7))
+    verdicts = list(scene.colliding_rows("arm", RobotState(panda), rows))
+    assert verdicts == _exact_verdicts(scene, rows) and 0 < sum(verdicts) < len(rows)
