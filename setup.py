@@ -1,10 +1,22 @@
 """ament_python package: builds with colcon on a ROS machine and installs with pip elsewhere."""
 import os
 from glob import glob
+from pathlib import Path
 
 from setuptools import find_packages, setup
 
 PACKAGE = "mycobot_planning"
+REQUIREMENTS = Path(__file__).resolve().parent / "scripts" / "requirements.txt"
+RUNTIME_END = "# ---- end of runtime"
+
+
+def runtime_requirements() -> list[str]:
+    """The pins of scripts/requirements.txt above its end-of-runtime line: one list of versions
+    for setup.sh's .venv and for `pip install .` (tests and build tools stay below the line)."""
+    lines = REQUIREMENTS.read_text().splitlines()
+    end = next(i for i, line in enumerate(lines) if line.startswith(RUNTIME_END))
+    return [line.strip() for line in lines[:end] if line.strip() and not line.lstrip().startswith("#")]
+
 
 setup(
     name=PACKAGE,
@@ -16,7 +28,7 @@ setup(
         (f"share/{PACKAGE}/config", sorted(f for f in glob("config/*") if os.path.isfile(f))),
         (f"share/{PACKAGE}/config/panda", sorted(glob("config/panda/*"))),
     ],
-    install_requires=["setuptools"],
+    install_requires=runtime_requirements(),
     zip_safe=True,
     maintainer="mycobot_planning developers",
     maintainer_email="dev@mycobot-planning.invalid",

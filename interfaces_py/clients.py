@@ -532,7 +532,7 @@ class MoveGroupClient(_Client):
 
     def execute_task_solution(self, steps: Sequence[Mapping[str, Any]] | Mapping[str, Any], wait: bool = True,
                               timeout: float | None = None) -> MoveItErrorCode:
-        """Execute a task solution (see mycobot_planning.core.execution.parse_task_solution)."""
+        """Execute a task solution (see mycobot_planning.core.trajectory_execution.parse_task_solution)."""
         payload = dict(steps) if isinstance(steps, Mapping) else {"steps": list(steps)}
         payload["wait"] = bool(wait)
         try:

@@ -2,7 +2,7 @@
 types and what the planning core reads.
 
 The planning core takes requests in the JSON form (dicts with the schema of interfaces_py.msgs),
-which the JSON face decodes from std_msgs/String; the MoveIt face (nodes/move_group.py)
+which the JSON face decodes from std_msgs/String; the MoveIt face (ros/move_group/move_group.py)
 translates moveit_msgs messages into the same dicts here, so a request is interpreted in one
 place only: the core. Nothing here imports rclpy; only the generated message classes.
 """

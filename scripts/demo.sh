@@ -133,7 +133,7 @@ import time
 import rclpy
 from sensor_msgs.msg import JointState
 
-from mycobot_planning.nodes.node_runtime import use_fast_discovery
+from mycobot_planning.ros.node_runtime import use_fast_discovery
 
 use_fast_discovery()
 rclpy.init()

@@ -110,11 +110,11 @@ echo "[perception demo] what the perception_server sees:"
 import sys
 import time
 
-from mycobot_planning.nodes.node_runtime import use_fast_discovery
+from mycobot_planning.ros.node_runtime import use_fast_discovery
 
 use_fast_discovery()
 from interfaces_py.perception_client import PerceptionClient, RpcError  # noqa: E402
-from mycobot_planning.nodes.perception_setup import detection_lines  # noqa: E402
+from mycobot_planning.ros.perception.perception_setup import detection_lines  # noqa: E402
 from mycobot_planning.demos.pick_place import load_parameters  # noqa: E402
 
 params = load_parameters(sys.argv[1])

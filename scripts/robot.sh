@@ -230,7 +230,7 @@ server_answers() {
 import sys
 import time
 
-from mycobot_planning.nodes.node_runtime import use_fast_discovery
+from mycobot_planning.ros.node_runtime import use_fast_discovery
 
 use_fast_discovery()
 from interfaces_py.clients import PlanningSceneInterface, RpcError  # noqa: E402

@@ -20,6 +20,34 @@ if ! command -v chromium >/dev/null 2>&1 && command -v apt-get >/dev/null 2>&1 &
   fi
 fi
 
+# Debian packages: headless OpenGL for MuJoCo's depth camera (MUJOCO_GL=egl): the GL vendor-neutral
+# dispatch (libegl1, libopengl0: PyOpenGL loads libEGL.so.1 and libOpenGL.so.0) and Mesa's EGL
+# and DRI drivers, whose software rasteriser (llvmpipe) renders on machines without a GPU.
+# Pinned; installed only when missing (an installed Mesa is left as it is); if the mirror no
+# longer carries these builds, the current ones are installed and we say so.
+EGL_PACKAGES=("libegl1=1.6.0-1" "libopengl0=1.6.0-1" "libegl-mesa0=22.3.6-1+deb12u2" "libgl1-mesa-dri=22.3.6-1+deb12u2")
+egl_missing=()
+if command -v dpkg-query >/dev/null 2>&1; then
+  for pkg in "${EGL_PACKAGES[@]}"; do
+    if [[ "$(dpkg-query -W -f='${Status}' "${pkg%%=*}" 2>/dev/null)" != "install ok installed" ]]; then
+      egl_missing+=("$pkg")
+    fi
+  done
+fi
+if (( ${#egl_missing[@]} )); then
+  if command -v apt-get >/dev/null 2>&1 && [[ "$(id -u)" == 0 ]]; then
+    echo "[setup] installing Debian packages ${egl_missing[*]} (headless EGL rendering for the MuJoCo depth camera)"
+    apt-get update -qq >/dev/null
+    if ! DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${egl_missing[@]}" >/dev/null; then
+      echo "[setup] these builds are no longer available; installing the current ${egl_missing[*]%%=*}"
+      DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${egl_missing[@]%%=*}" >/dev/null \
+        || echo "[setup] EGL packages could not be installed; the simulated depth camera will not render"
+    fi
+  else
+    echo "[setup] missing Debian packages ${egl_missing[*]%%=*} (not root: not installed); the simulated depth camera needs them"
+  fi
+fi
+
 want="$(cat "$ROOT/scripts/requirements.txt" "$ROOT/scripts/constraints.txt" "$ROOT/setup.py" "$ROOT/setup.cfg" "$ROOT/package.xml" | sha256sum | cut -d' ' -f1)"
 if [[ -x "$VENV/bin/python" && -f "$STAMP" && "$(cat "$STAMP")" == "$want" ]]; then
   # MoveIt's, ros2_control's and MTC's interface packages (a no-op when its own stamp is current).
@@ -43,6 +71,6 @@ fi
 # MoveIt's, ros2_control's and MTC's interface packages, built from interfaces_py/ros_packages.
 "$ROOT/scripts/build_interfaces.sh" "$VENV"
 # Prove the stack loads together before declaring success.
-"$VENV/bin/python" -c "import rclpy, pinocchio, coal, ompl, ruckig, numpy, scipy, yaml, viser, matplotlib, mycobot_planning, interfaces_py, moveit_msgs.action, control_msgs.action, pymoveit2"
+"$VENV/bin/python" -c "import rclpy, pinocchio, coal, ompl, ruckig, numpy, scipy, yaml, viser, matplotlib, mujoco, mycobot_planning, interfaces_py, moveit_msgs.action, control_msgs.action, pymoveit2"
 echo "$want" > "$STAMP"
 echo "[setup] done: activate with 'source .venv/bin/activate'"

@@ -17,7 +17,7 @@ from std_msgs.msg import String
 from std_srvs.srv import SetBool, Trigger
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from mycobot_planning.nodes.node_runtime import ParameterSpec, Parameters, run_node
+from mycobot_planning.ros.node_runtime import ParameterSpec, Parameters, run_node
 
 SPECS = [
     ParameterSpec("gain", 1.5, "Scaling of the fixture's output", range=(0.0, 10.0)),

@@ -5,8 +5,8 @@ import numpy as np
 
 from interfaces_py.msgs import CollisionObject, TaskSolution
 from mycobot_planning.core import PlanningScene, RobotModel, RobotState
-from mycobot_planning.core.robot_trajectory import joint_trajectory_to_timed
-from mycobot_planning.core.trajectory_validator import validate_trajectory
+from mycobot_planning.core.robot_trajectory.robot_trajectory import joint_trajectory_to_timed
+from mycobot_planning.core.trajectory_processing.trajectory_validator import validate_trajectory
 from mycobot_planning.core.transforms import make_pose
 from mycobot_planning.task import (
     CartesianPath,

@@ -18,12 +18,12 @@ from pathlib import Path
 import numpy as np
 
 from ..core import PlanningScene, RobotModel, RobotState
-from ..core.cartesian_path import compute_cartesian_path
-from ..core.collision_matrix import sample_positions
-from ..core.kinematics import IKSolver
-from ..core.ompl_interface import OmplPlanner
-from ..core.planning_interface import JointGoal, MotionPlanRequest
-from ..core.trajectory_validator import validate_trajectory
+from ..core.planners.cartesian.cartesian_path import compute_cartesian_path
+from ..core.collision_detection.collision_matrix import sample_positions
+from ..core.kinematics.ik_solver import IKSolver
+from ..core.planners.ompl import OmplPlanner
+from ..core.planning_interface.planning_interface import JointGoal, MotionPlanRequest
+from ..core.trajectory_processing.trajectory_validator import validate_trajectory
 from ..paths import example_robot_data_dir
 from ..setup_assistant import GroupSpec, build_config
 from .common import emit, machine

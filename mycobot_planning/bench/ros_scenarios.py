@@ -352,10 +352,10 @@ def bench_moveit_api(repeat: int, seed: int) -> None:
     from rclpy.node import Node
 
     from mycobot_planning.core.trajectory_execution import load_controllers
-    from mycobot_planning.core.planning_pipeline import PlanningPipeline
+    from mycobot_planning.core.planning_interface.planning_pipeline import PlanningPipeline
     from mycobot_planning.capabilities.move_group_capabilities import MoveGroupCapabilities
-    from mycobot_planning.core.robot_model import RobotModel
-    from mycobot_planning.core.robot_state import RobotState
+    from mycobot_planning.core.robot_model.robot_model import RobotModel
+    from mycobot_planning.core.robot_state.robot_state import RobotState
 
     model = RobotModel.mycobot()
     local = MoveGroupCapabilities(model, PlanningPipeline(), load_controllers(None), _NoControllers())

@@ -7,9 +7,9 @@ import numpy as np
 
 from interfaces_py.msgs import CollisionObject
 from mycobot_planning.core import PlanningScene, RobotModel, RobotState
-from mycobot_planning.core.kinematics import IKSolver
-from mycobot_planning.core.ompl_interface import OmplPlanner
-from mycobot_planning.core.planning_interface import JointGoal, MotionPlanRequest
+from mycobot_planning.core.kinematics.ik_solver import IKSolver
+from mycobot_planning.core.planners.ompl import OmplPlanner
+from mycobot_planning.core.planning_interface.planning_interface import JointGoal, MotionPlanRequest
 from mycobot_planning.core.transforms import make_pose
 
 from .common import emit, machine, spread, stats, timed
@@ -20,6 +20,7 @@ from .perception_scenarios import bench_perception
 from .pick_place_scenarios import PICK_PLACE_SCENARIOS
 from .robots_scenarios import bench_robots
 from .robustness import bench_robustness
+from .sim_scenarios import SIM_SCENARIOS
 from .ros_scenarios import ROS_SCENARIOS
 from .task_scenarios import TASK_SCENARIOS
 from .time_parameterization_scenarios import TIME_PARAMETERIZATION_SCENARIOS
@@ -160,7 +161,7 @@ def cartesian_line_start(model: RobotModel) -> tuple[RobotState, np.ndarray, np.
     (0.18, +0.15, 0.20) across the front of the robot."""
     start_pose = make_pose([0.18, -0.15, 0.20], rpy=[np.pi, 0.0, 0.0])
     end_pose = make_pose([0.18, 0.15, 0.20], rpy=[np.pi, 0.0, 0.0])
-    from mycobot_planning.core.cartesian_path import compute_cartesian_path
+    from mycobot_planning.core.planners.cartesian.cartesian_path import compute_cartesian_path
 
     seed = RobotState(model)
     seed.set_named("ready")
@@ -177,7 +178,7 @@ def cartesian_line_start(model: RobotModel) -> tuple[RobotState, np.ndarray, np.
 
 def bench_cartesian(repeat: int, seed: int) -> None:
     """compute_cartesian_path along a 0.3 m line at eef_step 0.00025 (1200 IK steps), timed."""
-    from mycobot_planning.core.cartesian_path import compute_cartesian_path
+    from mycobot_planning.core.planners.cartesian.cartesian_path import compute_cartesian_path
 
     model = RobotModel.mycobot()
     scene = PlanningScene(model)
@@ -203,7 +204,7 @@ def bench_cartesian(repeat: int, seed: int) -> None:
 
 def bench_ptp(repeat: int, seed: int) -> None:
     """Industrial PTP ready -> home on the myCobot, free space, collision-checked."""
-    from mycobot_planning.core.pilz import IndustrialMotionPlanner
+    from mycobot_planning.core.planners.pilz import IndustrialMotionPlanner
 
     model = RobotModel.mycobot()
     scene = PlanningScene(model)
@@ -248,4 +249,5 @@ SCENARIOS: dict[str, Callable[..., None]] = {
     **VIEWER_SCENARIOS,
     **TIME_PARAMETERIZATION_SCENARIOS,
     **OBJECTIVES_SCENARIOS,
+    **SIM_SCENARIOS,
 }

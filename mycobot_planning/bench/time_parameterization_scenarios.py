@@ -13,8 +13,8 @@ from typing import Any
 import numpy as np
 
 from mycobot_planning.core import PlanningScene, RobotModel
-from mycobot_planning.core.planning_interface import time_group_path
-from mycobot_planning.core.time_parameterization import path_deviation, time_parameterize
+from mycobot_planning.core.planning_interface.planning_interface import time_group_path
+from mycobot_planning.core.trajectory_processing import path_deviation, time_parameterize
 
 from .common import emit, machine, timed
 from .peers import toppra_runner
@@ -23,7 +23,7 @@ from .peers.venvs import PeerUnavailable, ensure_peer_venv, log
 SAMPLE_PERIOD = 1e-3
 TOPPRA_GRIDS = ("default", "dense")
 IMPORT_RUNS = 5
-OURS_MODULE = "mycobot_planning.core.time_parameterization"
+OURS_MODULE = "mycobot_planning.core.trajectory_processing"
 REPO = Path(__file__).resolve().parents[2]
 RATIO_KEYS = ("max_vel_ratio", "max_acc_ratio", "max_deviation")
 
@@ -39,7 +39,7 @@ def make_problem(name: str, group_set: str, path: np.ndarray, model: RobotModel,
 
 def cartesian_problems(model: RobotModel) -> list[dict[str, Any]]:
     """The ``cartesian`` scenario's line, and a 0.3 m line down and sideways from its start."""
-    from mycobot_planning.core.cartesian_path import compute_cartesian_path
+    from mycobot_planning.core.planners.cartesian.cartesian_path import compute_cartesian_path
 
     from .scenarios import cartesian_line_start  # lazy: scenarios imports this module
 

@@ -89,7 +89,7 @@ def bench_viewer_lag(repeat: int, seed: int) -> None:
     from interfaces_py.background_spin import BackgroundSpin
 
     from interfaces_py.json_rpc import JsonRpcClient
-    from mycobot_planning.core.robot_model import RobotModel
+    from mycobot_planning.core.robot_model.robot_model import RobotModel
     from mycobot_planning.paths import use_fast_discovery
 
     use_fast_discovery()

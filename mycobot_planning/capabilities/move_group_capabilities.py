@@ -26,7 +26,7 @@ from interfaces_py.msgs import (
     RobotTrajectory,
 )
 
-from ..core.cartesian_path import compute_cartesian_path
+from ..core.planners.cartesian.cartesian_path import compute_cartesian_path
 from ..core.errors import SceneError, StateError
 from ..core.trajectory_execution import (
     ControllerBus,
@@ -37,15 +37,15 @@ from ..core.trajectory_execution import (
     parse_task_solution,
     parse_trajectory,
 )
-from ..core.robot_trajectory import timed_to_joint_trajectory
-from ..core.kinematic_constraints import ConstraintError, PathConstraints, path_constraints_from_json
-from ..core.planning_contexts import ContextFactory, PlanningContextPool
-from ..core.pilz import KNOWN_PLANNER_IDS as PILZ_PLANNER_IDS
-from ..core.planning_interface import JointGoal, MotionPlanRequest, NamedGoal, PoseGoal
-from ..core.planning_scene import PlanningScene
-from ..core.planning_scene_monitor import BAD_REQUEST, PlanningSceneMonitor, RequestError
-from ..core.robot_model import RobotModel
-from ..core.state_queries import DEFAULT_IK_TIMEOUT, MAX_IK_TIMEOUT, StateQueries, state_to_json
+from ..core.robot_trajectory.robot_trajectory import timed_to_joint_trajectory
+from ..core.kinematic_constraints.kinematic_constraints import ConstraintError, PathConstraints, path_constraints_from_json
+from ..core.planning_interface.planning_contexts import ContextFactory, PlanningContextPool
+from ..core.planners.pilz import KNOWN_PLANNER_IDS as PILZ_PLANNER_IDS
+from ..core.planning_interface.planning_interface import JointGoal, MotionPlanRequest, NamedGoal, PoseGoal
+from ..core.planning_scene.planning_scene import PlanningScene
+from ..core.planning_scene.planning_scene_monitor import BAD_REQUEST, PlanningSceneMonitor, RequestError
+from ..core.robot_model.robot_model import RobotModel
+from .state_queries import DEFAULT_IK_TIMEOUT, MAX_IK_TIMEOUT, StateQueries, state_to_json
 
 __all__ = ["PlanningDefaults", "MoveGroupCapabilities", "RequestError", "goal_from_parameters", "pose_from_json"]
 
@@ -357,7 +357,7 @@ class MoveGroupCapabilities(PlanningSceneMonitor):
 
     def _path_constraints(self, params: Mapping[str, Any], scene: PlanningScene) -> PathConstraints | None:
         """The request's path constraints ({"joints", "orientation", "position"}, see
-        core/kinematic_constraints.py), frames resolved at the start state."""
+        core/kinematic_constraints/kinematic_constraints.py), frames resolved at the start state."""
         data = params.get("path_constraints")
         if data is None:
             return None

@@ -13,7 +13,7 @@ import numpy as np
 
 from interfaces_py.msgs import CollisionObject
 from mycobot_planning.core import PlanningScene, RobotModel, RobotState
-from mycobot_planning.core.kinematics import solve_ik
+from mycobot_planning.core.kinematics.ik_solver import solve_ik
 from mycobot_planning.core.transforms import make_pose, matrix_to_rpy
 
 #: The seeds' table: 0.10 x 0.20 x 0.03 box, top at z = 0, centred at (0.22, 0.12).

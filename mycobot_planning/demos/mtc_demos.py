@@ -26,9 +26,9 @@ import yaml
 
 from interfaces_py.msgs import CollisionObject
 
-from mycobot_planning.core.planning_scene import PlanningScene
-from mycobot_planning.core.robot_model import RobotModel
-from mycobot_planning.core.robot_state import RobotState
+from mycobot_planning.core.planning_scene.planning_scene import PlanningScene
+from mycobot_planning.core.robot_model.robot_model import RobotModel
+from mycobot_planning.core.robot_state.robot_state import RobotState
 from mycobot_planning.core.transforms import make_pose
 from mycobot_planning.task.containers import Alternatives, Fallbacks, SerialContainer
 from mycobot_planning.task.cost_terms import Clearance

@@ -14,9 +14,9 @@ import yaml
 
 from interfaces_py.msgs import CollisionObject
 
-from mycobot_planning.core.planning_scene import PlanningScene
-from mycobot_planning.core.robot_model import RobotModel
-from mycobot_planning.core.robot_state import RobotState
+from mycobot_planning.core.planning_scene.planning_scene import PlanningScene
+from mycobot_planning.core.robot_model.robot_model import RobotModel
+from mycobot_planning.core.robot_state.robot_state import RobotState
 from mycobot_planning.task.containers import SerialContainer
 from mycobot_planning.task.geometry import PoseStamped, Vector3Stamped
 from mycobot_planning.task.solvers import CartesianPath, JointInterpolationPlanner, PipelinePlanner
@@ -185,7 +185,7 @@ PARAMETERS: dict[str, ParameterInfo] = {p.name: p for p in (
 
 #: The seed's mtc_node parameters (everything in PARAMETERS but Example 1's two and ours).
 MTC_NODE_PARAMETER_NAMES: tuple[str, ...] = tuple(n for n in PARAMETERS if n not in ("eef_name", "surface_link"))
-#: Parameters every task node has (nodes/task_node.py) that are not the task's: a parameter
+#: Parameters every task node has (ros/task/task_node.py) that are not the task's: a parameter
 #: file may hold them, load_parameters skips them.
 TASK_NODE_PARAMETER_NAMES = frozenset({"exit_when_done", "planning_timeout", "seed", "planning_server",
                                        "server_timeout", "exit_linger",

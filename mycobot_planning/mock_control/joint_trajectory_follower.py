@@ -12,7 +12,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..core.errors import StateError
-from ..core.trajectory_limits import DEFAULT_LIMIT_TOLERANCE, motion_limit_problem
+from ..core.trajectory_processing.trajectory_limits import DEFAULT_LIMIT_TOLERANCE, motion_limit_problem
 
 
 class ControllerStatus:

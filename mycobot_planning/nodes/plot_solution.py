@@ -63,7 +63,7 @@ def main(argv: list[str] | None = None) -> int:
         except OSError as exc:
             parser.error(f"cannot read {args.scene_json}: {exc.strerror or exc}")
 
-    from mycobot_planning.core.robot_model import RobotModel
+    from mycobot_planning.core.robot_model.robot_model import RobotModel
     from mycobot_planning.visualization.playback import timeline_from_json
     from mycobot_planning.visualization.plots import plot_scene, plot_trajectory, snapshot_states
 

@@ -6,7 +6,7 @@ import logging
 import sys
 import time
 
-from ..core.collision_matrix import ADJACENT, ALWAYS, DEFAULT, DEFAULT_SAMPLES, NEVER
+from ..core.collision_detection.collision_matrix import ADJACENT, ALWAYS, DEFAULT, DEFAULT_SAMPLES, NEVER
 from ..core.errors import RobotModelError
 from .assistant import build_config
 from .default_groups import GroupSpec, parse_end_effector

@@ -12,11 +12,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Sequence
 
-from ..core.collision_matrix import DEFAULT_SAMPLES, CollisionMatrix, Progress, compute_collision_matrix
+from ..core.collision_detection.collision_matrix import DEFAULT_SAMPLES, CollisionMatrix, Progress, compute_collision_matrix
 from ..core.errors import RobotModelError
-from ..core.robot_config import MANIFEST
-from ..core.robot_model import RobotModel
-from ..core.srdf import SrdfChain, SrdfEndEffector, SrdfGroup, SrdfGroupState
+from ..core.robot_model.robot_config import MANIFEST
+from ..core.robot_model.robot_model import RobotModel
+from ..core.robot_model.srdf import SrdfChain, SrdfEndEffector, SrdfGroup, SrdfGroupState
 from ..paths import package_share_dirs
 from . import config_files
 from .default_groups import GroupSpec, default_groups

@@ -12,7 +12,7 @@ from typing import Any
 
 import yaml
 
-from ..core.robot_model import RobotModel
+from ..core.robot_model.robot_model import RobotModel
 from ..paths import config_file
 
 GENERATED = "# Written by mycobot_planning's setup assistant for robot '{name}'.\n"

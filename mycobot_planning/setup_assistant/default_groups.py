@@ -14,8 +14,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import lru_cache
 
-from ..core.robot_model import RobotModel
-from ..core.srdf import SrdfEndEffector
+from ..core.robot_model.robot_model import RobotModel
+from ..core.robot_model.srdf import SrdfEndEffector
 
 MOVING = ("revolute", "continuous", "prismatic")
 FINGER_DEPTH = 2  # a branch this short (in moving joints) below a split is a finger

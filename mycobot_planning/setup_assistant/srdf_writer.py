@@ -1,9 +1,9 @@
-"""SRDF text from the parsed form (core.srdf.Srdf): the inverse of parse_srdf, in MoveIt's layout."""
+"""SRDF text from the parsed form (core.robot_model.srdf.Srdf): the inverse of parse_srdf, in MoveIt's layout."""
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
 
-from ..core.srdf import Srdf
+from ..core.robot_model.srdf import Srdf
 
 HEADER = ("<!-- Written by mycobot_planning's setup assistant (python -m mycobot_planning.setup_assistant). "
           "Collision pairs are disabled as MoveIt Setup Assistant disables them: Adjacent, Default, "

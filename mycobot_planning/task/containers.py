@@ -27,7 +27,7 @@ from .storage import BACKWARD, CONNECT, END_IF_MASK, FORWARD, GENERATE, PROPAGAT
 from .trajectories import merge_trajectories
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ..core.robot_model import RobotModel
+    from ..core.robot_model.robot_model import RobotModel
 
 __all__ = ["Alternatives", "ContainerBase", "Fallbacks", "Merger", "ParallelContainerBase", "SerialContainer", "WrapperBase"]
 

@@ -3,7 +3,7 @@
 from .containers import Alternatives, ContainerBase, Fallbacks, Merger, ParallelContainerBase, SerialContainer, WrapperBase
 from interfaces_py.msgs import MoveItErrorCode
 
-from ..core.cartesian_precision import CartesianPrecision
+from ..core.planners.cartesian.cartesian_precision import CartesianPrecision
 from .cost_terms import (Clearance, Constant, CostTerm, DistanceToReference, LambdaCostTerm, LinkMotion, LinkRotation,
                          PathLength, TrajectoryCostTerm, TrajectoryDuration)
 from .errors import InitStageException, TaskError

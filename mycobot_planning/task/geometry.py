@@ -18,8 +18,8 @@ import numpy as np
 from interfaces_py.pose_conversion import pose_matrix
 
 from ..core.errors import SceneError
-from ..core.planning_scene import PlanningScene
-from ..core.robot_model import RobotModel
+from ..core.planning_scene.planning_scene import PlanningScene
+from ..core.robot_model.robot_model import RobotModel
 from ..core.transforms import check_pose, make_pose
 
 __all__ = [

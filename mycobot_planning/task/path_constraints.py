@@ -5,7 +5,7 @@ The property takes what MTC's users write, ``stage.path_constraints = constraint
 moveit_msgs/Constraints built field by field (read here by its field names only: this package
 never imports ROS), the same message in dict form (its field names), the core's JSON form
 (``{"joints": [...], "orientation": [...], "position": [...]}``, see
-core/kinematic_constraints.py), or an already resolved core ``PathConstraints``. It is kept as a
+core/kinematic_constraints/kinematic_constraints.py), or an already resolved core ``PathConstraints``. It is kept as a
 :class:`PathConstraintsSpec`; the planners resolve it in the scene they plan from (frames at the
 start state; a constraint's ``link_name`` may be a robot link or a collision object attached in
 that scene, as in MTC's constrained.py and pickplace.py demos).
@@ -17,18 +17,18 @@ from typing import TYPE_CHECKING, Any, Mapping
 
 import numpy as np
 
-from ..core.kinematic_constraints import (
+from ..core.kinematic_constraints.kinematic_constraints import (
     ConstraintError,
     PathConstraints,
     attached_frames,
     constraints_json_from_msg,
     path_constraints_from_json,
 )
-from ..core.robot_state import RobotState
+from ..core.robot_state.robot_state import RobotState
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ..core.planning_scene import PlanningScene
-    from ..core.robot_model import RobotModel
+    from ..core.planning_scene.planning_scene import PlanningScene
+    from ..core.robot_model.robot_model import RobotModel
 
 _JSON_KEYS = {"joints", "orientation", "position"}
 _MESSAGE_KEYS = {"name", "joint_constraints", "position_constraints", "orientation_constraints",

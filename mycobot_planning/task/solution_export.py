@@ -31,8 +31,8 @@ from interfaces_py.msgs import (
     TrajectoryExecutionInfo,
 )
 
-from ..core.planning_scene import PlanningScene
-from ..core.robot_trajectory import timed_to_joint_trajectory
+from ..core.planning_scene.planning_scene import PlanningScene
+from ..core.robot_trajectory.robot_trajectory import timed_to_joint_trajectory
 from .errors import TaskError
 from .storage import SolutionBase, SubTrajectory
 

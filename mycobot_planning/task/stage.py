@@ -14,7 +14,7 @@ import numpy as np
 from interfaces_py.msgs import TrajectoryExecutionInfo
 
 from ..core.errors import PlanningError
-from ..core.planning_scene import PlanningScene
+from ..core.planning_scene.planning_scene import PlanningScene
 from .errors import InitStageException, PropertyError, TaskError
 from .cost_terms import CostTerm, LambdaCostTerm
 from .properties import PropertyInitializerSource, PropertyMap
@@ -45,7 +45,7 @@ from .storage import (  # re-exported: these names were importable from here
 )
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ..core.robot_model import RobotModel
+    from ..core.robot_model.robot_model import RobotModel
     from .containers import ContainerBase
     from .task import TaskContext
 

@@ -12,8 +12,8 @@ import itertools
 import math
 from typing import TYPE_CHECKING, Any, Callable, Iterator, NamedTuple
 
-from ..core.planning_scene import PlanningScene
-from ..core.robot_trajectory import TimedTrajectory
+from ..core.planning_scene.planning_scene import PlanningScene
+from ..core.robot_trajectory.robot_trajectory import TimedTrajectory
 from .errors import TaskError
 
 if TYPE_CHECKING:  # pragma: no cover

@@ -16,10 +16,10 @@ import numpy as np
 
 from interfaces_py.msgs import JointTrajectory, MoveItErrorCode, TaskDescription, TaskSolution, TaskStatistics
 
-from ..core.kinematics import IKSolver
-from ..core.planning_pipeline import PlanningPipeline
-from ..core.planning_scene import PlanningScene
-from ..core.robot_model import RobotModel
+from ..core.kinematics.ik_solver import IKSolver
+from ..core.planning_interface.planning_pipeline import PlanningPipeline
+from ..core.planning_scene.planning_scene import PlanningScene
+from ..core.robot_model.robot_model import RobotModel
 from .containers import ContainerBase, SerialContainer
 from .errors import TaskError
 from .introspection import explain_failure, print_state, stage_summary, task_description, task_statistics
@@ -36,8 +36,8 @@ __all__ = ["Task", "TaskContext"]
 
 #: The module that gives a Task its ROS side when a script hands it a node: loaded by name, as
 #: pluginlib loads a plugin, so that this package never imports rclpy (see
-#: nodes/task_ros_interface.py).
-ROS_INTERFACE_MODULE = "mycobot_planning.nodes.task_ros_interface"
+#: ros/task/task_ros_interface.py).
+ROS_INTERFACE_MODULE = "mycobot_planning.ros.task.task_ros_interface"
 
 
 def ros_interface(node: Any) -> Any:

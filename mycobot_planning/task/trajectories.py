@@ -15,11 +15,11 @@ from typing import Sequence
 
 import numpy as np
 
-from ..core.planning_interface import time_group_path
-from ..core.planning_scene import PlanningScene
-from ..core.robot_model import JointModelGroup, RobotModel
-from ..core.robot_state import RobotState
-from ..core.robot_trajectory import TimedTrajectory
+from ..core.planning_interface.planning_interface import time_group_path
+from ..core.planning_scene.planning_scene import PlanningScene
+from ..core.robot_model.robot_model import JointModelGroup, RobotModel
+from ..core.robot_state.robot_state import RobotState
+from ..core.robot_trajectory.robot_trajectory import TimedTrajectory
 
 #: Joint-space resolution (rad, max-norm) of the collision checks between merged waypoints;
 #: the trajectory validator's default, so both look equally closely.

@@ -5,6 +5,6 @@
 * ``task_tree``: the stage tree of a published task (description + statistics + solutions).
 * ``plots``: PNG pictures with matplotlib — a trajectory plot and a scene snapshot.
 
-The browser viewer (``mycobot_planning.nodes.task_viewer``) and the ``plot_solution`` tool are
+The browser viewer (``mycobot_planning.ros.task.task_viewer``) and the ``plot_solution`` tool are
 thin layers over these modules.
 """

@@ -22,9 +22,9 @@ import numpy as np
 
 from interfaces_py.msgs import CollisionObject, JointTrajectory, PlanningScene as PlanningSceneMsg, TaskSolution
 
-from ..core.planning_scene import PlanningScene
-from ..core.robot_model import RobotModel
-from ..core.robot_state import RobotState
+from ..core.planning_scene.planning_scene import PlanningScene
+from ..core.robot_model.robot_model import RobotModel
+from ..core.robot_state.robot_state import RobotState
 
 _EMPTY_DIFF = PlanningSceneMsg(is_diff=True).to_dict()
 

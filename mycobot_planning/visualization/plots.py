@@ -22,8 +22,8 @@ from typing import Sequence
 
 import numpy as np
 
-from ..core.robot_model import RobotModel
-from ..core.robot_state import RobotState
+from ..core.robot_model.robot_model import RobotModel
+from ..core.robot_state.robot_state import RobotState
 from .geometry import object_shapes, robot_link_shapes, transform_points
 from .playback import SceneObjects, Timeline
 

@@ -1,6 +1,6 @@
 """The stage tree of a published task, as RViz's Motion Planning Tasks panel shows it.
 
-A task node publishes three JSON streams (see ``mycobot_planning.nodes.task_topics``): the
+A task node publishes three JSON streams (see ``mycobot_planning.ros.task.task_topics``): the
 stage tree (``TaskDescription``), per-stage counts and times (``TaskStatistics``) and complete
 solutions (``TaskSolution``). ``TaskTree`` merges them into rows — stage name indented by depth,
 ✓/✗, number of solutions and failures, compute time, best cost, comment — and tells, for any

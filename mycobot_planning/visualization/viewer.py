@@ -6,7 +6,7 @@ stage tree with ✓/✗, solution and failure counts, time, cost and comment —
 stage's solution shows it and animates it (play / pause / scrub); and the planned path
 animation of ``/planned_path``.
 
-This module is ROS-free: ``mycobot_planning.nodes.task_viewer`` feeds it from topics; tests and
+This module is ROS-free: ``mycobot_planning.ros.task.task_viewer`` feeds it from topics; tests and
 scripts can feed it directly. Threading: inputs (``on_*`` calls from ROS callbacks) and the
 page's widgets (viser's callback threads) only store the newest data or queue a command and
 wake one display thread, which alone touches the 3D scene. So a burst of joint states never
@@ -32,8 +32,8 @@ import numpy as np
 from interfaces_py.msgs import JointTrajectory, PlanningScene as PlanningSceneMsg
 from interfaces_py.msgs import TaskDescription, TaskSolution, TaskStatistics
 
-from ..core.robot_model import RobotModel
-from ..core.robot_state import RobotState
+from ..core.robot_model.robot_model import RobotModel
+from ..core.robot_state.robot_state import RobotState
 from .geometry import object_shapes, robot_link_shapes
 from .playback import SceneObjects, Timeline, joint_vector
 from .task_tree import TaskRegistry, TaskTree

@@ -14,7 +14,7 @@ import pytest
 from mycobot_planning.bench import time_parameterization_scenarios as tps
 from mycobot_planning.bench.peers import toppra_runner, venvs
 from mycobot_planning.core import RobotModel
-from mycobot_planning.core.time_parameterization import time_parameterize
+from mycobot_planning.core.trajectory_processing import time_parameterize
 
 RECORD_KEYS = {"name", "set", "grid", "success", "status", "gridpoints", "compute_ms", "duration_s",
                "max_vel_ratio", "max_acc_ratio", "max_deviation", "samples"}

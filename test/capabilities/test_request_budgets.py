@@ -14,9 +14,9 @@ import pytest
 
 from interfaces_py.json_rpc import BAD_REQUEST, MAX_REQUEST_BYTES, RpcError, decode_request, log_safe
 from interfaces_py.msgs import MoveItErrorCode
-from mycobot_planning.core.execution import ControllerInfo, ExecutionSettings
-from mycobot_planning.core.planning_contexts import PlanningContextPool
-from mycobot_planning.core.planning_pipeline import PlanningPipeline
+from mycobot_planning.core.trajectory_execution import ControllerInfo, ExecutionSettings
+from mycobot_planning.core.planning_interface.planning_contexts import PlanningContextPool
+from mycobot_planning.core.planning_interface.planning_pipeline import PlanningPipeline
 from interfaces_py.msgs import WORKSPACE_BOUND
 from mycobot_planning.capabilities.move_group_capabilities import (
     MAX_PLANNING_ATTEMPTS,
@@ -24,7 +24,7 @@ from mycobot_planning.capabilities.move_group_capabilities import (
     MAX_WAYPOINTS,
     MoveGroupCapabilities,
 )
-from mycobot_planning.core.robot_model import RobotModel
+from mycobot_planning.core.robot_model.robot_model import RobotModel
 
 ARM = ["link1_to_link2", "link2_to_link3", "link3_to_link4", "link4_to_link5", "link5_to_link6", "link6_to_link6_flange"]
 INTERNAL_NAMES = ("IndexError", "KeyError", "TypeError", "ValueError", "Traceback", "AttributeError")

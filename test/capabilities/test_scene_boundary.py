@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from interfaces_py.msgs import MAX_NAME_LENGTH, MessageError, printable
-from mycobot_planning.core.planning_pipeline import PlanningPipeline
+from mycobot_planning.core.planning_interface.planning_pipeline import PlanningPipeline
 from mycobot_planning.capabilities.move_group_capabilities import RequestError
 
 from test_request_budgets import _core

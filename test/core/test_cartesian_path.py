@@ -9,7 +9,7 @@ import pytest
 
 from interfaces_py.msgs import CollisionObject, MoveItErrorCode
 from mycobot_planning.core import PlanningScene, RobotModel, RobotState
-from mycobot_planning.core.cartesian_path import (
+from mycobot_planning.core.planners.cartesian.cartesian_path import (
     STOP_COLLISION,
     STOP_COMPLETE,
     STOP_JOINT_JUMP,
@@ -17,9 +17,9 @@ from mycobot_planning.core.cartesian_path import (
     CartesianPathResult,
     compute_cartesian_path,
 )
-from mycobot_planning.core.relative_motion import plan_relative_motion, relative_target_poses
-from mycobot_planning.core.planning_interface import PlanningFailure
-from mycobot_planning.core.trajectory_validator import validate_trajectory
+from mycobot_planning.core.planners.cartesian.relative_motion import plan_relative_motion, relative_target_poses
+from mycobot_planning.core.planning_interface.planning_interface import PlanningFailure
+from mycobot_planning.core.trajectory_processing.trajectory_validator import validate_trajectory
 from mycobot_planning.core.transforms import make_pose
 
 FLANGE = "link6_flange"

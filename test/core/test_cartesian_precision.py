@@ -7,8 +7,8 @@ import pinocchio as pin
 import pytest
 
 from mycobot_planning.core import RobotModel, RobotState
-from mycobot_planning.core.cartesian_path import STOP_COMPLETE, STOP_PRECISION, compute_cartesian_path
-from mycobot_planning.core.cartesian_precision import CartesianPrecision
+from mycobot_planning.core.planners.cartesian.cartesian_path import STOP_COMPLETE, STOP_PRECISION, compute_cartesian_path
+from mycobot_planning.core.planners.cartesian.cartesian_precision import CartesianPrecision
 
 # the cartesian tests' fixtures: the myCobot at 'ready' in an empty scene
 from test_cartesian_path import FLANGE, ready, scene  # noqa: E402,F401

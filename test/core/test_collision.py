@@ -9,8 +9,8 @@ import pytest
 
 from interfaces_py.msgs import CollisionObject, Mesh, Pose
 from mycobot_planning.core import RobotModel, RobotState
-from mycobot_planning.core.collision import OBJECT, ROBOT_ATTACHED, ROBOT_LINK
-from mycobot_planning.core.planning_scene import PlanningScene
+from mycobot_planning.core.collision_detection.collision import OBJECT, ROBOT_ATTACHED, ROBOT_LINK
+from mycobot_planning.core.planning_scene.planning_scene import PlanningScene
 from mycobot_planning.core.transforms import make_pose
 from mycobot_planning.paths import example_robot_data_dir
 
@@ -519,7 +519,7 @@ def test_link_hulls_contain_their_mesh_as_gjk_sees_it(monkeypatch, panda):
     issue 25) fail this: GJK's support function stops at local maxima of a concave mesh."""
     import coal
 
-    from mycobot_planning.core import collision
+    from mycobot_planning.core.collision_detection import collision
 
     robots = example_robot_data_dir()
     ur5 = RobotModel.from_strings((robots / "ur_description/urdf/ur5_robot.urdf").read_text(), '<robot name=""/>',
@@ -540,7 +540,7 @@ def test_hulls_that_always_touch_leave_every_verdict_to_the_meshes(monkeypatch):
     meshes still decide: the verdicts are the plain mesh scene's."""
     import coal
 
-    from mycobot_planning.core import collision
+    from mycobot_planning.core.collision_detection import collision
 
     def huge(geometry):
         sphere = coal.Sphere(3.0)

@@ -17,7 +17,7 @@ five) and our myCobot and Panda configurations.
 Differences by design, named here with their reason and left out of the comparison:
 
 - Contact means "within ``SECURITY_MARGIN`` (1 µm)", in the reference too: with a margin of 0
-  Coal's GJK misses deep cylinder and box penetrations (docs/core.md, core.collision).
+  Coal's GJK misses deep cylinder and box penetrations (docs/core.md, core.collision_detection.collision).
 - Link pairs fixed to each other (on one Pinocchio joint) that overlap: Pinocchio's
   ``addAllCollisionPairs`` never pairs geometries of one joint, the scene checks such pairs once
   and, when they overlap, calls every state in collision (as MoveIt does, with a warning that
@@ -39,8 +39,8 @@ import pytest
 
 from interfaces_py.msgs import CollisionObject
 from mycobot_planning.core import PlanningScene, RobotModel, RobotState
-from mycobot_planning.core.collision import SECURITY_MARGIN
-from mycobot_planning.core.collision_matrix import adjacent_pairs
+from mycobot_planning.core.collision_detection.collision import SECURITY_MARGIN
+from mycobot_planning.core.collision_detection.collision_matrix import adjacent_pairs
 from mycobot_planning.core.errors import RobotModelError
 from mycobot_planning.core.transforms import make_pose
 from mycobot_planning.paths import config_file, example_robot_data_dir, package_share_dirs

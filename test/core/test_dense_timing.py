@@ -14,18 +14,11 @@ import numpy as np
 import pytest
 
 from mycobot_planning.core import PlanningScene, RobotModel, RobotState
-from mycobot_planning.core.cartesian_path import compute_cartesian_path
-from mycobot_planning.core.kinematics import IKSolver
-from mycobot_planning.core.planning_interface import time_group_path
-from mycobot_planning.core.time_parameterization import (
-    DEFAULT_MAX_DEVIATION,
-    TimedTrajectory,
-    TimeParameterizationError,
-    path_deviation,
-    retime,
-    time_parameterize,
-)
-from mycobot_planning.core.trajectory_validator import validate_trajectory
+from mycobot_planning.core.planners.cartesian.cartesian_path import compute_cartesian_path
+from mycobot_planning.core.kinematics.ik_solver import IKSolver
+from mycobot_planning.core.planning_interface.planning_interface import time_group_path
+from mycobot_planning.core.trajectory_processing import DEFAULT_MAX_DEVIATION, TimedTrajectory, TimeParameterizationError, path_deviation, retime, time_parameterize
+from mycobot_planning.core.trajectory_processing.trajectory_validator import validate_trajectory
 from mycobot_planning.core.transforms import make_pose
 
 REL = 1e-6  # the validator's relative limit tolerance

@@ -24,32 +24,17 @@ from interfaces_py.msgs import (
     RobotTrajectory,
 )
 from mycobot_planning.core import PlanningScene
-from mycobot_planning.core.execution import (
-    ControllerInfo,
-    ControllerState,
-    ExecutionError,
-    ExecutionSettings,
-    TrajectoryExecutionManager,
-    allowed_duration,
-    check_controllers,
-    check_start_state,
-    load_controllers,
-    parse_task_solution,
-    parse_trajectory,
-    prepare_trajectory,
-    select_controllers,
-    split_trajectory,
-    timed_to_joint_trajectory,
-)
-from mycobot_planning.core.planning_pipeline import PlanningPipeline
+from mycobot_planning.core.trajectory_execution import ControllerInfo, ControllerState, ExecutionError, ExecutionSettings, TrajectoryExecutionManager, allowed_duration, check_controllers, check_start_state, load_controllers, parse_task_solution, parse_trajectory, prepare_trajectory, select_controllers, split_trajectory
+from mycobot_planning.core.robot_trajectory.robot_trajectory import timed_to_joint_trajectory
+from mycobot_planning.core.planning_interface.planning_pipeline import PlanningPipeline
 from mycobot_planning.capabilities.move_group_capabilities import (
     MoveGroupCapabilities,
     RequestError,
     goal_from_parameters,
     pose_from_json,
 )
-from mycobot_planning.core.trajectory_validator import validate_trajectory
-from mycobot_planning.core.time_parameterization import TimedTrajectory
+from mycobot_planning.core.trajectory_processing.trajectory_validator import validate_trajectory
+from mycobot_planning.core.trajectory_processing import TimedTrajectory
 from mycobot_planning.core.transforms import make_pose
 from mycobot_planning.paths import config_file
 
@@ -814,7 +799,7 @@ def test_pose_json_forms_agree():
 def test_joint_trajectory_round_trip_keeps_the_spline():
     """A planned (cubic) trajectory sent without accelerations comes back as the same spline."""
     from mycobot_planning.core import time_parameterize
-    from mycobot_planning.core.execution import joint_trajectory_to_timed, timed_to_joint_trajectory
+    from mycobot_planning.core.robot_trajectory.robot_trajectory import joint_trajectory_to_timed, timed_to_joint_trajectory
 
     path = np.array([[0.0, 0.0], [0.5, 0.2], [0.9, -0.3]])
     timed = time_parameterize(path, [1.0, 1.0], [2.0, 2.0])

@@ -13,10 +13,10 @@ import pytest
 
 from interfaces_py.msgs import CollisionObject, MoveItErrorCode
 from mycobot_planning.core import PlanningScene, RobotModel, RobotState
-from mycobot_planning.core.cartesian_path import compute_cartesian_path
-from mycobot_planning.core.planning_interface import JointGoal, MotionPlanRequest
-from mycobot_planning.core.planning_pipeline import PlanningPipeline
-from mycobot_planning.core.trajectory_validator import validate_trajectory
+from mycobot_planning.core.planners.cartesian.cartesian_path import compute_cartesian_path
+from mycobot_planning.core.planning_interface.planning_interface import JointGoal, MotionPlanRequest
+from mycobot_planning.core.planning_interface.planning_pipeline import PlanningPipeline
+from mycobot_planning.core.trajectory_processing.trajectory_validator import validate_trajectory
 from mycobot_planning.core.transforms import make_pose
 
 TAU = 2 * math.pi

@@ -7,8 +7,8 @@ from pathlib import Path
 import pytest
 
 from mycobot_planning.core.errors import RobotModelError
-from mycobot_planning.core.robot_model import RobotModel
-from mycobot_planning.core.robot_state import RobotState
+from mycobot_planning.core.robot_model.robot_model import RobotModel
+from mycobot_planning.core.robot_state.robot_state import RobotState
 from mycobot_planning.paths import example_robot_data_dir
 
 ROBOTS = example_robot_data_dir()

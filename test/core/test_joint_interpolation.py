@@ -9,19 +9,19 @@ import pytest
 
 from interfaces_py.msgs import CollisionObject, MoveItErrorCode
 from mycobot_planning.core import RobotModelError, RobotState, StateError
-from mycobot_planning.core.joint_interpolation import (
+from mycobot_planning.core.planners.joint_interpolation.joint_interpolation import (
     DEFAULT_MAX_STEP,
     interpolate_joint_path,
     plan_joint_interpolation,
 )
-from mycobot_planning.core.planning_interface import (
+from mycobot_planning.core.planning_interface.planning_interface import (
     JointGoal,
     MotionPlanRequest,
     NamedGoal,
     PoseGoal,
 )
-from mycobot_planning.core.planning_scene import PlanningScene
-from mycobot_planning.core.trajectory_validator import validate_trajectory
+from mycobot_planning.core.planning_scene.planning_scene import PlanningScene
+from mycobot_planning.core.trajectory_processing.trajectory_validator import validate_trajectory
 from mycobot_planning.core.transforms import make_pose
 
 PANDA_READY = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from mycobot_planning.core import KinematicsError, RobotModel, RobotState
-from mycobot_planning.core.kinematics import IKSolver, solve_ik, state_distance
+from mycobot_planning.core.kinematics.ik_solver import IKSolver, solve_ik, state_distance
 from mycobot_planning.core.transforms import make_pose
 
 
@@ -168,7 +168,7 @@ def test_refine_stays_on_the_seed_branch(mycobot: RobotModel):
 def test_batched_descents_converge_where_single_descents_do(mycobot: RobotModel, monkeypatch):
     """Without its early abort the batch runs the same Gauss-Newton per start: it converges for
     every start a lone descent converges from, to a state at the target."""
-    import mycobot_planning.core.kinematics as kinematics
+    import mycobot_planning.core.kinematics.ik_solver as kinematics
 
     monkeypatch.setattr(kinematics, "ABORT_ITERATION", 10**6)
     solver = IKSolver(mycobot, "arm")
@@ -222,7 +222,7 @@ def pin_se3(pose: np.ndarray):
 def test_batched_descents_drop_only_starts_still_far_off(mycobot: RobotModel):
     """The early abort keeps every start that a lone descent brings within ABORT_ERROR by
     ABORT_ITERATION steps, and whatever converges is at the target."""
-    import mycobot_planning.core.kinematics as kinematics
+    import mycobot_planning.core.kinematics.ik_solver as kinematics
 
     solver = IKSolver(mycobot, "arm")
     jmg = mycobot.group("arm")
@@ -261,7 +261,7 @@ def test_batched_descents_drop_only_starts_still_far_off(mycobot: RobotModel):
     "pose",
 ])
 def test_fast_target_check_gives_check_poses_verdict(pose):
-    from mycobot_planning.core.kinematics import _target_pose
+    from mycobot_planning.core.kinematics.ik_solver import _target_pose
     from mycobot_planning.core.transforms import check_pose
 
     try:
@@ -302,7 +302,7 @@ def test_fast_target_check_never_accepts_what_check_pose_refuses():
     accepts only what check_pose accepts, and refuses with check_pose's own message."""
     from scipy.spatial.transform import Rotation
 
-    from mycobot_planning.core.kinematics import _target_pose
+    from mycobot_planning.core.kinematics.ik_solver import _target_pose
     from mycobot_planning.core.transforms import check_pose
 
     rng = np.random.default_rng(0)
@@ -327,7 +327,7 @@ def test_fast_target_check_never_accepts_what_check_pose_refuses():
 def test_the_seed_tables_orientation_weight_follows_the_arms_reach():
     """0.27 m per metre of reach: the myCobot keeps the 0.05 m it was tuned at, the Panda (three
     times the reach) gets three times the weight, and an explicit option still wins."""
-    from mycobot_planning.core.kinematics import ORIENTATION_WEIGHT_PER_REACH, IKOptions
+    from mycobot_planning.core.kinematics.ik_solver import ORIENTATION_WEIGHT_PER_REACH, IKOptions
     from mycobot_planning.paths import example_robot_data_dir
 
     mycobot = IKSolver(RobotModel.mycobot(), "arm")

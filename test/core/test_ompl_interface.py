@@ -21,7 +21,7 @@ import pytest
 from ompl import base as ob
 from ompl import geometric as og
 
-from mycobot_planning.core.ompl_interface import (
+from mycobot_planning.core.planners.ompl import (
     UNAVAILABLE_MOVEIT_PLANNERS,
     OmplConfigError,
     available_planners,
@@ -31,7 +31,7 @@ from mycobot_planning.core.ompl_interface import (
     plan_joint_space,
     resolve_planner_id,
 )
-from mycobot_planning.core.ompl_interface.planners import apply_params, validate_params
+from mycobot_planning.core.planners.ompl.planners import apply_params, validate_params
 from mycobot_planning.paths import config_file
 
 LVSF = 0.005
@@ -200,7 +200,7 @@ def _declared_params(planner) -> set[str]:
 def test_param_table_matches_what_ompl_declares(ptype):
     """Our name->setter table must cover OMPL's declared parameters (printSettings lists them,
     ParamSet is not bound) and every setter it names must exist on the class."""
-    from mycobot_planning.core.ompl_interface.planners import PLANNERS
+    from mycobot_planning.core.planners.ompl.planners import PLANNERS
 
     spec = PLANNERS[ptype]
     space = ob.RealVectorStateSpace(3)
@@ -388,7 +388,7 @@ def test_edge_validator_checks_the_same_states_as_ompls(monkeypatch):
     """RRTConnect's edges are checked by our _EdgeValidator: the same states in the same order
     as OMPL's DiscreteMotionValidator, so the same seed gives the same path; edges and end
     states it has decided before are not checked again, so it needs fewer checks."""
-    import mycobot_planning.core.ompl_interface.planners as ompl_interface
+    import mycobot_planning.core.planners.ompl.planners as ompl_interface
 
     world, start, goal = narrow_passage_world()
     spec = ompl_interface.PLANNERS["geometric::RRTConnect"]
@@ -490,7 +490,7 @@ def test_no_nanobind_leak_report_at_exit():
     script = textwrap.dedent(
         """
         import numpy as np
-        from mycobot_planning.core.ompl_interface import plan_joint_space
+        from mycobot_planning.core.planners.ompl import plan_joint_space
         obstacle = 0.1
         def valid(q):
             return abs(q[0]) > obstacle or q[1] > 0.8

@@ -8,9 +8,9 @@ import pytest
 
 from interfaces_py.msgs import CollisionObject, MoveItErrorCode
 from mycobot_planning.core import PlanningScene, RobotModel, RobotState
-from mycobot_planning.core.ompl_planner import OmplPlanner
-from mycobot_planning.core.planning_interface import JointGoal, MotionPlanRequest, NamedGoal, PoseGoal
-from mycobot_planning.core.trajectory_validator import validate_trajectory
+from mycobot_planning.core.planners.ompl.planner_manager import OmplPlanner
+from mycobot_planning.core.planning_interface.planning_interface import JointGoal, MotionPlanRequest, NamedGoal, PoseGoal
+from mycobot_planning.core.trajectory_processing.trajectory_validator import validate_trajectory
 from mycobot_planning.core.transforms import make_pose
 
 TAU = 2 * math.pi

@@ -8,18 +8,18 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from interfaces_py.msgs import MoveItErrorCode
-from mycobot_planning.core.cartesian_path import STOP_PATH_CONSTRAINTS, compute_cartesian_path
-from mycobot_planning.core.kinematic_constraints import (
+from mycobot_planning.core.planners.cartesian.cartesian_path import STOP_PATH_CONSTRAINTS, compute_cartesian_path
+from mycobot_planning.core.kinematic_constraints.kinematic_constraints import (
     ConstraintError,
     PathConstraints,
     path_constraints_from_json,
 )
-from mycobot_planning.core.kinematics import solve_ik
-from mycobot_planning.core.planning_interface import JointGoal, MotionPlanRequest
-from mycobot_planning.core.planning_pipeline import PlanningPipeline
-from mycobot_planning.core.planning_scene import PlanningScene
-from mycobot_planning.core.robot_model import RobotModel
-from mycobot_planning.core.robot_state import RobotState
+from mycobot_planning.core.kinematics.ik_solver import solve_ik
+from mycobot_planning.core.planning_interface.planning_interface import JointGoal, MotionPlanRequest
+from mycobot_planning.core.planning_interface.planning_pipeline import PlanningPipeline
+from mycobot_planning.core.planning_scene.planning_scene import PlanningScene
+from mycobot_planning.core.robot_model.robot_model import RobotModel
+from mycobot_planning.core.robot_state.robot_state import RobotState
 from mycobot_planning.core.transforms import make_pose
 
 TIP = "link6_flange"

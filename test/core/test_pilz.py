@@ -18,7 +18,7 @@ import pytest
 
 from interfaces_py.msgs import CollisionObject, MoveItErrorCode
 from mycobot_planning.core import PlanningScene, RobotModel, RobotState
-from mycobot_planning.core.pilz import (
+from mycobot_planning.core.planners.pilz import (
     CartesianLimits,
     CartesianLimitsError,
     IndustrialMotionPlanner,
@@ -27,8 +27,8 @@ from mycobot_planning.core.pilz import (
     plan_industrial,
     sample_times,
 )
-from mycobot_planning.core.planning_interface import JointGoal, MotionPlanRequest, NamedGoal, PoseGoal
-from mycobot_planning.core.trajectory_validator import validate_trajectory
+from mycobot_planning.core.planning_interface.planning_interface import JointGoal, MotionPlanRequest, NamedGoal, PoseGoal
+from mycobot_planning.core.trajectory_processing.trajectory_validator import validate_trajectory
 from mycobot_planning.core.transforms import make_pose, rpy_to_matrix
 
 TAU = 2 * math.pi

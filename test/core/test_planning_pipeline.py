@@ -8,9 +8,9 @@ import pytest
 
 from interfaces_py.msgs import MoveItErrorCode
 from mycobot_planning.core import PlanningScene, RobotModel, RobotState
-from mycobot_planning.core.planning_interface import MotionPlanRequest, NamedGoal
-from mycobot_planning.core.planning_pipeline import PlanningPipeline
-from mycobot_planning.core.trajectory_validator import validate_trajectory
+from mycobot_planning.core.planning_interface.planning_interface import MotionPlanRequest, NamedGoal
+from mycobot_planning.core.planning_interface.planning_pipeline import PlanningPipeline
+from mycobot_planning.core.trajectory_processing.trajectory_validator import validate_trajectory
 
 
 @pytest.fixture(scope="module")

@@ -19,8 +19,8 @@ from interfaces_py.msgs import (
     SolidPrimitive,
 )
 from mycobot_planning.core import RobotModel, RobotState, SceneError
-from mycobot_planning.core.acm import AllowedCollisionMatrix
-from mycobot_planning.core.planning_scene import PlanningScene
+from mycobot_planning.core.collision_detection.acm import AllowedCollisionMatrix
+from mycobot_planning.core.planning_scene.planning_scene import PlanningScene
 from mycobot_planning.core.transforms import make_pose
 
 

@@ -1,4 +1,4 @@
-"""Tests for mycobot_planning.core.time_parameterization (Ruckig-based, path-following)."""
+"""Tests for mycobot_planning.core.trajectory_processing (Ruckig-based, path-following)."""
 
 from __future__ import annotations
 
@@ -8,12 +8,7 @@ import numpy as np
 import pytest
 import ruckig
 
-from mycobot_planning.core.time_parameterization import (
-    TimedTrajectory,
-    TimeParameterizationError,
-    retime,
-    time_parameterize,
-)
+from mycobot_planning.core.trajectory_processing import TimedTrajectory, TimeParameterizationError, retime, time_parameterize
 
 VMAX = np.array([2.0, 1.5, 1.0, 2.5, 3.0, 1.2])
 AMAX = np.array([4.0, 3.0, 2.0, 5.0, 6.0, 2.5])

@@ -8,9 +8,10 @@ import pytest
 
 from interfaces_py.msgs import JointTrajectory, JointTrajectoryPoint, MoveItErrorCode
 from mycobot_planning.core import MotionPlanRequest, NamedGoal, PlanningPipeline, PlanningScene, RobotState
-from mycobot_planning.core.execution import ExecutionError, prepare_trajectory, timed_to_joint_trajectory
+from mycobot_planning.core.trajectory_execution import ExecutionError, prepare_trajectory
+from mycobot_planning.core.robot_trajectory.robot_trajectory import timed_to_joint_trajectory
 from mycobot_planning.mock_control.joint_trajectory_follower import JointTrajectoryFollower, TrajectoryCommand
-from mycobot_planning.core.trajectory_limits import motion_limit_problem
+from mycobot_planning.core.trajectory_processing.trajectory_limits import motion_limit_problem
 
 ARM = ["link1_to_link2", "link2_to_link3", "link3_to_link4", "link4_to_link5", "link5_to_link6", "link6_to_link6_flange"]
 VMAX, AMAX = np.full(6, 2.792527), np.full(6, 5.0)  # config/joint_limits.yaml

@@ -7,10 +7,10 @@ import pytest
 
 from interfaces_py.msgs import CollisionObject
 from mycobot_planning.core import RobotModelError, RobotState
-from mycobot_planning.core.planning_interface import time_group_path
-from mycobot_planning.core.planning_scene import PlanningScene
-from mycobot_planning.core.time_parameterization import TimedTrajectory
-from mycobot_planning.core.trajectory_validator import (
+from mycobot_planning.core.planning_interface.planning_interface import time_group_path
+from mycobot_planning.core.planning_scene.planning_scene import PlanningScene
+from mycobot_planning.core.trajectory_processing import TimedTrajectory
+from mycobot_planning.core.trajectory_processing.trajectory_validator import (
     TrajectoryValidationError,
     ValidationReport,
     validate_trajectory,
@@ -108,7 +108,7 @@ def test_a_straight_motion_is_sampled_evenly_along_the_way(mycobot):
     """A rest-to-rest straight motion speeds up and slows down: its samples are spread evenly
     along the motion, every gap within the resolution and hardly more states than that needs
     (evenly in time, the fast middle needed halving: half again as many)."""
-    from mycobot_planning.core.trajectory_validator import _dense_samples
+    from mycobot_planning.core.trajectory_processing.trajectory_validator import _dense_samples
 
     start = ready(mycobot)
     traj = timed(mycobot, [start.group_positions("arm"), [1.0, 0.5, 0.5, 0.5, 0.5, 0.5]])

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from mycobot_planning.core.errors import StateError
-from mycobot_planning.core.time_parameterization import time_parameterize
-from mycobot_planning.core.controllers_config import ControllerConfigError, load_controllers_config
+from mycobot_planning.core.trajectory_processing import time_parameterize
+from mycobot_planning.core.trajectory_execution.controllers_config import ControllerConfigError, load_controllers_config
 from mycobot_planning.mock_control.joint_trajectory_follower import (
     ControllerStatus,
     JointTrajectoryFollower,

@@ -10,10 +10,10 @@
 #   rclcpp.init()  ->  rclpy.init()
 #   node = rclcpp.Node("mtc_tutorial")  ->  node = rclpy.create_node("mtc_tutorial")
 
-from mycobot_planning.core import planning_scene
+from mycobot_planning.core.planning_scene import planning_scene
 from mycobot_planning.task import core, stages
 import rclpy
-from mycobot_planning.core.planning_scene import PlanningScene
+from mycobot_planning.core.planning_scene.planning_scene import PlanningScene
 import time
 
 rclpy.init()

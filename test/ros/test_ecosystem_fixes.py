@@ -5,6 +5,7 @@ when they are set."""
 from __future__ import annotations
 
 import os
+import shutil
 import subprocess
 import sys
 import sysconfig
@@ -12,8 +13,8 @@ from pathlib import Path
 
 import pytest
 
-from mycobot_planning.core.planning_pipeline import PlanningPipeline
-from mycobot_planning.nodes.workflow_runtime import PLANNING_SPECS
+from mycobot_planning.core.planning_interface.planning_pipeline import PlanningPipeline
+from mycobot_planning.ros.workflow_runtime import PLANNING_SPECS
 from ros_testing import REPO, NodeProcess, ros_env, use_session_domain
 
 ROS2 = [sys.executable, "-m", "mycobot_planning.ros2cli"]
@@ -27,9 +28,14 @@ def test_an_install_with_a_prefix_finds_its_config_and_runs_a_node(tmp_path):
     """As colcon installs without --symlink-install: the package in <prefix>/lib/.../site-packages,
     its config in <prefix>/share/mycobot_planning, found through AMENT_PREFIX_PATH."""
     prefix = tmp_path / "install"
+    # Built from a copy: setuptools writes build/ and an egg-info into the tree it builds, and a
+    # stale egg-info in the checkout would shadow the venv's own metadata (entry points) later.
+    source = tmp_path / "source"
+    shutil.copytree(REPO, source, ignore=shutil.ignore_patterns(
+        ".git", ".venv", ".venv-peers", "build", "*.egg-info", "__pycache__", "bench_results", ".pytest_cache"))
     build = subprocess.run(
         [sys.executable, "-m", "pip", "install", "--quiet", "--disable-pip-version-check", "--no-deps",
-         "--no-build-isolation", "--ignore-installed", "--prefix", str(prefix), str(REPO)],
+         "--no-build-isolation", "--ignore-installed", "--prefix", str(prefix), str(source)],
         capture_output=True, text=True, timeout=300, cwd=tmp_path)
     assert build.returncode == 0, build.stderr[-2000:]
     own = subprocess.run([sys.executable, "-c", "import mycobot_planning; print(mycobot_planning.__file__)"],

@@ -38,8 +38,8 @@ from shape_msgs.msg import SolidPrimitive
 from std_msgs.msg import String
 
 from interfaces_py.action_client import ActionClient
-from mycobot_planning.core.robot_model import RobotModel
-from mycobot_planning.core.robot_state import RobotState
+from mycobot_planning.core.robot_model.robot_model import RobotModel
+from mycobot_planning.core.robot_state.robot_state import RobotState
 from ros_testing import ProbeNode, wait_until, robot_processes
 
 ARM = ["link1_to_link2", "link2_to_link3", "link3_to_link4", "link4_to_link5", "link5_to_link6",
@@ -441,8 +441,8 @@ def test_bad_requests_get_error_codes_and_the_node_survives(client: Client) -> N
 def test_path_constraints_are_honoured(client: Client, model: RobotModel) -> None:
     """An orientation path constraint (keep the flange pointing down) on GetMotionPlan and
     GetCartesianPath; every point of the answers is checked here."""
-    from mycobot_planning.core.kinematics import solve_ik
-    from mycobot_planning.core.planning_scene import PlanningScene
+    from mycobot_planning.core.kinematics.ik_solver import solve_ik
+    from mycobot_planning.core.planning_scene.planning_scene import PlanningScene
     from mycobot_planning.core.transforms import make_pose
 
     scene = PlanningScene(model)

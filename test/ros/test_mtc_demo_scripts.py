@@ -22,8 +22,8 @@ from interfaces_py.json_rpc import JsonRpcClient
 from interfaces_py.msgs import TaskSolution
 from interfaces_py.moveit_conversions import planning_scene_from_msg
 from interfaces_py.mtc_conversions import task_solution_from_msg
-from mycobot_planning.core.robot_model import RobotModel
-from mycobot_planning.nodes.task_topics import MTC_LATCHED_QOS, MTC_SOLUTION_TOPIC
+from mycobot_planning.core.robot_model.robot_model import RobotModel
+from mycobot_planning.ros.task.task_topics import MTC_LATCHED_QOS, MTC_SOLUTION_TOPIC
 from mycobot_planning.paths import config_file, example_robot_data_dir, use_fast_discovery
 from mycobot_planning.task import TaskError, core, stages
 from ros_testing import REPO, NodeProcess, ProbeNode, robot_processes, use_session_domain, wait_until

@@ -20,8 +20,8 @@ from std_msgs.msg import String
 from interfaces_py.clients import PlanningSceneInterface
 from interfaces_py.msgs import TaskSolution, TaskStatistics
 from mycobot_planning.core import RobotModel
-from mycobot_planning.nodes.task_node import EXIT_PLANNING_FAILED
-from mycobot_planning.nodes.task_topics import SOLUTION_QOS, STATISTICS_QOS, task_topics
+from mycobot_planning.ros.task.task_node import EXIT_PLANNING_FAILED
+from mycobot_planning.ros.task.task_topics import SOLUTION_QOS, STATISTICS_QOS, task_topics
 from mycobot_planning.paths import config_file
 from mycobot_planning.demos.pick_place import PickPlaceParameters, expected_place_pose
 from ros_testing import PYTHON, REPO, NodeProcess, ProbeNode, ros_env, wait_until, robot_processes

@@ -18,7 +18,7 @@ NODE = textwrap.dedent('''
     import sys
     from rclpy.node import Node
     from std_msgs.msg import String
-    from mycobot_planning.nodes.node_runtime import run_node
+    from mycobot_planning.ros.node_runtime import run_node
 
     class Fragile(Node):
         def __init__(self):

@@ -32,13 +32,13 @@ from interfaces_py.clients import PlanningSceneInterface
 from interfaces_py.msgs import CollisionObject, PlanningSceneWorld
 from interfaces_py.perception_client import PerceptionClient, PerceptionResult
 from mycobot_planning.core import RobotModel
-from mycobot_planning.nodes.perception_object_source import (
+from mycobot_planning.ros.perception.perception_object_source import (
     PerceptionObjectSource,
     fixed_frame_transform,
     perception_parameter_specs,
 )
-from mycobot_planning.nodes.perception_server import _PipelineSpec, _pipeline_specs
-from mycobot_planning.nodes.perception_setup import (
+from mycobot_planning.ros.perception.perception_server import _PipelineSpec, _pipeline_specs
+from mycobot_planning.ros.perception.perception_setup import (
     camera_config_from_parameters,
     camera_parameter_defaults,
     camera_parameter_loss,

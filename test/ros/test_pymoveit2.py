@@ -14,8 +14,8 @@ from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.executors import MultiThreadedExecutor
 from scipy.spatial.transform import Rotation
 
-from mycobot_planning.core.robot_model import RobotModel
-from mycobot_planning.core.robot_state import RobotState
+from mycobot_planning.core.robot_model.robot_model import RobotModel
+from mycobot_planning.core.robot_state.robot_state import RobotState
 from ros_testing import ProbeNode, wait_until, robot_processes
 
 pymoveit2 = pytest.importorskip("pymoveit2", reason="pymoveit2 is installed by scripts/setup.sh")

@@ -13,8 +13,8 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from tf2_msgs.msg import TFMessage
 
-from mycobot_planning.core.robot_model import RobotModel
-from mycobot_planning.core.robot_state import RobotState
+from mycobot_planning.core.robot_model.robot_model import RobotModel
+from mycobot_planning.core.robot_state.robot_state import RobotState
 from mycobot_planning.paths import config_file
 from ros_testing import NodeProcess, use_session_domain, wait_until
 

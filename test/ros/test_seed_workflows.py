@@ -26,7 +26,7 @@ from interfaces_py.clients import PlanningSceneInterface
 from interfaces_py.json_rpc import JsonRpcClient, RpcError
 from interfaces_py.msgs import CollisionObject, MoveItErrorCode, PlanningScene as PlanningSceneMsg, Pose
 from mycobot_planning.core import PlanningScene, RobotModel, RobotState
-from mycobot_planning.core.kinematics import solve_ik
+from mycobot_planning.core.kinematics.ik_solver import solve_ik
 from mycobot_planning.demos.seed_scenarios import (
     DEFAULT_CAMERA_POSE,
     DEFAULT_MARKER_POSE,

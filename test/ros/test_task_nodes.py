@@ -24,12 +24,12 @@ from trajectory_msgs.msg import JointTrajectory as JointTrajectoryMsg
 
 from interfaces_py.msgs import TaskDescription, TaskSolution, TaskStatistics
 from mycobot_planning.core import PlanningScene, RobotModel
-from mycobot_planning.core.time_parameterization import TimedTrajectory
-from mycobot_planning.core.trajectory_validator import validate_trajectory
+from mycobot_planning.core.trajectory_processing import TimedTrajectory
+from mycobot_planning.core.trajectory_processing.trajectory_validator import validate_trajectory
 from mycobot_planning.paths import use_fast_discovery
-from mycobot_planning.nodes.task_node import EXIT_PLANNING_FAILED
-from mycobot_planning.core.execution import joint_trajectory_to_timed
-from mycobot_planning.nodes.task_topics import SOLUTION_QOS, STATISTICS_QOS, task_topics
+from mycobot_planning.ros.task.task_node import EXIT_PLANNING_FAILED
+from mycobot_planning.core.robot_trajectory.robot_trajectory import joint_trajectory_to_timed
+from mycobot_planning.ros.task.task_topics import SOLUTION_QOS, STATISTICS_QOS, task_topics
 from mycobot_planning.paths import config_file
 from ros_testing import PYTHON, REPO, NodeProcess, ProbeNode, ros_env, use_session_domain, wait_until
 

@@ -31,7 +31,7 @@ from interfaces_py.background_spin import BackgroundSpin
 from interfaces_py.json_rpc import JsonRpcClient, RpcError
 from interfaces_py.msgs import JointTrajectory, JointTrajectoryPoint
 from interfaces_py.ros_conversions import joint_trajectory_to_msg
-from mycobot_planning.nodes.task_topics import TaskIntrospection, parse_task_topic, task_topics
+from mycobot_planning.ros.task.task_topics import TaskIntrospection, parse_task_topic, task_topics
 from ros_testing import NodeProcess, use_session_domain, wait_until
 from task_helpers import build_pick_place, table_scene
 

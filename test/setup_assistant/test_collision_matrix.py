@@ -5,9 +5,9 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from mycobot_planning.core.collision_matrix import (
+from mycobot_planning.core.collision_detection.collision_matrix import (
     ADJACENT, ALWAYS, DEFAULT, NEVER, adjacent_pairs, compute_collision_matrix, sample_positions)
-from mycobot_planning.core.robot_model import RobotModel
+from mycobot_planning.core.robot_model.robot_model import RobotModel
 from mycobot_planning.paths import example_robot_data_dir
 
 GROUND_TRUTH_STATES = 3000

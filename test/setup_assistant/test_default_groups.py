@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pytest
 
-from mycobot_planning.core.robot_model import RobotModel
+from mycobot_planning.core.robot_model.robot_model import RobotModel
 from mycobot_planning.paths import example_robot_data_dir
 from mycobot_planning.setup_assistant import GroupSpec, default_groups
 

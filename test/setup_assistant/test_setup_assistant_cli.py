@@ -8,9 +8,9 @@ from pathlib import Path
 import pytest
 import yaml
 
-from mycobot_planning.core.robot_config import RobotConfig
-from mycobot_planning.core.robot_model import RobotModel
-from mycobot_planning.core.srdf import parse_srdf
+from mycobot_planning.core.robot_model.robot_config import RobotConfig
+from mycobot_planning.core.robot_model.robot_model import RobotModel
+from mycobot_planning.core.robot_model.srdf import parse_srdf
 from mycobot_planning.paths import example_robot_data_dir
 
 ROBOTS = example_robot_data_dir()

@@ -21,17 +21,17 @@ from shape_msgs.msg import SolidPrimitive
 from std_msgs.msg import Header
 
 from interfaces_py.msgs import CollisionObject
-from mycobot_planning.core.kinematic_constraints import (
+from mycobot_planning.core.kinematic_constraints.kinematic_constraints import (
     ConstraintError,
     ConstraintManifold,
     attached_frames,
     constraints_json_from_msg,
     path_constraints_from_json,
 )
-from mycobot_planning.core.kinematics import solve_ik
-from mycobot_planning.core.planning_scene import PlanningScene
-from mycobot_planning.core.robot_model import RobotModel
-from mycobot_planning.core.robot_state import RobotState
+from mycobot_planning.core.kinematics.ik_solver import solve_ik
+from mycobot_planning.core.planning_scene.planning_scene import PlanningScene
+from mycobot_planning.core.robot_model.robot_model import RobotModel
+from mycobot_planning.core.robot_state.robot_state import RobotState
 from mycobot_planning.core.transforms import make_pose
 from mycobot_planning.task import InitStageException, PropertyError, Task, core, stages
 from mycobot_planning.task.path_constraints import PathConstraintsSpec
@@ -562,7 +562,7 @@ def _band_with_a_gap(q: np.ndarray) -> bool:
 
 
 def test_ompl_plans_on_a_manifold_from_either_end():
-    from mycobot_planning.core.ompl_interface.solve import plan_joint_space
+    from mycobot_planning.core.planners.ompl.solve import plan_joint_space
 
     low, high = -2.0 * np.ones(3), 2.0 * np.ones(3)
     south, norths = np.array([0.0, 0.0, -1.0]), [np.array([0.0, s, 1.0]) / np.hypot(s, 1.0) for s in (0.0, 0.3, -0.3)]
@@ -581,7 +581,7 @@ def test_ompl_plans_on_a_manifold_from_either_end():
 
 
 def test_ompl_reraises_what_the_manifold_raised():
-    from mycobot_planning.core.ompl_interface.solve import OmplConfigError, plan_joint_space
+    from mycobot_planning.core.planners.ompl.solve import OmplConfigError, plan_joint_space
 
     low, high = -2.0 * np.ones(3), 2.0 * np.ones(3)
     with pytest.raises(ValueError, match="broken manifold"):

@@ -576,7 +576,7 @@ def test_spread_order_visits_every_target_once_and_covers_the_range_early():
 
 
 def test_compute_ik_gives_up_on_an_unreachable_target_after_the_first_attempts(mycobot, monkeypatch):
-    from mycobot_planning.core.kinematics import IKSolver
+    from mycobot_planning.core.kinematics.ik_solver import IKSolver
     from mycobot_planning.task.stages.compute_ik import UNREACHABLE_ATTEMPTS
 
     task, ik = _ik_task(mycobot, target=make_pose([1.0, 1.0, 1.0]))

@@ -43,8 +43,8 @@ class OursParts:
     def __init__(self, parts: dict) -> None:
         from interfaces_py.msgs import CollisionObject
         from mycobot_planning.core import PlanningScene, RobotModel, RobotState
-        from mycobot_planning.core.kinematics import IKSolver
-        from mycobot_planning.core.ompl_interface import OmplPlanner
+        from mycobot_planning.core.kinematics.ik_solver import IKSolver
+        from mycobot_planning.core.planners.ompl import OmplPlanner
         from mycobot_planning.core.transforms import make_pose
         from mycobot_planning.paths import example_robot_data_dir
 
@@ -79,7 +79,7 @@ class OursParts:
         return seconds, [float(v) for v in solutions[0].positions[self.indices]]
 
     def plan(self, problem: dict, seed: int) -> dict:
-        from mycobot_planning.core.planning_interface import JointGoal, MotionPlanRequest
+        from mycobot_planning.core.planning_interface.planning_interface import JointGoal, MotionPlanRequest
 
         start = self.start.copy()
         start.set_group_positions(self.group, np.asarray(problem["start"], dtype=float))

@@ -11,8 +11,8 @@ from typing import Any, Mapping, Protocol, Sequence
 from interfaces_py.msgs import JointTrajectory, JointTrajectoryPoint, MoveItErrorCode
 
 from ...paths import config_file
-from ..controllers_config import load_controllers_config, read_controllers_source
-from ..robot_model import RobotModel
+from .controllers_config import load_controllers_config, read_controllers_source
+from ..robot_model.robot_model import RobotModel
 from .settings import ExecutionError
 
 # Controller status values (the mock controllers' /<name>/state "status").

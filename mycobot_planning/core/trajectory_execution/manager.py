@@ -13,8 +13,8 @@ from typing import Any, Callable, Iterable, Mapping, Sequence
 
 from interfaces_py.msgs import JointTrajectory, MoveItErrorCode, PlanningScene as PlanningSceneMsg
 
-from ..planning_scene import PlanningScene
-from ..robot_model import RobotModel
+from ..planning_scene.planning_scene import PlanningScene
+from ..robot_model.robot_model import RobotModel
 from .controller_manager import ControllerBus, ControllerInfo, check_controllers, select_controllers, split_trajectory
 from .monitor import ExecutionMonitor, ExecutionResult
 from .settings import ExecutionError, ExecutionSettings, error_code as _code

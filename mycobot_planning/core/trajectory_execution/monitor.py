@@ -7,7 +7,7 @@ from typing import Any, Mapping, Sequence
 
 from interfaces_py.msgs import JointTrajectory, MoveItErrorCode
 
-from ..error_code_result import ErrorCodeResult
+from ..moveit_error_code import ErrorCodeResult
 from .controller_manager import (
     TERMINAL_FAILURE,
     TERMINAL_INTERRUPTED,

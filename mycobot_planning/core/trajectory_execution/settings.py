@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from interfaces_py.msgs import MoveItErrorCode
 
 from ..errors import PlanningError
-from ..trajectory_limits import DEFAULT_LIMIT_TOLERANCE
+from ..trajectory_processing.trajectory_limits import DEFAULT_LIMIT_TOLERANCE
 
 SOURCE = "trajectory_execution"
 

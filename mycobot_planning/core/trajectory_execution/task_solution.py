@@ -13,9 +13,9 @@ from interfaces_py.msgs import JointTrajectory, MessageError, MoveItErrorCode
 from interfaces_py.msgs import PlanningScene as PlanningSceneMsg
 from interfaces_py.msgs import RobotState as RobotStateMsg
 
-from ..error_code_result import ErrorCodeResult
+from ..moveit_error_code import ErrorCodeResult
 from ..errors import PlanningError, SceneError
-from ..planning_scene import PlanningScene
+from ..planning_scene.planning_scene import PlanningScene
 from .controller_manager import select_controllers
 from .monitor import ExecutionResult
 from .settings import ExecutionError

@@ -10,8 +10,8 @@ import numpy as np
 
 from interfaces_py.msgs import JointTrajectory, JointTrajectoryPoint, MessageError, MoveItErrorCode, RobotTrajectory
 
-from ..robot_model import RobotModel
-from ..trajectory_limits import DEFAULT_LIMIT_TOLERANCE, motion_limit_problem
+from ..robot_model.robot_model import RobotModel
+from ..trajectory_processing.trajectory_limits import DEFAULT_LIMIT_TOLERANCE, motion_limit_problem
 from .settings import ExecutionError
 
 def parse_trajectory(value: Any, what: str = "trajectory") -> tuple[JointTrajectory, str]:

@@ -12,8 +12,8 @@ import math
 import numpy as np
 
 from ..errors import TimeParameterizationError
-from ..robot_state import RobotState
-from ..robot_trajectory import TimedTrajectory
+from ..robot_state.robot_state import RobotState
+from ..robot_trajectory.robot_trajectory import TimedTrajectory
 
 #: Seconds between the states at which the link speed is measured.
 SPEED_SAMPLE_PERIOD = 0.005

@@ -12,7 +12,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from ..errors import TimeParameterizationError
-from ..robot_trajectory import TimedTrajectory
+from ..robot_trajectory.robot_trajectory import TimedTrajectory
 from .path_geometry import turning_angles
 
 __all__ = ["DEFAULT_MAX_DEVIATION", "path_deviation", "time_smooth_path"]

@@ -11,7 +11,7 @@ import numpy as np
 import ruckig
 
 from ..errors import TimeParameterizationError
-from ..robot_trajectory import TimedTrajectory
+from ..robot_trajectory.robot_trajectory import TimedTrajectory
 from .path_geometry import COLLINEAR_TOL
 
 # A blend may use at most this fraction of each adjacent segment, so blends never overlap.

@@ -13,7 +13,7 @@ from typing import Literal, Sequence
 import numpy as np
 
 from ..errors import TimeParameterizationError
-from ..robot_trajectory import DEFAULT_SAMPLE_PERIOD, TimedTrajectory, positive_float
+from ..robot_trajectory.robot_trajectory import DEFAULT_SAMPLE_PERIOD, TimedTrajectory, positive_float
 from .dense_path_topp import DEFAULT_MAX_DEVIATION, SMOOTH_MAX_TURN, path_deviation, time_smooth_path
 from .path_geometry import drop_duplicates, turning_angles, validate_path
 from .ruckig_segments import time_segments

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from ...core.robot_model import RobotModel
+from ...core.robot_model.robot_model import RobotModel
 from ..geometry import default_tip, robot_tip_for_frame
 
 __all__ = ["default_tip", "group_of_eef", "joint_goal_values", "robot_tip_for_frame"]

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from ...core.robot_state import RobotState
+from ...core.robot_state.robot_state import RobotState
 from ...core.transforms import inverse
 from ..errors import InitStageException
 from ..geometry import PoseStamped, as_pose_stamped, frame_transform

@@ -17,7 +17,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ...core.kinematic_constraints import dense_violation
+from ...core.kinematic_constraints.kinematic_constraints import dense_violation
 from ..cost_terms import PathLength
 from ..errors import InitStageException
 from ..path_constraints import check_path_constraints, declare_path_constraints

@@ -7,7 +7,7 @@ the Task's scene provider fetches it from the planning_server, waiting the stage
 from __future__ import annotations
 
 from ...core.errors import PlanningError
-from ...core.planning_scene import PlanningScene
+from ...core.planning_scene.planning_scene import PlanningScene
 from ..errors import InitStageException, TaskError
 from ..stage import Generator
 from ..storage import InterfaceState, SubTrajectory

@@ -25,8 +25,8 @@ from typing import Any
 
 import numpy as np
 
-from ...core.collision import OBJECT, SECURITY_MARGIN
-from ...core.planning_scene import PlanningScene
+from ...core.collision_detection.collision import OBJECT, SECURITY_MARGIN
+from ...core.planning_scene.planning_scene import PlanningScene
 from ..cost_terms import Constant
 from ..errors import InitStageException
 from ..stage import PropagatingEitherWay

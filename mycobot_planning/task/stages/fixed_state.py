@@ -7,7 +7,7 @@ from typing import Any, Mapping
 from interfaces_py.msgs import PlanningScene as PlanningSceneMsg
 
 from ...core.errors import PlanningError
-from ...core.planning_scene import PlanningScene
+from ...core.planning_scene.planning_scene import PlanningScene
 from ..cost_terms import Constant
 from ..errors import InitStageException, TaskError
 from ..stage import Generator

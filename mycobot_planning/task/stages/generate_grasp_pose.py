@@ -9,7 +9,7 @@ import numpy as np
 import pinocchio as pin
 
 
-from ...core.planning_scene import PlanningScene
+from ...core.planning_scene.planning_scene import PlanningScene
 from ..errors import InitStageException
 from ..geometry import PoseStamped
 from ..storage import InterfaceState, SolutionBase, SubTrajectory

@@ -11,7 +11,7 @@ from typing import Any, Iterator
 
 
 
-from ...core.planning_scene import PlanningScene
+from ...core.planning_scene.planning_scene import PlanningScene
 from ..cost_terms import Constant
 from ..errors import InitStageException
 from ..geometry import PoseStamped, as_pose_stamped, frame_transform

@@ -17,7 +17,7 @@ from interfaces_py.msgs import CollisionObject, MessageError
 from interfaces_py.ros_message_reading import ConversionError, collision_object_from_msg
 
 from ...core.errors import PlanningError
-from ...core.robot_model import JointModelGroup
+from ...core.robot_model.robot_model import JointModelGroup
 from ..cost_terms import Constant
 from ..errors import TaskError
 from ..stage import PropagatingEitherWay

@@ -15,7 +15,7 @@ import numpy as np
 
 from interfaces_py.msgs import RobotState as RobotStateMsg
 
-from ...core.robot_state import RobotState
+from ...core.robot_state.robot_state import RobotState
 from ...core.transforms import inverse
 from ..cost_terms import PathLength
 from ..errors import InitStageException

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
-from ...core.robot_model import RobotModel
+from ...core.robot_model.robot_model import RobotModel
 from ..errors import InitStageException, PropertyError, TaskError
 from ..geometry import PoseStamped
 from ..properties import PropertyMap

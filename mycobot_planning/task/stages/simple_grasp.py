@@ -22,8 +22,8 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from ...core.planning_scene import PlanningScene
-from ...core.robot_model import RobotModel
+from ...core.planning_scene.planning_scene import PlanningScene
+from ...core.robot_model.robot_model import RobotModel
 from ..errors import InitStageException, TaskError
 from ..geometry import PoseStamped, as_pose_stamped
 from ..properties import PropertyMap

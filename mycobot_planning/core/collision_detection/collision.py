@@ -1,0 +1,756 @@
+"""Collision geometry of a planning scene, compiled for one-call-per-state checking.
+
+The full story: docs/core.md, section mycobot_planning.core.collision_detection.collision.
+"""
+from __future__ import annotations
+
+import logging
+import math
+import threading
+import weakref
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Iterable, Mapping, Sequence
+from urllib.parse import unquote, urlparse
+
+import coal
+import numpy as np
+import pinocchio as pin
+from scipy.spatial import ConvexHull
+
+from ...paths import package_share_dirs
+from ..errors import SceneError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from interfaces_py.msgs import Mesh, SolidPrimitive
+
+    from .acm import AllowedCollisionMatrix
+    from ..robot_model.robot_model import RobotModel
+
+_LOG = logging.getLogger(__name__)
+
+#: Body kinds, spelled as MoveIt's collision_detection::BodyType names them in contact messages.
+ROBOT_LINK = "Robot link"
+ROBOT_ATTACHED = "Robot attached"
+OBJECT = "Object"
+_KIND_ORDER = {OBJECT: 0, ROBOT_ATTACHED: 1, ROBOT_LINK: 2}
+
+#: Objects closer than this count as touching (see docs/core.md (mycobot_planning.core.collision_detection.collision) for why it is not 0).
+SECURITY_MARGIN = 1e-6
+#: Above this many geometry objects the dynamic AABB tree beats the naive broad phase.
+_AABB_TREE_THRESHOLD = 150
+
+
+# ---------------------------------------------------------------------------------------------
+# Reports
+# ---------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Contact:
+    """Two bodies in contact. ``depth`` is the penetration depth in metres (0.0 when unknown,
+    e.g. between two triangle meshes); ``position`` is a world point between the bodies or None."""
+
+    body_a: str
+    kind_a: str
+    body_b: str
+    kind_b: str
+    depth: float = 0.0
+    position: tuple[float, float, float] | None = None
+
+    def __str__(self) -> str:
+        return f"contact between '{self.body_a}' ({self.kind_a}) and '{self.body_b}' ({self.kind_b})"
+
+    def involves(self, name: str) -> bool:
+        return name in (self.body_a, self.body_b)
+
+    @property
+    def bodies(self) -> frozenset[str]:
+        return frozenset((self.body_a, self.body_b))
+
+
+@dataclass(frozen=True)
+class CollisionReport:
+    """Result of PlanningScene.check_collision: the verdict and the contacts that make it."""
+
+    collision: bool
+    contacts: list[Contact] = field(default_factory=list)
+
+    def __bool__(self) -> bool:
+        """``if scene.check_collision(state):`` reads as "if in collision" (a report object is
+        otherwise always truthy, which would make that natural line a silent bug)."""
+        return self.collision
+
+    def __str__(self) -> str:
+        if not self.collision:
+            return "no collision"
+        return "; ".join(str(c) for c in self.contacts) or "collision"
+
+    def pairs(self) -> set[frozenset[str]]:
+        """The colliding body pairs, order-free (handy in tests and logs)."""
+        return {c.bodies for c in self.contacts}
+
+
+@dataclass(frozen=True)
+class DistanceReport:
+    """Result of PlanningScene.distance over the active (not allowed) pairs.
+
+    ``min_distance`` is negative when bodies penetrate and ``inf`` when no pair was considered.
+    ``per_link`` maps each robot body (link or attached object) that takes part in a considered
+    pair to (its minimum distance, the body realising it) — what MTC's Clearance cost reads.
+    """
+
+    min_distance: float
+    body_a: str | None = None
+    kind_a: str | None = None
+    body_b: str | None = None
+    kind_b: str | None = None
+    point_a: tuple[float, float, float] | None = None
+    point_b: tuple[float, float, float] | None = None
+    per_link: dict[str, tuple[float, str]] = field(default_factory=dict)
+
+    def __str__(self) -> str:
+        if self.body_a is None:
+            return "no collision pairs to measure"
+        return (
+            f"minimum distance {self.min_distance:.6f} m between '{self.body_a}' ({self.kind_a}) "
+            f"and '{self.body_b}' ({self.kind_b})"
+        )
+
+
+# ---------------------------------------------------------------------------------------------
+# Scene content: immutable values shared between scene copies
+# ---------------------------------------------------------------------------------------------
+
+
+def _frozen(matrix: np.ndarray) -> np.ndarray:
+    out = np.array(matrix, dtype=float)
+    out.setflags(write=False)
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class Shape:
+    """One Coal shape of an object, with its pose in the object frame and its message form."""
+
+    geometry: coal.CollisionGeometry
+    pose: np.ndarray  # 4x4, object frame -> shape frame (read-only)
+    primitive: "SolidPrimitive | None" = None
+    mesh: "Mesh | None" = None
+
+
+@dataclass(frozen=True, eq=False)
+class SceneObject:
+    """A collision object: id, pose (in world, or in its link frame once attached), shapes."""
+
+    id: str
+    pose: np.ndarray  # 4x4 (read-only)
+    shapes: tuple[Shape, ...]
+
+    def with_pose(self, pose: np.ndarray) -> "SceneObject":
+        return SceneObject(self.id, _frozen(pose), self.shapes)
+
+
+@dataclass(frozen=True, eq=False)
+class AttachedBody:
+    """An object rigidly attached to a robot link; ``object.pose`` is relative to that link."""
+
+    object: SceneObject
+    link: str
+    touch_links: frozenset[str]
+    weight: float = 0.0
+
+    @property
+    def id(self) -> str:
+        return self.object.id
+
+
+# ---------------------------------------------------------------------------------------------
+# Shapes from messages
+# ---------------------------------------------------------------------------------------------
+
+
+def _positive_dims(dims: Sequence[float], count: int, what: str) -> list[float]:
+    values = [float(d) for d in dims]
+    if len(values) != count:
+        raise SceneError(f"{what}: expected {count} dimensions, got {len(values)}")
+    for value in values:
+        if not math.isfinite(value) or value <= 0.0:
+            raise SceneError(f"{what}: dimensions must be finite and > 0, got {values}")
+    return values
+
+
+def primitive_geometry(primitive: "SolidPrimitive", what: str) -> coal.CollisionGeometry:
+    """Coal shape for a shape_msgs primitive (box [x,y,z], sphere [r], cylinder/cone [h, r], axis z)."""
+    kind = primitive.type
+    dims = primitive.dimensions
+    if kind == 1:
+        x, y, z = _positive_dims(dims, 3, f"{what} (BOX)")
+        geometry = coal.Box(x, y, z)
+    elif kind == 2:
+        (r,) = _positive_dims(dims, 1, f"{what} (SPHERE)")
+        geometry = coal.Sphere(r)
+    elif kind == 3:
+        h, r = _positive_dims(dims, 2, f"{what} (CYLINDER)")
+        geometry = coal.Cylinder(r, h)
+    elif kind == 4:
+        h, r = _positive_dims(dims, 2, f"{what} (CONE)")
+        geometry = coal.Cone(r, h)
+    else:
+        raise SceneError(f"{what}: unknown primitive type {kind}; expected BOX(1), SPHERE(2), CYLINDER(3) or CONE(4)")
+    geometry.computeLocalAABB()
+    return geometry
+
+
+def _resource_candidates(resource: str, package_dirs: Iterable[Path]) -> list[Path]:
+    if resource.startswith("package://"):
+        rest = resource[len("package://"):]
+        package, _, relative = rest.partition("/")
+        roots: list[Path] = list(package_dirs) + package_share_dirs()
+        out = []
+        for root in roots:
+            out.append(root / package / relative)
+        return out
+    if resource.startswith("file://"):
+        return [Path(unquote(urlparse(resource).path))]
+    return [Path(resource).expanduser()]
+
+
+_MESH_CACHE: dict[tuple[str, tuple[float, float, float]], coal.CollisionGeometry] = {}
+_MESH_CACHE_LOCK = threading.Lock()
+_MESH_CACHE_SIZE = 64
+
+
+def mesh_geometry(mesh: "Mesh", what: str, package_dirs: Iterable[Path] = ()) -> coal.CollisionGeometry:
+    """Coal BVH (OBBRSS) for a mesh file (cached per file and scale) or explicit triangles."""
+    scale = tuple(float(s) for s in mesh.scale)
+    if len(scale) != 3 or not all(math.isfinite(s) and s > 0 for s in scale):
+        raise SceneError(f"{what}: mesh scale must be three finite values > 0, got {list(mesh.scale)}")
+    if mesh.resource:
+        candidates = _resource_candidates(mesh.resource, package_dirs)
+        path = next((p for p in candidates if p.is_file()), None)
+        if path is None:
+            raise SceneError(
+                f"{what}: mesh file '{mesh.resource}' not found (looked at {', '.join(str(p) for p in candidates)})"
+            )
+        key = (str(path.resolve()), scale)
+        with _MESH_CACHE_LOCK:
+            cached = _MESH_CACHE.get(key)
+        if cached is not None:
+            return cached
+        try:
+            geometry = coal.MeshLoader().load(str(path), np.array(scale))
+        except Exception as exc:  # coal raises RuntimeError/ValueError/assimp errors
+            raise SceneError(f"{what}: cannot load mesh '{mesh.resource}': {exc}") from None
+        if geometry.num_tris == 0:
+            raise SceneError(f"{what}: mesh '{mesh.resource}' has no triangles")
+        geometry.computeLocalAABB()
+        with _MESH_CACHE_LOCK:
+            if len(_MESH_CACHE) >= _MESH_CACHE_SIZE:
+                _MESH_CACHE.pop(next(iter(_MESH_CACHE)))
+            _MESH_CACHE[key] = geometry
+        return geometry
+    vertices = np.asarray(mesh.vertices, dtype=float).reshape(-1, 3) * np.asarray(scale)
+    triangles = np.asarray(mesh.triangles, dtype=int).reshape(-1, 3)
+    if not np.all(np.isfinite(vertices)):
+        raise SceneError(f"{what}: mesh vertices contain NaN or infinite values")
+    if triangles.size == 0:
+        raise SceneError(f"{what}: mesh has no triangles")
+    if triangles.min() < 0 or triangles.max() >= len(vertices):
+        raise SceneError(f"{what}: mesh triangle index out of range for {len(vertices)} vertices")
+    geometry = coal.BVHModelOBBRSS()
+    geometry.beginModel(len(triangles), len(vertices))
+    geometry.addVertices(vertices)
+    geometry.addTriangles(triangles)
+    geometry.endModel()
+    geometry.computeLocalAABB()
+    return geometry
+
+
+# ---------------------------------------------------------------------------------------------
+# Per-robot data shared by every scene of a model
+# ---------------------------------------------------------------------------------------------
+
+
+class RobotCollisionInfo:
+    """What every compiled scene of one RobotModel reuses: geometries, link names, pair candidates,
+    and a fast variables -> Pinocchio q mapping (affine for revolute/prismatic/mimic joints)."""
+
+    _cache: "weakref.WeakKeyDictionary[RobotModel, RobotCollisionInfo]" = weakref.WeakKeyDictionary()
+    _lock = threading.Lock()
+
+    @classmethod
+    def for_model(cls, model: "RobotModel") -> "RobotCollisionInfo":
+        with cls._lock:
+            info = cls._cache.get(model)
+            if info is None:
+                info = cls(model)
+                cls._cache[model] = info
+            return info
+
+    def __init__(self, model: "RobotModel") -> None:
+        self.model = model
+        pin_model = model.pin_model
+        source = model.pin_collision_model
+        self.geometry_objects: list[pin.GeometryObject] = []
+        self.geometry_links: list[str] = []
+        self.geometry_joints: list[int] = []
+        for geom in source.geometryObjects:
+            geom.geometry.computeLocalAABB()  # the broad phase needs local AABBs
+            self.geometry_objects.append(geom)
+            self.geometry_links.append(pin_model.frames[geom.parentFrame].name)
+            self.geometry_joints.append(int(geom.parentJoint))
+        n = len(self.geometry_objects)
+        self.candidate_pairs: list[tuple[int, int]] = [
+            (i, j) for i in range(n) for j in range(i + 1, n) if self.geometry_links[i] != self.geometry_links[j]
+        ]
+        self.links_with_geometry = list(dict.fromkeys(self.geometry_links))
+        # Convex hulls of the link meshes, for the exact check's pre-test (see CompiledScene).
+        self.hull_geometries: list[coal.CollisionGeometry | None] = [
+            _convex_hull(g.geometry) for g in self.geometry_objects]
+        self.lower = [float(x) for x in model.lower_limits]
+        self.upper = [float(x) for x in model.upper_limits]
+        self.neutral_q = np.asarray(pin.neutral(pin_model), dtype=float)
+        self._build_q_map()
+
+    def _build_q_map(self) -> None:
+        model = self.model
+        n = len(model.variable_names)
+        nq = model.pin_model.nq
+        self.q_matrix: np.ndarray | None = None
+        self.q_offset: np.ndarray | None = None
+        self.q_identity = False
+        base = np.array(model.to_q(np.zeros(n)), dtype=float)
+        columns = [np.array(model.to_q(np.eye(n)[i]), dtype=float) - base for i in range(n)]
+        matrix = np.column_stack(columns) if columns else np.zeros((nq, 0))
+        rng = np.random.default_rng(12345)
+        for _ in range(3):  # verify the map is affine (continuous joints are not)
+            p = rng.uniform(-1.0, 1.0, n)
+            if not np.allclose(matrix @ p + base, np.asarray(model.to_q(p), dtype=float), atol=1e-12):
+                return
+        if matrix.shape == (n, n) and np.array_equal(matrix, np.eye(n)) and not base.any():
+            self.q_identity = True
+        self.q_matrix = np.ascontiguousarray(matrix)
+        self.q_offset = base if base.any() else None
+
+    def to_q(self, positions: np.ndarray) -> np.ndarray:
+        """Variables -> Pinocchio configuration, without Python loops when the map is affine."""
+        if self.q_identity:
+            return positions if positions.flags.c_contiguous else np.ascontiguousarray(positions)
+        if self.q_matrix is None:
+            return np.asarray(self.model.to_q(positions), dtype=float)
+        q = self.q_matrix.dot(positions)
+        if self.q_offset is not None:
+            q += self.q_offset
+        return q
+
+
+# ---------------------------------------------------------------------------------------------
+# Compiled scene
+# ---------------------------------------------------------------------------------------------
+
+
+_WARNED: set[tuple[str, frozenset[str]]] = set()
+
+
+def _warn_always_colliding(robot: str, a: str, b: str) -> None:
+    """Say once per pair why every state of a scene is invalid (e.g. an incomplete SRDF)."""
+    key = (robot, frozenset((a, b)))
+    if key in _WARNED:
+        return
+    _WARNED.add(key)
+    _LOG.warning(
+        "'%s' and '%s' are fixed relative to each other and overlap, so every state of robot '%s' is in "
+        "collision in this scene; disable the pair in the SRDF or allow it in the allowed collision matrix",
+        a, b, robot,
+    )
+
+
+#: How far outside its hull a mesh vertex may lie (m) for the hull still to be used: qhull may
+#: leave a vertex a rounding error outside a merged facet; the pre-test margin covers far more.
+_HULL_CONTAINMENT_TOLERANCE = 1e-9
+#: A mesh is pre-tested as its hull only when no vertex lies deeper inside the hull than this (m):
+#: the mesh is convex (the Panda's, Talos's), so the hull is the same solid. A concave mesh's
+#: hull touches its neighbours' in many free states (the UR5's links, 1-4 cm deep), each costing
+#: the pre-test and then the exact check: slower than the exact check alone (docs/core.md).
+_HULL_TIGHTNESS = 1e-3
+#: Meshes of more vertices, or whose check needs more vertex-facet products (about 0.1 s), are
+#: not pre-tested: convex meshes that large are rare, and their exact check stays what it was.
+_HULL_MAX_VERTICES = 5000
+_HULL_CHECK_PRODUCTS = 20_000_000
+#: The hull pre-test calls a pair apart only when the hulls are further apart than this (m), far
+#: above GJK's relative tolerance (1e-6) and the containment tolerance: hulls that merely touch,
+#: or that GJK leaves a rounding error apart, send the state to the exact check.
+HULL_PRE_TEST_MARGIN = 1e-4
+
+
+def _convex_hull(geometry: coal.CollisionGeometry) -> coal.CollisionGeometry | None:
+    """The convex hull of a convex triangle mesh, checked to contain every vertex; None for shapes
+    that are not meshes, concave meshes (see _HULL_TIGHTNESS), or when no hull can be made or
+    checked (a flat or degenerate mesh).
+
+    Coal's ``buildConvexHull`` runs qhull; every mesh vertex is then tested against the facet
+    planes of the hull's own points (scipy's qhull, on those points only), so the hull is used
+    only when it contains the mesh as loaded (same frame, scale already applied). Not
+    ``buildConvexRepresentation``: that wraps the mesh's own vertices and triangles as a Convex
+    without computing a hull, and GJK's support function, which climbs from vertex to
+    neighbouring vertex, stops at the first local maximum of a non-convex mesh (docs/core.md)."""
+    if not isinstance(geometry, coal.BVHModelBase) or not 4 <= geometry.num_vertices <= _HULL_MAX_VERTICES:
+        return None
+    try:
+        copy = geometry.clone()
+        copy.buildConvexHull(True, "Qt")
+        hull = copy.convex
+        points = np.array(hull.points(), dtype=float)
+        planes = ConvexHull(points).equations  # (n, 4): outward unit normal, offset
+    except Exception:  # qhull refuses flat or degenerate point sets (and "too many neighbors")
+        return None
+    vertices = np.asarray(geometry.vertices(), dtype=float)
+    if len(vertices) * len(planes) > _HULL_CHECK_PRODUCTS:
+        return None
+    sample = vertices[::max(1, len(vertices) // 1000)]  # a concave mesh shows on a few vertices
+    if _signed_distances(sample, planes).min() < -_HULL_TIGHTNESS:
+        return None
+    signed = _signed_distances(vertices, planes)
+    if not (signed.max() <= _HULL_CONTAINMENT_TOLERANCE and signed.min() >= -_HULL_TIGHTNESS):
+        return None
+    hull.computeLocalAABB()
+    if not hull.aabb_local.volume() > 0.0:
+        return None
+    return hull
+
+
+def _signed_distances(points: np.ndarray, planes: np.ndarray) -> np.ndarray:
+    """Each point's signed distance to a convex hull's boundary (> 0 outside): its largest value
+    over the hull's facet planes (unit normal, offset), in blocks of at most a million products."""
+    out = np.full(len(points), -np.inf)
+    step = max(1, 1_000_000 // max(1, len(points)))
+    for k in range(0, len(planes), step):
+        block = planes[k:k + step]
+        np.maximum(out, np.max(points @ block[:, :3].T + block[:, 3], axis=1), out=out)
+    return out
+
+
+def _set_collision_requests(data: pin.GeometryData, margin: float) -> None:
+    """Every pair's request: first contact only, no contact details, the given margin, and GJK
+    started afresh. Pinocchio's own requests warm-start GJK from the pair's previous answer, which
+    only the all-pairs loop updates (the broad phase works on a copy of the request), so a state
+    near the margin got a verdict that depended on which states had been checked before, by which
+    path (a myCobot state 1.04 µm from contact: free for the planner, colliding for the validator
+    after it had checked the states before it)."""
+    for k in range(len(data.collisionRequests)):
+        request = coal.CollisionRequest(coal.CollisionRequestFlag.NO_REQUEST, 1)
+        request.security_margin = margin
+        data.collisionRequests[k] = request
+
+
+def _se3(matrix: np.ndarray) -> pin.SE3:
+    return pin.SE3(np.array(matrix[:3, :3]), np.array(matrix[:3, 3]))
+
+
+class CompiledScene:
+    """A scene's geometry as one Pinocchio GeometryModel + broad phase, ready for per-state calls.
+
+    Not thread-safe (it owns Pinocchio data buffers reused on every call), like MoveIt's
+    collision environments are not shared across threads without copies.
+    """
+
+    def __init__(
+        self,
+        robot: RobotCollisionInfo,
+        world: Mapping[str, SceneObject],
+        attached: Mapping[str, AttachedBody],
+        acm: "AllowedCollisionMatrix",
+    ) -> None:
+        self.robot = robot
+        model = robot.model
+        pin_model = model.pin_model
+        self.pin_model = pin_model
+        self.data = pin_model.createData()
+        gm = pin.GeometryModel()
+        names: list[str] = []  # body name per geometry
+        kinds: list[str] = []  # body kind per geometry
+        for index, geom in enumerate(robot.geometry_objects):
+            gm.addGeometryObject(geom)
+            names.append(robot.geometry_links[index])
+            kinds.append(ROBOT_LINK)
+        n_robot = len(names)
+        for obj in world.values():
+            for k, shape in enumerate(obj.shapes):
+                placement = _se3(obj.pose @ shape.pose)
+                gm.addGeometryObject(pin.GeometryObject(f"world/{obj.id}/{k}", 0, 0, placement, shape.geometry))
+                names.append(obj.id)
+                kinds.append(OBJECT)
+        n_world_end = len(names)
+        self.attached_links: dict[str, str] = {}
+        touch: dict[str, frozenset[str]] = {}
+        for body in attached.values():
+            frame_id = model.frame_id(body.link)
+            frame = pin_model.frames[frame_id]
+            joint_to_link = frame.placement.homogeneous
+            for k, shape in enumerate(body.object.shapes):
+                placement = _se3(joint_to_link @ body.object.pose @ shape.pose)
+                gm.addGeometryObject(
+                    pin.GeometryObject(
+                        f"attached/{body.id}/{k}", int(frame.parentJoint), int(frame_id), placement, shape.geometry
+                    )
+                )
+                names.append(body.id)
+                kinds.append(ROBOT_ATTACHED)
+            self.attached_links[body.id] = body.link
+            touch[body.id] = body.touch_links | {body.link}
+        self.geometry_names = names
+        self.geometry_kinds = kinds
+        joints = [int(g.parentJoint) for g in gm.geometryObjects]
+
+        allowed_cache: dict[tuple[str, str], bool] = {}
+
+        def allowed(a: str, b: str) -> bool:
+            key = (a, b)
+            value = allowed_cache.get(key)
+            if value is None:
+                value = acm.is_allowed(a, b)
+                allowed_cache[key] = value
+            return value
+
+        pairs: list[tuple[int, int]] = []
+        for i, j in robot.candidate_pairs:
+            if not allowed(names[i], names[j]):
+                pairs.append((i, j))
+        world_range = range(n_robot, n_world_end)
+        attached_range = range(n_world_end, len(names))
+        for g in world_range:
+            for i in range(n_robot):
+                if not allowed(names[g], names[i]):
+                    pairs.append((i, g))
+        for g in attached_range:
+            body_touch = touch[names[g]]
+            for i in range(n_robot):
+                if names[i] not in body_touch and not allowed(names[g], names[i]):
+                    pairs.append((i, g))
+            for w in world_range:
+                if not allowed(names[g], names[w]):
+                    pairs.append((w, g))
+            for h in range(n_world_end, g):
+                if names[h] != names[g] and not allowed(names[g], names[h]):
+                    pairs.append((h, g))
+        for i, j in pairs:
+            gm.addCollisionPair(pin.CollisionPair(i, j))
+        self.pairs = pairs
+        self.geometry_model = gm
+        gd = gm.createData()
+        _set_collision_requests(gd, SECURITY_MARGIN)
+        self.geometry_data = gd
+        self._pair_is_world = [kinds[i] == OBJECT or kinds[j] == OBJECT for i, j in pairs]
+
+        # Pairs fixed relative to each other: decide once, drop from the per-state check if free.
+        self.constant_colliding: list[int] = []
+        constant = [k for k, (i, j) in enumerate(pairs) if joints[i] == joints[j]]
+        if constant:
+            pin.updateGeometryPlacements(pin_model, self.data, gm, gd, robot.neutral_q)
+            for k in constant:
+                if pin.computeCollision(gm, gd, k):
+                    self.constant_colliding.append(k)
+                    _warn_always_colliding(model.name, names[pairs[k][0]], names[pairs[k][1]])
+                else:
+                    gd.deactivateCollisionPair(k)
+        self.active_pairs = [k for k in range(len(pairs)) if gd.activeCollisionPairs[k]]
+
+        # Broad phase when every geometry has a proper AABB (the manager silently ignores
+        # degenerate ones, e.g. a flat mesh); otherwise the plain all-pairs loop.
+        degenerate = any(not g.geometry.aabb_local.volume() > 0.0 for g in gm.geometryObjects)
+        self.manager = None
+        if not degenerate and pairs:
+            manager_type = (
+                pin.BroadPhaseManager_NaiveCollisionManager
+                if gm.ngeoms <= _AABB_TREE_THRESHOLD
+                else pin.BroadPhaseManager_DynamicAABBTreeCollisionManager
+            )
+            self.manager = manager_type(pin_model, gm, gd)
+        self._distance_data: dict[tuple, tuple[pin.GeometryData, list[int]]] = {}
+        self.hull_manager = self._hull_manager(robot, gm, gd) if self.manager is not None else None
+        self.collides_all_pairs = self._make_all_pairs_checker()
+        self.collides = self._make_checker()
+
+    def _hull_manager(self, robot: RobotCollisionInfo, gm: pin.GeometryModel, gd: pin.GeometryData):
+        """The same geometry and pairs with every link mesh replaced by its checked hull
+        (_convex_hull), behind its own broad phase, the margin widened by HULL_PRE_TEST_MARGIN;
+        None unless every mesh of the scene has a hull (convex link meshes, no world or attached
+        mesh): a hull against a mesh is tested triangle by triangle, which on Tiago (some link
+        meshes convex, some not) made a free state near the torso cost 5.6 ms instead of 16 µs.
+
+        A hull contains its mesh, so a state the hulls find more than the margin apart is free,
+        and the meshes decide every other state: every verdict is still the meshes' own.
+        Convex-convex tests (GJK) are cheaper than mesh-mesh BVH traversals: on the Panda with a
+        box, a free state within 2 cm of a contact costs 9.4 µs instead of 17.3 µs; a colliding
+        state costs both checks (34 µs instead of 25 µs)."""
+        hulls = robot.hull_geometries
+        meshes = [k for k, g in enumerate(gm.geometryObjects) if isinstance(g.geometry, coal.BVHModelBase)]
+        if not meshes or any(k >= len(hulls) or hulls[k] is None for k in meshes):
+            return None
+        hull_gm = pin.GeometryModel()
+        for index, geom in enumerate(gm.geometryObjects):
+            hull = hulls[index] if index < len(hulls) else None
+            if hull is None:
+                hull_gm.addGeometryObject(geom)
+            else:
+                hull_gm.addGeometryObject(pin.GeometryObject(
+                    geom.name, int(geom.parentJoint), int(geom.parentFrame), geom.placement, hull))
+        for i, j in self.pairs:
+            hull_gm.addCollisionPair(pin.CollisionPair(i, j))
+        hull_gd = hull_gm.createData()
+        _set_collision_requests(hull_gd, SECURITY_MARGIN + HULL_PRE_TEST_MARGIN)
+        for k in range(len(self.pairs)):
+            if not gd.activeCollisionPairs[k]:
+                hull_gd.deactivateCollisionPair(k)
+        manager_type = type(self.manager)
+        self._hull_model, self._hull_data, self._hull_pin_data = hull_gm, hull_gd, self.pin_model.createData()
+        return manager_type(self.pin_model, hull_gm, hull_gd)
+
+    # ------------------------------------------------------------------ collision
+    def _make_all_pairs_checker(self):
+        """The plain exact check: every active pair's narrow phase in turn (no broad phase, no
+        pre-test), one Pinocchio call per configuration. What judges the fast path: the
+        trajectory validator decides with it, so it never shares the checker it judges."""
+        pin_model, data = self.pin_model, self.data
+        gm, gd = self.geometry_model, self.geometry_data
+        compute = pin.computeCollisions
+        if not self.pairs:
+            def no_pairs(q: np.ndarray) -> bool:
+                return False
+
+            return no_pairs
+
+        def all_pairs(q: np.ndarray) -> bool:
+            return compute(pin_model, data, gm, gd, q, True)
+
+        return all_pairs
+
+    def _make_checker(self):
+        """The hot path: a closure doing exactly one Pinocchio call per configuration (two where
+        the hull pre-test finds a contact); the all-pairs check where there is no broad phase."""
+        if self.manager is None:
+            return self.collides_all_pairs
+        compute = pin.computeCollisions
+        pin_model, data = self.pin_model, self.data
+        manager = self.manager
+        hull_manager = self.hull_manager
+        if hull_manager is not None:
+            hull_data = self._hull_pin_data
+
+            def hulls_then_meshes(q: np.ndarray) -> bool:
+                return compute(pin_model, hull_data, hull_manager, q, True) and \
+                    compute(pin_model, data, manager, q, True)
+
+            return hulls_then_meshes
+
+        def broadphase(q: np.ndarray) -> bool:
+            return compute(pin_model, data, manager, q, True)
+
+        return broadphase
+
+    def contacts(self, q: np.ndarray, max_contacts: int | None = None) -> list[Contact]:
+        """Every colliding active pair at q (a full pass without early exit), with depths."""
+        gm, gd = self.geometry_model, self.geometry_data
+        pin.updateGeometryPlacements(self.pin_model, self.data, gm, gd, q)
+        if not self.pairs:
+            return []
+        pin.computeCollisions(gm, gd, False)
+        results = gd.collisionResults
+        out: list[Contact] = []
+        for k in self.active_pairs:
+            if not results[k].isCollision():
+                continue
+            i, j = self.pairs[k]
+            distance = pin.computeDistance(gm, gd, k)
+            depth = max(0.0, -float(distance.min_distance))
+            p1, p2 = distance.getNearestPoint1(), distance.getNearestPoint2()
+            position = None
+            if np.all(np.isfinite(p1)) and np.all(np.isfinite(p2)):
+                mid = 0.5 * (np.asarray(p1) + np.asarray(p2))
+                position = (float(mid[0]), float(mid[1]), float(mid[2]))
+            out.append(self._contact(i, j, depth, position))
+            if max_contacts is not None and len(out) >= max_contacts:
+                break
+        return out
+
+    def _contact(self, i: int, j: int, depth: float, position) -> Contact:
+        names, kinds = self.geometry_names, self.geometry_kinds
+        if _KIND_ORDER[kinds[j]] < _KIND_ORDER[kinds[i]]:
+            i, j = j, i
+        return Contact(names[i], kinds[i], names[j], kinds[j], depth, position)
+
+    # ------------------------------------------------------------------ distance
+    def distance(
+        self,
+        q: np.ndarray,
+        include_self: bool = True,
+        include_world: bool = True,
+        bodies: frozenset[str] | None = None,
+    ) -> DistanceReport:
+        """Minimum distance over the selected active pairs, and per robot body."""
+        key = (include_self, include_world, bodies)
+        entry = self._distance_data.get(key)
+        if entry is None:
+            entry = self._distance_selection(include_self, include_world, bodies)
+            if len(self._distance_data) > 16:
+                self._distance_data.clear()
+            self._distance_data[key] = entry
+        gd, selected = entry
+        if not selected:
+            return DistanceReport(math.inf)
+        pin.computeDistances(self.pin_model, self.data, self.geometry_model, gd, q)
+        results = gd.distanceResults
+        names, kinds = self.geometry_names, self.geometry_kinds
+        best = math.inf
+        best_pair = -1
+        per_link: dict[str, tuple[float, str]] = {}
+        for k in selected:
+            d = float(results[k].min_distance)
+            i, j = self.pairs[k]
+            if d < best:
+                best, best_pair = d, k
+            for me, other in ((i, j), (j, i)):
+                if kinds[me] == OBJECT:
+                    continue
+                current = per_link.get(names[me])
+                if current is None or d < current[0]:
+                    per_link[names[me]] = (d, names[other])
+        i, j = self.pairs[best_pair]
+        result = results[best_pair]
+        p1 = tuple(float(x) for x in result.getNearestPoint1())
+        p2 = tuple(float(x) for x in result.getNearestPoint2())
+        if _KIND_ORDER[kinds[j]] < _KIND_ORDER[kinds[i]]:
+            i, j, p1, p2 = j, i, p2, p1
+        return DistanceReport(best, names[i], kinds[i], names[j], kinds[j], p1, p2, per_link)
+
+    def _distance_selection(
+        self, include_self: bool, include_world: bool, bodies: frozenset[str] | None
+    ) -> tuple[pin.GeometryData, list[int]]:
+        gd = self.geometry_model.createData()
+        names = self.geometry_names
+        selected = []
+        for k, (i, j) in enumerate(self.pairs):
+            is_world = self._pair_is_world[k]
+            keep = include_world if is_world else include_self
+            if keep and bodies is not None:
+                keep = any(
+                    self.geometry_kinds[g] != OBJECT
+                    and (names[g] in bodies or self.attached_links.get(names[g]) in bodies)
+                    for g in (i, j)
+                )
+            if keep:
+                selected.append(k)
+            else:
+                gd.deactivateCollisionPair(k)
+        return gd, selected
+
+    # ------------------------------------------------------------------ introspection
+    @property
+    def num_geometries(self) -> int:
+        return self.geometry_model.ngeoms
+
+    def pair_names(self, active_only: bool = True) -> list[tuple[str, str]]:
+        """Body-name pairs checked per state (for debugging which pairs the ACM leaves active)."""
+        indices = self.active_pairs if active_only else range(len(self.pairs))
+        return [(self.geometry_names[self.pairs[k][0]], self.geometry_names[self.pairs[k][1]]) for k in indices]

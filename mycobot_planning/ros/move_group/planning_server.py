@@ -1,0 +1,613 @@
+"""planning_server: the move_group stand-in (thin rclpy shell around MoveGroupCapabilities).
+
+The full story: docs/nodes.md, section mycobot_planning.ros.move_group.planning_server.
+"""
+from __future__ import annotations
+
+import math
+import threading
+import time
+import traceback
+from typing import Any, Callable, Mapping
+
+import numpy as np
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
+from rclpy.exceptions import ParameterException
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import JointState
+from std_msgs.msg import String
+from std_srvs.srv import Trigger
+from trajectory_msgs.msg import JointTrajectory as JointTrajectoryMsg
+from visualization_msgs.msg import Marker, MarkerArray
+
+from interfaces_py.background_spin import BackgroundSpin
+from interfaces_py.json_rpc import BAD_REQUEST, JsonRpcServer, RpcError, decode_request, log_safe
+from interfaces_py.msgs import CollisionObject, JointTrajectory, MoveItErrorCode
+from interfaces_py.ros_conversions import collision_object_to_markers, joint_trajectory_to_msg
+from mycobot_planning.capabilities.move_group_capabilities import (
+    MoveGroupCapabilities,
+    PlanningDefaults,
+    RequestError,
+    goal_from_parameters,
+)
+from mycobot_planning.core.planning_interface.planning_pipeline import PlanningPipeline
+from mycobot_planning.core.robot_model.robot_config import RobotConfig
+from mycobot_planning.core.robot_model.robot_model import RobotModel
+from mycobot_planning.core.trajectory_execution import ExecutionSettings, load_controllers
+from mycobot_planning.core.trajectory_processing.trajectory_limits import DEFAULT_LIMIT_TOLERANCE
+from mycobot_planning.ros.move_group.controller_bus import ActionControllerBus
+from mycobot_planning.ros.move_group.move_group import MoveGroupFace
+from mycobot_planning.ros.node_runtime import Parameters, ParameterSpec, load_yaml_file
+from mycobot_planning.paths import config_file, package_share_dirs
+
+NODE_NAME = "planning_server"
+LATCHED_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+INPUT_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+STATE_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+COMMAND_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+JOINT_STATES_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+# s: scene changes are published at most this often (a burst of updates is one publication, so an
+# update is answered without waiting for a full-scene serialisation)
+PUBLISH_CHECK_PERIOD = 0.1
+MARKER_FOLLOW_PERIOD = 0.1  # s: how often attached-object markers follow the moving robot
+DISPLAY_DELAY = 0.02  # s from a plan to its /display_planned_path and /planned_path messages
+WORLD_COLOR = (0.5, 0.7, 1.0, 1.0)
+ATTACHED_COLOR = (0.6, 0.3, 0.8, 1.0)
+GOAL_TARGETS = ("goal.named_target", "goal.joint_values", "goal.pose")
+
+# ---------------------------------------------------------------------------- parameter checks
+
+
+def _numbers(name: str, size: int | None = None) -> Callable[[Any], str | None]:
+    def check(value: Any) -> str | None:
+        if value is None:  # `[]` in a params file has no type: rcl leaves the parameter unset
+            return None
+        if not isinstance(value, (list, tuple)):
+            return f"{name} must be a list of numbers, got {type(value).__name__} {value!r}"
+        if len(value) == 0:
+            return None
+        if any(isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) for v in value):
+            return f"{name} must contain finite numbers only, got {list(value)!r}"
+        if size is not None and len(value) != size:
+            return f"{name} must be empty or have exactly {size} values, got {len(value)}"
+        if size == 7 and math.hypot(*value[3:]) < 1e-9:
+            return f"{name}: the quaternion (values 4-7) must not be zero"
+        return None
+
+    return check
+
+
+def _declare(node: Node, specs: list[ParameterSpec]) -> Parameters:
+    """Parameters(node, specs), with rclpy's own refusal of an override (a value outside a
+    declared range, a wrong type) turned into the ValueError run_node reports in one line."""
+    try:
+        return Parameters(node, specs)
+    except ParameterException as exc:
+        raise ValueError(f"invalid parameters: {exc}") from None
+
+
+# ---------------------------------------------------------------------------- controllers in ROS
+# ---------------------------------------------------------------------------- the node
+class PlanningServer(Node):
+    """See docs/nodes.md (mycobot_planning.ros.move_group.planning_server)."""
+
+    def __init__(self) -> None:
+        super().__init__(NODE_NAME)
+        log = self.get_logger()
+        self._config = _declare(self, [
+            ParameterSpec("robot_config", "",
+                          "robot configuration directory (the setup assistant's output, or a folder with one URDF "
+                          "and one SRDF): the robot, joint limits, kinematics, OMPL and controllers files come from "
+                          "it where the parameters below leave them empty; empty: the package's myCobot 280",
+                          read_only=True),
+            ParameterSpec("robot_description", "", "URDF of the robot (XML text); empty: the package's myCobot 280",
+                          read_only=True),
+            ParameterSpec("robot_description_semantic", "", "SRDF of the robot (XML text); empty: the package's",
+                          read_only=True),
+            ParameterSpec("joint_limits_file", "", "joint_limits.yaml (MoveIt format); empty: config/joint_limits.yaml",
+                          read_only=True),
+            ParameterSpec("kinematics_file", "", "kinematics.yaml; empty: config/kinematics.yaml", read_only=True),
+            ParameterSpec("ompl_planning_file", "", "ompl_planning.yaml; empty: config/ompl_planning.yaml",
+                          read_only=True),
+            ParameterSpec("pilz_cartesian_limits_file", "",
+                          "pilz_cartesian_limits.yaml; empty: config/pilz_cartesian_limits.yaml", read_only=True),
+            ParameterSpec("controllers_file", "",
+                          "controllers YAML (ros2_control or MoveIt layout); empty: config/controllers.yaml",
+                          read_only=True),
+        ])
+        self._robot_config = RobotConfig.load(self._config.get("robot_config")) if self._config.get("robot_config") \
+            else None
+        model = self._load_model()
+        for warning in model.load_warnings:
+            log.warning(warning)
+        pipeline = PlanningPipeline(self._config_path("ompl_planning_file", "ompl_planning"),
+                                    self._config.get("pilz_cartesian_limits_file") or None)
+        controllers = load_controllers(self._config_path("controllers_file", "moveit_controllers"))
+        self._params = _declare(self, self._specs(model, pipeline, self._goal_group))
+
+        # The high-rate streams (/joint_states and the controllers' states, 100 Hz each) are
+        # served by a second node on a single-threaded executor of its own: rclpy's
+        # multi-threaded executor re-polls entities whose callbacks are queued, which costs a
+        # whole CPU core at these rates, and it would also delay requests behind joint states.
+        self._monitor = Node(f"{NODE_NAME}_state_monitor", context=self.context)
+        self._monitor_executor = SingleThreadedExecutor(context=self.context)
+        self._monitor_executor.add_node(self._monitor)
+        self._bus = ActionControllerBus(self, self._monitor, controllers, self._on_feedback)
+        self.core = MoveGroupCapabilities(model, pipeline, controllers, self._bus, self._execution_settings(),
+                                       self._planning_defaults(), log=self._log,
+                                       context_factory=self._planning_context)
+        # One spare planning context, built in the background: the first plan that arrives while
+        # another runs then starts at once (see core/planning_interface/planning_contexts.py).
+        threading.Thread(target=self.core.contexts.prepare, name="spare planning context", daemon=True).start()
+        self._goal_last_set: str | None = None
+        self._params.on_change(self._on_params)
+
+        self._publish_lock = threading.Lock()
+        self._scene_pub = self.create_publisher(String, "/planning_server/monitored_planning_scene", LATCHED_QOS)
+        self._marker_pub = self.create_publisher(MarkerArray, "/planning_scene_markers", LATCHED_QOS)
+        self._display_pub = self.create_publisher(JointTrajectoryMsg, "/planned_path", LATCHED_QOS)
+        self._marker_positions: np.ndarray | None = None
+        self._marker_time = 0.0
+        self._world_markers: list[Marker] = []
+        self._scene_dirty = threading.Event()
+        self.core.scene_listeners.append(self._scene_dirty.set)
+        # Planned paths are published by a thread of their own, DISPLAY_DELAY after the plan: the
+        # planning client's answer goes out first (the two display messages would otherwise
+        # compete with it for the interpreter); the newest plan wins if several queue up.
+        self._display_next: JointTrajectory | None = None
+        self._display_wake = threading.Condition()
+        self._display_thread = threading.Thread(target=self._display_loop, name="display publisher", daemon=True)
+        self._display_thread.start()
+        self.core.trajectory_listeners.append(self._queue_display)
+
+        self._input_group = MutuallyExclusiveCallbackGroup()
+        self._timer_group = MutuallyExclusiveCallbackGroup()
+        self._service_group = ReentrantCallbackGroup()
+        self._js_problem_logged = 0.0
+        self._monitor.create_subscription(JointState, "/joint_states", self._on_joint_state, JOINT_STATES_QOS)
+        self.create_subscription(String, "/planning_server/planning_scene", self._on_planning_scene, INPUT_QOS,
+                                 callback_group=self._input_group)
+        self.create_subscription(String, "/planning_server/collision_object", self._on_collision_object, INPUT_QOS,
+                                 callback_group=self._input_group)
+        self.create_subscription(String, "/planning_server/attached_collision_object", self._on_attached_object, INPUT_QOS,
+                                 callback_group=self._input_group)
+
+        for name, handler in (("plan", self._srv_plan), ("execute", self._srv_execute),
+                              ("plan_and_execute", self._srv_plan_and_execute), ("stop", self._srv_stop),
+                              ("get_planning_scene", self._srv_get_planning_scene)):
+            self.create_service(Trigger, f"~/{name}", handler, callback_group=self._service_group)
+
+        self._rpc = JsonRpcServer(self)
+        for method, handler in {
+            "get_planning_scene": self._rpc_get_planning_scene,
+            "apply_planning_scene": self._rpc_apply_planning_scene,
+            "apply_collision_object": self._rpc_apply_collision_object,
+            "attach_object": self._rpc_attach_object,
+            "detach_object": self._rpc_detach_object,
+            "get_objects": self._rpc_get_objects,
+            "plan": lambda p: self.core.plan(p),
+            "execute": lambda p: self.core.execute(p),
+            "plan_and_execute": lambda p: self.core.plan_and_execute(p),
+            "compute_cartesian_path": lambda p: self.core.compute_cartesian_path(p),
+            "execute_task_solution": lambda p: self.core.execute_task_solution(p),
+            "stop": self._rpc_stop,
+            "get_state": self._rpc_get_state,
+        }.items():
+            self._rpc.register(method, handler)
+
+        self._scene_timer = self.create_timer(1.0 / self._params.get("scene_publish_rate"), self._publish_scene,
+                                              callback_group=self._timer_group)
+        self._change_timer = self.create_timer(PUBLISH_CHECK_PERIOD, self._publish_changes,
+                                               callback_group=self._timer_group)
+        self._publish_scene()
+        self.move_group = MoveGroupFace(self.core, *self._model_sources(), self.context, self._log)
+        self.extra_nodes = [self.move_group]
+        self.move_group.publish_scene()
+        self._monitor_spin = BackgroundSpin(self._monitor_executor, name="state monitor")
+        log.info(
+            f"planning_server ready: robot '{model.name}', groups {model.group_names}, pipelines "
+            f"{pipeline.pipeline_ids}, controllers "
+            + ", ".join(f"{c.name} {list(c.joints)}" for c in controllers)
+        )
+
+    # ------------------------------------------------------------------ set-up
+    def _planning_context(self) -> tuple[RobotModel, PlanningPipeline]:
+        """Another model and pipeline like the server's own, for a plan that runs beside another."""
+        return self._load_model(), PlanningPipeline(self._config_path("ompl_planning_file", "ompl_planning"),
+                                                    self._config.get("pilz_cartesian_limits_file") or None)
+
+    def _config_path(self, parameter: str, config_key: str) -> str | None:
+        """A file parameter's value, else the robot_config directory's file of that kind, else None
+        (the package's default)."""
+        given = self._config.get(parameter)
+        if given:
+            return given
+        found = getattr(self._robot_config, config_key) if self._robot_config is not None else None
+        return str(found) if found is not None else None
+
+    def _model_sources(self) -> tuple[str, str, dict | None, dict | None]:
+        """URDF, SRDF, joint limits and kinematics as the parameters give them (the package's
+        myCobot 280 files where none is given)."""
+        urdf = self._config.get("robot_description")
+        srdf = self._config.get("robot_description_semantic")
+        if srdf and not urdf:
+            raise ValueError("robot_description_semantic is set but robot_description (the URDF) is empty")
+        if not urdf and self._robot_config is not None:
+            urdf, srdf = self._robot_config.urdf.read_text(), self._robot_config.srdf.read_text()
+        limits = load_yaml_file(self._config_path("joint_limits_file", "joint_limits"), "joint limits file")
+        kinematics = load_yaml_file(self._config_path("kinematics_file", "kinematics"), "kinematics file")
+        if not urdf:
+            urdf = config_file("mycobot_280.urdf").read_text()
+            srdf = config_file("mycobot_280.srdf").read_text()
+            limits = limits if limits is not None else load_yaml_file(str(config_file("joint_limits.yaml")), "joint limits")
+            kinematics = kinematics if kinematics is not None else load_yaml_file(
+                str(config_file("kinematics.yaml")), "kinematics")
+        return urdf, srdf or '<robot name=""/>', limits, kinematics
+
+    def _load_model(self) -> RobotModel:
+        if self._robot_config is None and not any(self._config.get(name) for name in (
+                "robot_description", "robot_description_semantic", "joint_limits_file", "kinematics_file")):
+            return RobotModel.mycobot()
+        urdf, srdf, limits, kinematics = self._model_sources()
+        dirs = [*(self._robot_config.package_dirs if self._robot_config else ()), *package_share_dirs()]
+        return RobotModel.from_strings(urdf, srdf, limits, kinematics, package_dirs=dirs)
+
+    def _goal_group(self) -> str:
+        params = getattr(self, "_params", None)  # None while the parameters are being declared
+        return params.get("goal.group") if params is not None else "arm"
+
+    @staticmethod
+    def _specs(model: RobotModel, pipeline: PlanningPipeline, goal_group: Callable[[], str]) -> list[ParameterSpec]:
+        named = sorted({n for g in model.group_names for n in model.named_state_names(g)})
+
+        def group_check(value: Any) -> str | None:
+            return None if model.has_group(value) else f"unknown planning group '{value}'; known: {model.group_names}"
+
+        def named_check(value: Any) -> str | None:
+            return None if not value or value in named else f"unknown named state '{value}'; known: {named}"
+
+        def link_check(value: Any) -> str | None:
+            return None if not value or model.has_link(value) else f"unknown link '{value}' of robot '{model.name}'"
+
+        def pipeline_check(value: Any) -> str | None:
+            ids = pipeline.pipeline_ids
+            return None if value in ids else f"unknown planning pipeline '{value}'; known: {ids}"
+
+        def planner_check(value: Any) -> str | None:
+            return pipeline.planner_id_problem(value, model.group_names)
+
+        joint_numbers = _numbers("goal.joint_values")
+
+        def joint_values_check(value: Any) -> str | None:
+            problem = joint_numbers(value)
+            if problem is not None or not value:
+                return problem
+            group = goal_group()
+            joints = model.group(group).joint_names if model.has_group(group) else []
+            if len(value) != len(joints):
+                return (f"goal.joint_values has {len(value)} values but group '{group}' has {len(joints)} joints "
+                        f"{list(joints)}")
+            return None
+
+        ex = "trajectory_execution."
+        return [
+            ParameterSpec("joint_state_timeout", 1.0,
+                          "seconds after which the last /joint_states message is stale: planning and execution "
+                          "refuse a stale current state", range=(0.01, 3600.0)),
+            ParameterSpec("scene_publish_rate", 2.0, "Hz at which the monitored planning scene (both faces) and the scene markers "
+                          "are republished (they are also published on every change)", range=(0.1, 100.0)),
+            ParameterSpec("trajectory_sample_period", 0.01,
+                          "seconds between the points of planned trajectories (0: the planner's breakpoints only)",
+                          range=(0.0, 1.0)),
+            ParameterSpec(ex + "allowed_execution_duration_scaling", 1.2,
+                          "execution may take this many times the trajectory's duration (plus the margin)",
+                          range=(1.0, 100.0)),
+            ParameterSpec(ex + "allowed_goal_duration_margin", 0.5,
+                          "seconds added to the scaled duration before execution is cancelled as TIMED_OUT",
+                          range=(0.0, 3600.0)),
+            ParameterSpec(ex + "limit_tolerance", DEFAULT_LIMIT_TOLERANCE,
+                          "relative slack on the joint velocity and acceleration limits: a trajectory exceeding "
+                          "them by more is refused before it is sent (0.05: 5 %)", range=(0.0, 1.0)),
+            ParameterSpec(ex + "allowed_start_tolerance", 0.01,
+                          "largest distance (rad or m) between a trajectory's first point and the current state; "
+                          "0 disables the check", range=(0.0, 10.0)),
+            ParameterSpec(ex + "execution_duration_monitoring", True,
+                          "cancel executions that exceed the allowed duration"),
+            ParameterSpec(ex + "goal_tolerance", 0.02,
+                          "largest distance (rad or m) between the last point and /joint_states for an execution "
+                          "to succeed; 0 trusts the controllers", range=(0.0, 10.0)),
+            ParameterSpec("planning_pipeline", "ompl", "default planning pipeline: ompl, "
+                          "pilz_industrial_motion_planner or joint_interpolation", validator=pipeline_check),
+            ParameterSpec("planner_id", "", "default planner id (empty: the pipeline's default), e.g. "
+                          "'RRTConnectkConfigDefault' or, for the industrial pipeline, PTP, LIN or CIRC",
+                          validator=planner_check),
+            ParameterSpec("planning_time", 5.0, "default allowed planning time in seconds", range=(0.001, 3600.0)),
+            ParameterSpec("planning_attempts", 1, "default number of planning attempts", range=(1, 1000)),
+            ParameterSpec("max_velocity_scaling_factor", 1.0, "default velocity scaling factor",
+                          range=(0.0001, 1.0)),
+            ParameterSpec("max_acceleration_scaling_factor", 1.0, "default acceleration scaling factor",
+                          range=(0.0001, 1.0)),
+            ParameterSpec("goal.group", "arm" if model.has_group("arm") or not model.group_names else model.group_names[0],
+                          "planning group of the Trigger 'plan' service", validator=group_check),
+            ParameterSpec("goal.named_target", "", "named state goal (e.g. 'ready') of the Trigger 'plan' service; "
+                          "the goal.* target set last is the one planned to", validator=named_check),
+            ParameterSpec("goal.joint_values", [], "joint goal (one value per group joint, rad) of the Trigger "
+                          "'plan' service", validator=joint_values_check, dynamic_typing=True),
+            ParameterSpec("goal.pose", [], "pose goal [x, y, z, qx, qy, qz, qw] in the world frame of the Trigger "
+                          "'plan' service", validator=_numbers("goal.pose", 7), dynamic_typing=True),
+            ParameterSpec("goal.link", "", "link the pose goal is for (empty: the group's tip link)",
+                          validator=link_check),
+        ]
+
+    def _execution_settings(self) -> ExecutionSettings:
+        ex = "trajectory_execution."
+        return ExecutionSettings(
+            allowed_execution_duration_scaling=float(self._params.get(ex + "allowed_execution_duration_scaling")),
+            allowed_goal_duration_margin=float(self._params.get(ex + "allowed_goal_duration_margin")),
+            allowed_start_tolerance=float(self._params.get(ex + "allowed_start_tolerance")),
+            execution_duration_monitoring=bool(self._params.get(ex + "execution_duration_monitoring")),
+            goal_tolerance=float(self._params.get(ex + "goal_tolerance")),
+            joint_state_timeout=float(self._params.get("joint_state_timeout")),
+            limit_tolerance=float(self._params.get(ex + "limit_tolerance")),
+        )
+
+    def _planning_defaults(self) -> PlanningDefaults:
+        return PlanningDefaults(
+            pipeline_id=self._params.get("planning_pipeline"),
+            planner_id=self._params.get("planner_id"),
+            planning_time=float(self._params.get("planning_time")),
+            num_planning_attempts=int(self._params.get("planning_attempts")),
+            max_velocity_scaling_factor=float(self._params.get("max_velocity_scaling_factor")),
+            max_acceleration_scaling_factor=float(self._params.get("max_acceleration_scaling_factor")),
+            sample_period=float(self._params.get("trajectory_sample_period")),
+        )
+
+    def _on_params(self, changed: dict[str, Any]) -> None:
+        self.core.settings = self._execution_settings()
+        self.core.defaults = self._planning_defaults()
+        for name in GOAL_TARGETS:
+            if name in changed and changed[name]:
+                self._goal_last_set = name
+        if "scene_publish_rate" in changed:
+            self._scene_timer.cancel()
+            self.destroy_timer(self._scene_timer)
+            self._scene_timer = self.create_timer(1.0 / changed["scene_publish_rate"], self._publish_scene,
+                                                  callback_group=self._timer_group)
+        self.get_logger().info("parameters set: " + ", ".join(f"{k}={v!r}" for k, v in changed.items()))
+
+    def _log(self, level: str, text: str) -> None:
+        # One call site per severity: rclpy refuses a call site whose severity changes. Texts may
+        # echo request strings: log_safe escapes what rclpy's logging cannot encode.
+        text = log_safe(text, limit=8000)
+        logger = self.get_logger()
+        if level == "error":
+            logger.error(text)
+        elif level == "warning":
+            logger.warning(text)
+        else:
+            logger.info(text)
+
+    def _on_feedback(self) -> None:
+        self.core.executor.notify()
+
+    def close(self) -> None:
+        """On shutdown: stop a running execution so the controllers hold where they are, then
+        stop the state monitor."""
+        if self.core.executor.executing:
+            self.core.stop()
+            deadline = time.monotonic() + 1.0  # let the execution send its stop commands
+            while self.core.executor.executing and time.monotonic() < deadline:
+                time.sleep(0.01)
+        self._monitor_spin.stop()
+        self._monitor.destroy_node()
+        self.move_group.close()
+        self.move_group.destroy_node()
+
+    # ------------------------------------------------------------------ publishing
+    def _publish_scene(self) -> None:
+        """Publish the monitored scene (JSON and moveit_msgs) and the markers (periodically and after changes)."""
+        with self._publish_lock:
+            self._scene_dirty.clear()
+            msg, attached = self.core.scene_snapshot()
+            self._scene_pub.publish(String(data=msg.to_json()))
+            self._publish_markers_locked(msg.world.collision_objects, attached, msg.robot_state.positions)
+        if getattr(self, "move_group", None) is not None:
+            self.move_group.publish_scene()
+
+    def _publish_markers_locked(self, world: list[CollisionObject] | None, attached: list[CollisionObject],
+                                positions: list[float]) -> None:
+        """One MarkerArray: DELETEALL, then every object (world markers reused when ``world`` is None)."""
+        stamp = self.get_clock().now().to_msg()
+        clear = Marker()
+        clear.action = Marker.DELETEALL
+        if world is not None:
+            self._world_markers = [m for obj in world for m in collision_object_to_markers(
+                obj, ns=f"world_objects/{obj.id}", id_start=0, color=WORLD_COLOR, stamp=stamp)]
+        markers = [clear] + self._world_markers
+        for obj in attached:
+            markers += collision_object_to_markers(obj, ns=f"attached_objects/{obj.id}", id_start=0,
+                                                   color=ATTACHED_COLOR, stamp=stamp)
+        self._marker_pub.publish(MarkerArray(markers=markers))
+        self._marker_positions = np.asarray(positions, dtype=float)
+        self._marker_time = time.monotonic()
+
+    def _publish_changes(self) -> None:
+        """Publish the scene if it changed; else republish the markers when the robot carries
+        objects and has moved (attached objects move with their link)."""
+        if self._scene_dirty.is_set():
+            self._publish_scene()
+            return
+        if time.monotonic() - self._marker_time < MARKER_FOLLOW_PERIOD or not self.core.has_attached_objects():
+            return
+        with self._publish_lock:
+            positions, attached = self.core.attached_snapshot()
+            last = self._marker_positions
+            if last is None or last.shape != (len(positions),) or not np.allclose(last, positions, atol=1e-6, rtol=0):
+                self._publish_markers_locked(None, attached, positions)  # world markers unchanged
+
+    def _queue_display(self, trajectory: JointTrajectory) -> None:
+        with self._display_wake:
+            self._display_next = trajectory
+            self._display_wake.notify()
+
+    def _display_loop(self) -> None:
+        while True:
+            with self._display_wake:
+                while self._display_next is None:
+                    self._display_wake.wait()
+            time.sleep(DISPLAY_DELAY)
+            with self._display_wake:
+                trajectory, self._display_next = self._display_next, None
+            if trajectory is None:
+                continue
+            try:
+                self._publish_display(trajectory)
+            except Exception as exc:  # a context shut down under us, or a conversion bug: say so, go on
+                if not self.context.ok():
+                    return
+                self.get_logger().error(f"publishing the planned path failed: {type(exc).__name__}: {exc}")
+
+    def _publish_display(self, trajectory: JointTrajectory) -> None:
+        self._display_pub.publish(joint_trajectory_to_msg(trajectory, self.get_clock().now().to_msg()))
+        if getattr(self, "move_group", None) is not None:
+            self.move_group.publish_display(trajectory)
+
+    # ------------------------------------------------------------------ topic inputs
+    def _on_joint_state(self, msg: JointState) -> None:
+        problem = self.core.update_joint_state(msg.name, msg.position)
+        if problem is not None:
+            now = time.monotonic()
+            if now - self._js_problem_logged > 5.0:  # at 100 Hz, say it once in a while
+                self._js_problem_logged = now
+                self.get_logger().warning(f"ignoring /joint_states message: {problem}")
+
+    def _topic_update(self, topic: str, msg: String, apply: Callable[[Any], Any]) -> None:
+        """Decode (checked at the boundary like a request) and apply one scene update; a bad one
+        is logged and changes nothing."""
+        try:
+            apply(decode_request(msg.data, f"message on {topic}"))
+        except (RequestError, RpcError) as exc:
+            self._log("warning", f"refused update on {topic}: {exc.message}")
+        except Exception as exc:  # never let a bad message take the node down
+            self._log("error", f"update on {topic} failed: {type(exc).__name__}: {exc}\n{traceback.format_exc()}")
+
+    def _on_planning_scene(self, msg: String) -> None:
+        self._topic_update("/planning_server/planning_scene", msg, self.core.apply_planning_scene)
+
+    def _on_collision_object(self, msg: String) -> None:
+        self._topic_update("/planning_server/collision_object", msg, lambda data: self.core.apply_collision_objects([data]))
+
+    def _on_attached_object(self, msg: String) -> None:
+        self._topic_update("/planning_server/attached_collision_object", msg, self.core.apply_attached_collision_object)
+
+    # ------------------------------------------------------------------ Trigger services
+    @staticmethod
+    def _trigger(response: Trigger.Response, result: Mapping[str, Any], detail: str = "") -> Trigger.Response:
+        code = MoveItErrorCode.from_dict(result["error_code"])
+        response.success = bool(code)
+        response.message = f"{code.name}: {detail or code.message}" if detail or code.message else code.name
+        return response
+
+    def _goal_request(self, response: Trigger.Response, what: str) -> dict[str, Any] | None:
+        """The plan request the goal.* parameters describe; None (and ``response`` filled) if they
+        do not describe one."""
+        values = {k.split(".", 1)[1]: self._params.get(k)
+                  for k in ("goal.group", "goal.named_target", "goal.joint_values", "goal.pose", "goal.link")}
+        last = self._goal_last_set.split(".", 1)[1] if self._goal_last_set else None
+        try:
+            return goal_from_parameters(values, last)
+        except RequestError as exc:
+            response.success, response.message = False, f"INVALID_GOAL_CONSTRAINTS: {exc.message}"
+            self.get_logger().warning(f"{what} refused: {exc.message}")
+            return None
+
+    def _srv_plan(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        params = self._goal_request(response, "plan")
+        if params is None:
+            return response
+        result = self.core.plan(params)
+        goal = params["goal"]
+        target = (f"named target '{goal['named']}'" if "named" in goal else
+                  f"joint values {goal['joints']}" if "joints" in goal else f"pose {goal['pose']}")
+        detail = ""
+        if result["trajectory"] is not None:
+            points = result["trajectory"]["joint_trajectory"]["points"]
+            detail = (f"planned '{params['group']}' to {target}: {points[-1]['time_from_start']:.3f} s trajectory, "
+                      f"{len(points)} points, planning time {result['planning_time']:.3f} s")
+        return self._trigger(response, result, detail)
+
+    def _srv_execute(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        return self._trigger(response, self.core.execute({}))
+
+    def _srv_plan_and_execute(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        params = self._goal_request(response, "plan_and_execute")
+        if params is None:
+            return response
+        return self._trigger(response, self.core.plan_and_execute(params))
+
+    def _srv_stop(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        result = self.core.stop()
+        response.success = True
+        response.message = result["message"]
+        return response
+
+    def _srv_get_planning_scene(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        response.success = True
+        response.message = self.core.scene_msg().to_json()
+        return response
+
+    # ------------------------------------------------------------------ JSON-RPC
+    @staticmethod
+    def _check_keys(params: Mapping[str, Any], allowed: set[str], method: str) -> None:
+        unknown = sorted(set(params) - allowed)
+        if unknown:
+            raise RpcError(BAD_REQUEST, f"{method}: unknown parameters {unknown}; known: {sorted(allowed)}")
+
+    @staticmethod
+    def _scene_rpc(fn: Callable[[], Any]) -> Any:
+        try:
+            return fn()
+        except RequestError as exc:
+            raise RpcError(exc.code, exc.message) from None
+
+    def _rpc_get_planning_scene(self, params: Mapping[str, Any]) -> Any:
+        self._check_keys(params, set(), "get_planning_scene")
+        return self.core.scene_msg().to_dict()
+
+    def _rpc_apply_planning_scene(self, params: Mapping[str, Any]) -> Any:
+        self._check_keys(params, {"scene"}, "apply_planning_scene")
+        if "scene" not in params:
+            raise RpcError(BAD_REQUEST, "apply_planning_scene needs a 'scene' (PlanningScene)")
+        return self._scene_rpc(lambda: self.core.apply_planning_scene(params["scene"]))
+
+    def _rpc_apply_collision_object(self, params: Mapping[str, Any]) -> Any:
+        self._check_keys(params, {"object", "objects"}, "apply_collision_object")
+        if ("object" in params) == ("objects" in params):
+            raise RpcError(BAD_REQUEST, "apply_collision_object needs either 'object' or 'objects' (a list)")
+        objects = [params["object"]] if "object" in params else params["objects"]
+        return self._scene_rpc(lambda: self.core.apply_collision_objects(objects))
+
+    def _rpc_attach_object(self, params: Mapping[str, Any]) -> Any:
+        self._check_keys(params, {"object_id", "link_name", "touch_links", "weight", "attached_object"},
+                         "attach_object")
+        if "attached_object" in params:
+            return self._scene_rpc(lambda: self.core.apply_attached_collision_object(params["attached_object"]))
+        return self._scene_rpc(lambda: self.core.attach_object(
+            params.get("object_id"), params.get("link_name") or None, params.get("touch_links"),
+            params.get("weight", 0.0)))
+
+    def _rpc_detach_object(self, params: Mapping[str, Any]) -> Any:
+        self._check_keys(params, {"object_id"}, "detach_object")
+        return self._scene_rpc(lambda: self.core.detach_object(params.get("object_id")))
+
+    def _rpc_get_objects(self, params: Mapping[str, Any]) -> Any:
+        self._check_keys(params, {"ids"}, "get_objects")
+        return self._scene_rpc(lambda: self.core.get_objects(params.get("ids")))
+
+    def _rpc_stop(self, params: Mapping[str, Any]) -> Any:
+        return self.core.stop()
+
+    def _rpc_get_state(self, params: Mapping[str, Any]) -> Any:
+        return self.core.get_state(self._bus.summary())

@@ -1,0 +1,87 @@
+"""What the simulator says about a pick and place: did the object slip in the hand while carried,
+and does it stand at the place pose once the gripper has left.
+
+The criteria (issue 31): the object's centre within 1 cm of the place pose, its axis within 5
+degrees of upright, and never more than 5 mm of slip in the hand while carried. One
+implementation for the ROS-free demo, the bench and (later) the ROS demo.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+#: m: how far from the place pose the object's centre may end
+PLACE_TOLERANCE = 0.01
+#: degrees: how far from upright the object's axis may end
+TILT_TOLERANCE_DEG = 5.0
+#: m: how far the object may move in the hand while carried
+SLIP_TOLERANCE = 0.005
+
+
+def tilt_deg(pose: np.ndarray, up: np.ndarray | None = None) -> float:
+    """Angle (degrees) between the pose's z axis and the world's (or ``up``)."""
+    axis = np.asarray(pose, dtype=float)[:3, 2]
+    ref = np.array([0.0, 0.0, 1.0]) if up is None else np.asarray(up, dtype=float)
+    cos = float(np.clip(axis @ ref / (np.linalg.norm(axis) * np.linalg.norm(ref)), -1.0, 1.0))
+    return math.degrees(math.acos(cos))
+
+
+class SlipMonitor:
+    """The object's position in the hand frame, from the moment it is held (the first sample)
+    on: slip is the largest distance it moved from there."""
+
+    def __init__(self) -> None:
+        self._start: np.ndarray | None = None
+        self.slip = 0.0
+        self.samples = 0
+
+    def sample(self, hand_pose: np.ndarray, object_pose: np.ndarray) -> float:
+        """Record one instant; returns the slip so far (m)."""
+        hand = np.asarray(hand_pose, dtype=float)
+        in_hand = hand[:3, :3].T @ (np.asarray(object_pose, dtype=float)[:3, 3] - hand[:3, 3])
+        if self._start is None:
+            self._start = in_hand
+        self.slip = max(self.slip, float(np.linalg.norm(in_hand - self._start)))
+        self.samples += 1
+        return self.slip
+
+
+@dataclass(frozen=True)
+class PlaceOutcome:
+    """The verdict: ``success`` when the place error, the tilt and the slip are all within
+    their tolerances; ``message`` says which failed and by how much."""
+
+    success: bool
+    place_error: float  # m
+    tilt_deg: float
+    slip: float  # m (nan: never held)
+    final_pose: np.ndarray
+    message: str
+
+    def figures(self) -> dict[str, float]:
+        return {"place_error_mm": round(self.place_error * 1000, 2), "tilt_deg": round(self.tilt_deg, 2),
+                "slip_mm": round(self.slip * 1000, 2) if math.isfinite(self.slip) else float("nan")}
+
+
+def judge_place(final_pose: np.ndarray, place_pose: np.ndarray, slip: float) -> PlaceOutcome:
+    """Compare the object's final pose with where it should be; ``slip`` from a SlipMonitor."""
+    final = np.asarray(final_pose, dtype=float)
+    error = float(np.linalg.norm(final[:3, 3] - np.asarray(place_pose, dtype=float)[:3, 3]))
+    tilt = tilt_deg(final)
+    problems = []
+    if error > PLACE_TOLERANCE:
+        problems.append(f"the object ended {error * 1000:.1f} mm from the place pose (tolerance "
+                        f"{PLACE_TOLERANCE * 1000:.0f} mm)")
+    if tilt > TILT_TOLERANCE_DEG:
+        problems.append(f"the object ended {tilt:.1f} degrees from upright (tolerance {TILT_TOLERANCE_DEG:.0f})")
+    if not math.isfinite(slip):
+        problems.append("the object was never held")
+    elif slip > SLIP_TOLERANCE:
+        problems.append(f"the object slipped {slip * 1000:.1f} mm in the hand while carried (tolerance "
+                        f"{SLIP_TOLERANCE * 1000:.0f} mm)")
+    message = "; ".join(problems) if problems else (
+        f"placed {error * 1000:.1f} mm from the place pose, {tilt:.1f} degrees from upright, "
+        f"{slip * 1000:.1f} mm slip in the hand")
+    return PlaceOutcome(not problems, error, tilt, slip, final, message)
