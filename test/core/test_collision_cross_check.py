@@ -329,18 +329,25 @@ def _scene(robot: Robot, extras: Extras | None, allowed: set[frozenset[str]]) ->
 
 def _compare(robot: Robot, scene: PlanningScene, reference: PlainCheck, states: np.ndarray) -> tuple[int, list[str]]:
     """(states in collision, one line per disagreement). The random states go through
-    is_state_colliding, the segments through colliding_rows (the validator's and planners' path)."""
+    is_state_colliding, the segments through colliding_rows (the planners' path, and the
+    validator's when a planner checks its own output), and through colliding_rows with
+    all_pairs=True (the validator as a judge: the scene's pairs, plain check)."""
     model = robot.model
+    indices, along = np.arange(len(model.variable_names)), states[RANDOM_STATES:]
     ours = [scene.is_state_colliding(RobotState(model, row)) for row in states[:RANDOM_STATES]]
-    ours += list(scene.colliding_rows(np.arange(len(model.variable_names)), RobotState(model),
-                                      states[RANDOM_STATES:]))
+    ours += list(scene.colliding_rows(indices, RobotState(model), along))
+    judge = list(scene.colliding_rows(indices, RobotState(model), along, all_pairs=True))
     colliding, wrong = 0, []
-    for row, verdict in zip(states, ours):
+    for k, (row, verdict) in enumerate(zip(states, ours)):
         truth = reference.collides(reference.q(_joint_values(model, row)))
         colliding += truth
         if bool(verdict) != truth:
             wrong.append(f"{'colliding' if truth else 'free'} for the plain check, "
                          f"{'colliding' if verdict else 'free'} for the scene: {np.round(row, 4).tolist()}")
+        if k >= RANDOM_STATES and bool(judge[k - RANDOM_STATES]) != truth:
+            wrong.append(f"{'colliding' if truth else 'free'} for the plain check, "
+                         f"{'colliding' if not truth else 'free'} for the scene's all-pairs check: "
+                         f"{np.round(row, 4).tolist()}")
     return colliding, wrong
 
 
