@@ -568,6 +568,7 @@ class CompiledScene:
             )
             self.manager = manager_type(pin_model, gm, gd)
         self._distance_data: dict[tuple, tuple[pin.GeometryData, list[int]]] = {}
+        self._group_checkers: dict[tuple, object] = {}
         self.hull_manager = self._hull_manager(robot, gm, gd) if self.manager is not None else None
         self.collides_all_pairs = self._make_all_pairs_checker()
         self.collides = self._make_checker()
@@ -647,6 +648,101 @@ class CompiledScene:
         def broadphase(q: np.ndarray) -> bool:
             return compute(pin_model, data, manager, q, True)
 
+        return broadphase
+
+    def group_collides(self, moving_joints: frozenset[int], q_ref: np.ndarray):
+        """The collision test for states that differ from ``q_ref`` only in the Pinocchio joints
+        ``moving_joints`` (a planning group's joints and the mimic followers they drive): a pair
+        of bodies whose kinematic path holds none of them keeps its relative pose in every such
+        state, so it is checked once here, exactly, and left out of the per-state check. If one
+        of them collides, every such state collides and the test says so for every state.
+
+        Exact for those states only: planners of one group use it (PlanningScene's group
+        validity checker); anything judging arbitrary states uses collides/collides_all_pairs.
+        Built once per group and reference configuration (a few kept per compiled scene)."""
+        key = (moving_joints, np.asarray(q_ref, dtype=float).tobytes())
+        cached = self._group_checkers.get(key)
+        if cached is None:
+            cached = self._build_group_collides(moving_joints, np.array(q_ref, dtype=float))
+            if len(self._group_checkers) >= 8:
+                self._group_checkers.pop(next(iter(self._group_checkers)))
+            self._group_checkers[key] = cached
+        return cached
+
+    def fixed_pairs(self, moving_joints: frozenset[int]) -> list[int]:
+        """Active pair indices whose two bodies are linked by a kinematic path without any of
+        ``moving_joints`` (the path between parent joints a and b: the joints supporting one but
+        not the other; a world object hangs on the universe, an attached object on its link's
+        joint)."""
+        supports = self.pin_model.supports
+        joints = [int(g.parentJoint) for g in self.geometry_model.geometryObjects]
+        path_moves: dict[tuple[int, int], bool] = {}
+        fixed = []
+        for k in self.active_pairs:
+            i, j = self.pairs[k]
+            a, b = joints[i], joints[j]
+            key = (a, b) if a <= b else (b, a)
+            moves = path_moves.get(key)
+            if moves is None:
+                path = set(supports[a]) ^ set(supports[b])
+                moves = bool(path & moving_joints)
+                path_moves[key] = moves
+            if not moves:
+                fixed.append(k)
+        return fixed
+
+    def _build_group_collides(self, moving_joints: frozenset[int], q_ref: np.ndarray):
+        fixed = self.fixed_pairs(moving_joints)
+        if not fixed:
+            return self.collides
+        pin_model, gm = self.pin_model, self.geometry_model
+        gd = gm.createData()
+        _set_collision_requests(gd, SECURITY_MARGIN)
+        pin.updateGeometryPlacements(pin_model, pin_model.createData(), gm, gd, q_ref)
+        if any(pin.computeCollision(gm, gd, k) for k in fixed):
+            def always(q: np.ndarray) -> bool:
+                return True
+
+            return always
+        for k in range(len(self.pairs)):
+            if not self.geometry_data.activeCollisionPairs[k]:
+                gd.deactivateCollisionPair(k)
+        for k in fixed:
+            gd.deactivateCollisionPair(k)
+        if not any(gd.activeCollisionPairs):
+            def never(q: np.ndarray) -> bool:
+                return False
+
+            return never
+        compute = pin.computeCollisions
+        data = pin_model.createData()
+        if self.manager is None:
+            def remaining_pairs(q: np.ndarray) -> bool:
+                return compute(pin_model, data, gm, gd, q, True)
+
+            return remaining_pairs
+        manager = type(self.manager)(pin_model, gm, gd)
+        if self.hull_manager is not None:
+            hull_gm = self._hull_model
+            hull_gd = hull_gm.createData()
+            _set_collision_requests(hull_gd, SECURITY_MARGIN + HULL_PRE_TEST_MARGIN)
+            for k in range(len(self.pairs)):
+                if not gd.activeCollisionPairs[k]:
+                    hull_gd.deactivateCollisionPair(k)
+            hull_manager = type(self.manager)(pin_model, hull_gm, hull_gd)
+            hull_data = pin_model.createData()
+
+            def hulls_then_meshes(q: np.ndarray) -> bool:
+                return compute(pin_model, hull_data, hull_manager, q, True) and \
+                    compute(pin_model, data, manager, q, True)
+
+            hulls_then_meshes.keep = (gd, hull_gd)  # the managers hold references only
+            return hulls_then_meshes
+
+        def broadphase(q: np.ndarray) -> bool:
+            return compute(pin_model, data, manager, q, True)
+
+        broadphase.keep = gd
         return broadphase
 
     def contacts(self, q: np.ndarray, max_contacts: int | None = None) -> list[Contact]:

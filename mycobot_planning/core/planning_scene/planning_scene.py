@@ -593,31 +593,75 @@ class PlanningScene:
         else:
             indices = np.asarray(group, dtype=int)
         full = np.array(self._state_or_current(reference_state).positions, dtype=float)
+        collides = self._group_collision_test(indices, full)
         if not check_bounds:
             slots = self._model.q_slots(indices)
             if slots is not None:
-                return self._collision_free_checker(full, slots)
-        is_valid_positions = self.is_valid_positions
+                q = np.array(self._robot.to_q(full), dtype=float)
+
+                def collision_free(values: np.ndarray) -> bool:
+                    q[slots] = values
+                    return not collides(q)
+
+                return collision_free
+        robot = self._robot
+        to_q = robot.to_q
+        lower, upper = robot.lower, robot.upper
+        bounds = [(lower[i], upper[i]) for i in indices.tolist()] if check_bounds else None
+        if check_bounds:
+            others = np.ones(len(full), dtype=bool)
+            others[indices] = False
+            if not all(low <= value <= high for value, low, high, other
+                       in zip(full.tolist(), lower, upper, others.tolist()) if other):
+                def outside_limits(values: np.ndarray) -> bool:
+                    return False  # a joint the checker holds fixed is outside its limits
+
+                return outside_limits
 
         def check(values: np.ndarray) -> bool:
+            if type(values) is not np.ndarray or values.dtype != np.float64:
+                values = np.asarray(values, dtype=float)
+            if values.shape != (len(indices),):
+                raise StateError(f"expected {len(indices)} joint positions, got {values.size}")
+            if bounds is not None:
+                for value, (low, high) in zip(values.tolist(), bounds):
+                    if not low <= value <= high:
+                        return False
             full[indices] = values
-            return is_valid_positions(full)
+            return not collides(to_q(full))
 
         return check
 
-    def _collision_free_checker(self, full: np.ndarray, slots: np.ndarray) -> Callable[[np.ndarray], bool]:
-        """Collision test writing the group's values straight into a Pinocchio configuration."""
-        q = np.array(self._robot.to_q(full), dtype=float)
-        scene = self  # the slot is replaced on every change: look it up per call
+    def moving_joints(self, indices: np.ndarray) -> frozenset[int]:
+        """The Pinocchio joints that move when these variables change: their own joints and the
+        mimic followers they drive (what the group collision test may not hold fixed)."""
+        jmap = self._model.jacobian_map(np.asarray(indices, dtype=int))
+        moving_v = set(np.flatnonzero(np.any(jmap != 0.0, axis=1)).tolist())
+        pin_model = self._model.pin_model
+        return frozenset(
+            j for j in range(1, pin_model.njoints)
+            if moving_v.intersection(range(pin_model.idx_vs[j], pin_model.idx_vs[j] + pin_model.nvs[j]))
+        )
 
-        def collision_free(values: np.ndarray) -> bool:
+    def _group_collision_test(self, indices: np.ndarray, full: np.ndarray) -> Callable[[np.ndarray], bool]:
+        """Collision test for configurations that differ from ``full`` only in ``indices``
+        (CompiledScene.group_collides: the pairs no moving joint affects are decided once). It
+        follows later changes of this scene: the compiled scene is replaced on every change, so
+        it is looked up per call and the group test rebuilt when it differs."""
+        moving = self.moving_joints(indices)
+        q_ref = np.array(self._robot.to_q(full), dtype=float)
+        scene = self
+        last: list = [None, None]
+
+        def collides(q: np.ndarray) -> bool:
             compiled = scene._slot.value
             if compiled is None:
                 compiled = scene._compiled()
-            q[slots] = values
-            return not compiled.collides(q)
+            if compiled is not last[0]:
+                last[0], last[1] = compiled, compiled.group_collides(moving, q_ref)
+            return last[1](q)
 
-        return collision_free
+        return collides
 
     def colliding_rows(
         self,
