@@ -682,9 +682,11 @@ class PlanningScene:
         checks end at the first colliding row, which is then the only True (rows not reached
         are False).
 
+        Without ``all_pairs`` the rows go through the group's collision test (as validity_checker):
+        pairs whose path holds none of the given variables' joints are decided once.
         ``all_pairs=True`` decides with the plain exact check of every active pair (no broad phase,
-        no pre-test), the same verdicts at several times the cost: for a checker that must not
-        share the one it judges (the trajectory validator)."""
+        no pre-test, nothing decided once), the same verdicts at several times the cost: for a
+        checker that must not share the one it judges (the trajectory validator as a judge)."""
         values = np.asarray(values, dtype=float)
         if values.ndim != 2:
             raise StateError(f"expected a 2-D array of states, got shape {values.shape}")
@@ -692,8 +694,10 @@ class PlanningScene:
         if values.shape[1] != len(indices):
             raise StateError(f"expected {len(indices)} values per state, got {values.shape[1]}")
         full = np.array(self._state_or_current(reference_state).positions, dtype=float)
-        compiled = self._compiled()
-        collides = compiled.collides_all_pairs if all_pairs else compiled.collides
+        if all_pairs:
+            collides = self._compiled().collides_all_pairs
+        else:  # the rows differ from full only in indices: the group test (pairs no index moves decided once)
+            collides = self._group_collision_test(indices, full)
         count = values.shape[0]
         slots = self._model.q_slots(indices)
         if slots is not None:
