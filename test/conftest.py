@@ -30,6 +30,8 @@ ROS_TEST_DIR = Path(__file__).resolve().parent / "ros"
 def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line("markers", "ros: starts ROS nodes or processes, or uses rclpy; every test "
                                        "under test/ros/ (`./scripts/test.sh -m 'not ros'` runs the fast rest)")
+    config.addinivalue_line("markers", "slow: a long cross-check (minutes in all), e.g. collision verdicts on "
+                                       "every example-robot-data robot (`-m 'not ros and not slow'` leaves them out)")
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:

@@ -467,6 +467,74 @@ def test_panda_hull_pre_test_keeps_the_mesh_verdict(panda):
     assert list(scene.colliding_rows("arm", RobotState(panda), rows)) == verdicts
 
 
+def test_a_verdict_does_not_depend_on_the_states_checked_before(model):
+    """A myCobot state 1.04 µm from contact (link3 and link6, cylinders; the margin is 1 µm)
+    from the seeds' pick and place: Pinocchio's requests warm-started GJK from each pair's last
+    answer, so the all-pairs check of a nearby state first turned this one's verdict to
+    'colliding', and the validator rejected what the planner had accepted."""
+    end = [0.13615659108822725, -1.1493759242194637, -1.2999217657363873, 2.4493073418585474,
+           -1.9687418711556544, -8.90221767628182e-06, 0.0]
+    near = [0.13588619873102425, -1.1470933871569668, -1.2973402608117435, 2.4444432807037657,
+            -1.9648321613794961, -8.884538828694748e-06, 0.0]
+    indices = np.arange(len(model.variable_names))
+    scene = PlanningScene(model)
+    assert 1e-6 < scene.distance(RobotState(model, end)).min_distance < 1.1e-6
+    fresh = scene.is_state_colliding(RobotState(model, end))
+    for first in (near, end, near):
+        for all_pairs in (True, False):
+            other = PlanningScene(model)
+            other.colliding_rows(indices, RobotState(model), np.array([first]), all_pairs=all_pairs)
+            assert other.is_state_colliding(RobotState(model, end)) == fresh
+            assert other.colliding_rows(indices, RobotState(model), np.array([end]), all_pairs=True)[0] == fresh
+
+
+def _mesh_geometries(model: RobotModel) -> list:
+    import coal
+
+    return [g.geometry for g in model.pin_collision_model.geometryObjects if isinstance(g.geometry, coal.BVHModelBase)]
+
+
+def _vertices_missed_by(shape, mesh) -> int:
+    """Mesh vertices a 1 mm sphere (its centre 0.9 mm outside the vertex, away from the mesh's
+    centre, so the sphere holds the vertex) touches without GJK finding the shape in contact:
+    zero for any shape that contains the mesh."""
+    import coal
+
+    vertices = np.asarray(mesh.vertices(), dtype=float)
+    centre = vertices.mean(axis=0)
+    request, missed = coal.CollisionRequest(), 0
+    for v in vertices:
+        away = (v - centre) / np.linalg.norm(v - centre)
+        result = coal.CollisionResult()
+        if not coal.collide(shape, coal.Transform3s(), coal.Sphere(1e-3),
+                            coal.Transform3s(np.eye(3), v + 0.9e-3 * away), request, result):
+            missed += 1
+    return missed
+
+
+def test_link_hulls_contain_their_mesh_as_gjk_sees_it(monkeypatch, panda):
+    """The pre-test's premise, on the UR5's concave meshes (their hulls made although the scene
+    does not use them) and the Panda's convex ones: every vertex of a mesh is inside its hull for
+    GJK. A mesh's own vertices and triangles wrapped as a Convex (what the pre-test used before
+    issue 25) fail this: GJK's support function stops at local maxima of a concave mesh."""
+    import coal
+
+    from mycobot_planning.core.collision_detection import collision
+
+    robots = example_robot_data_dir()
+    ur5 = RobotModel.from_strings((robots / "ur_description/urdf/ur5_robot.urdf").read_text(), '<robot name=""/>',
+                                  package_dirs=[str(robots.parent.parent)])
+    assert all(collision._convex_hull(m) is None for m in _mesh_geometries(ur5))  # concave: no pre-test
+    assert all(collision._convex_hull(m) is not None for m in _mesh_geometries(panda))
+    monkeypatch.setattr(collision, "_HULL_TIGHTNESS", math.inf)
+    for mesh in _mesh_geometries(ur5) + _mesh_geometries(panda):
+        hull = collision._convex_hull(mesh)
+        assert hull is not None and _vertices_missed_by(hull, mesh) == 0
+    wrapped = _mesh_geometries(ur5)[2].clone()  # upper_arm_link
+    wrapped.buildConvexRepresentation(False)
+    assert isinstance(wrapped.convex, coal.ConvexBase) and _vertices_missed_by(wrapped.convex, wrapped) > 100
+
+
 def test_hulls_that_always_touch_leave_every_verdict_to_the_meshes(monkeypatch):
     """With every link's 'hull' a 3 m sphere, the hulls find every state in collision, and the
     meshes still decide: the verdicts are the plain mesh scene's."""
@@ -491,3 +559,24 @@ def test_hulls_that_always_touch_leave_every_verdict_to_the_meshes(monkeypatch):
     verdicts = list(scene.colliding_rows("arm", RobotState(inflated), rows))
     assert verdicts == _exact_verdicts(scene, rows)
     assert 0 < sum(verdicts) < len(rows)
+
+
+def test_a_scene_with_a_mesh_without_hull_is_not_pre_tested(panda):
+    """The hull pre-test runs only when every mesh of the scene has a hull: a hull against a
+    mesh is tested triangle by triangle (slower than the meshes alone, e.g. Tiago's mixed
+    links). A world mesh has no hull, so the Panda with a mesh cube is checked by the meshes
+    alone, and its verdicts are still the exact ones."""
+    s = 0.05
+    vertices = [[-s, -s, -s], [s, -s, -s], [-s, s, -s], [s, s, -s], [-s, -s, s], [s, -s, s], [-s, s, s], [s, s, s]]
+    triangles = [[0, 1, 2], [1, 3, 2], [4, 6, 5], [5, 6, 7], [0, 4, 1], [1, 4, 5],
+                 [2, 3, 6], [3, 7, 6], [0, 2, 4], [2, 6, 4], [1, 5, 3], [3, 5, 7]]
+    scene = PlanningScene(panda)
+    assert scene._compiled().hull_manager is not None
+    scene.add_object(CollisionObject(id="cube", pose=Pose.from_matrix(make_pose([0.5, 0.0, 0.5])),
+                                     meshes=[Mesh.from_triangles(vertices, triangles)], mesh_poses=[Pose()]))
+    assert scene._compiled().hull_manager is None
+    jmg = panda.group("arm")
+    rng = np.random.default_rng(6)
+    rows = rng.uniform(panda.lower_limits[jmg.variable_indices], panda.upper_limits[jmg.variable_indices], (150, 7))
+    verdicts = list(scene.colliding_rows("arm", RobotState(panda), rows))
+    assert verdicts == _exact_verdicts(scene, rows) and 0 < sum(verdicts) < len(rows)

@@ -180,3 +180,24 @@ def test_panda_loads_with_meshes(panda: RobotModel):
     state.set_named("default")
     assert state.satisfies_bounds()
     assert panda.pin_collision_model.ngeoms > 10
+
+
+def test_a_link_named_like_a_joint_is_the_link():
+    """z1's URDF names a link and its fixed joint 'gripperStator': frame lookups (poses, attached
+    objects) take the link instead of failing on the ambiguous name."""
+    import pinocchio as pin
+
+    from interfaces_py.msgs import CollisionObject
+    from mycobot_planning.core import PlanningScene
+    from mycobot_planning.paths import example_robot_data_dir
+
+    robots = example_robot_data_dir()
+    z1 = RobotModel.from_files(robots / "z1_description/urdf/z1.urdf", robots / "z1_description/srdf/z1.srdf",
+                               package_dirs=[str(robots.parent.parent)])
+    frame = z1.frame_id("gripperStator")
+    assert z1.pin_model.frames[frame].type == pin.FrameType.BODY
+    scene = PlanningScene(z1)
+    pose = scene.current_state.frame_pose("gripperStator")
+    scene.add_object(CollisionObject.box("part", [0.01, 0.01, 0.01], pose))
+    scene.attach_object("part", "gripperStator")
+    assert scene.is_attached("part")

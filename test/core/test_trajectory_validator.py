@@ -369,3 +369,28 @@ def test_first_collision_gives_the_same_verdict_with_one_contact(mycobot):
     assert len([p for p in quick.problems if p.startswith("collision")]) == 1
     assert quick.contacts and all("'box' (Object)" in c for c in quick.contacts)
     assert full.first_invalid_time <= quick.first_invalid_time <= traj.times[-1]
+
+
+def test_the_validator_does_not_judge_with_the_checker_it_judges(mycobot):
+    """The validator decides with the plain all-pairs check, not with the scene's fast checker
+    (broad phase and pre-test) that the planners use: a fast checker that calls every state free
+    does not make a colliding trajectory valid, and the report still names the contact."""
+    a = np.array([-0.8, 0.0, 1.5708, 1.5708, 0.0, 0.0])
+    b = np.array([0.8, 0.0, 1.5708, 1.5708, 0.0, 0.0])
+    scene = PlanningScene(mycobot, arm_state(mycobot, a))
+    scene.add_object(box_at_link(mycobot, arm_state(mycobot, (a + b) / 2), "link6_flange"))
+    traj = quintic_rest_to_rest(list(mycobot.group("arm").joint_names), a, b, 2.0)
+    compiled = scene._compiled()
+    def broken(q):  # a broken fast path: the thread's checker and the planners' group checker
+        return False
+
+    compiled._thread_data().check = broken
+    compiled.group_collides = lambda moving, q_ref: broken
+    assert scene.is_state_valid(arm_state(mycobot, (a + b) / 2))  # the premise: it is broken
+    for first_collision in (False, True):
+        report = validate_trajectory(scene, traj, "arm", first_collision=first_collision)
+        assert not report.valid
+        assert report.contacts and all("'box' (Object)" in c for c in report.contacts)
+        # A planner's own check of its output (all_pairs=False) is the fast checker: this one
+        # passes the trajectory, which is why the fast checker is proved against the plain one.
+        assert validate_trajectory(scene, traj, "arm", first_collision=first_collision, all_pairs=False).valid

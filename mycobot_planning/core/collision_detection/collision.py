@@ -1,6 +1,6 @@
 """Collision geometry of a planning scene, compiled for one-call-per-state checking.
 
-The full story: docs/core.md, section mycobot_planning.core.collision.
+The full story: docs/core.md, section mycobot_planning.core.collision_detection.collision.
 """
 from __future__ import annotations
 
@@ -16,6 +16,7 @@ from urllib.parse import unquote, urlparse
 import coal
 import numpy as np
 import pinocchio as pin
+from scipy.spatial import ConvexHull
 
 from ...paths import package_share_dirs
 from ..errors import SceneError
@@ -34,7 +35,7 @@ ROBOT_ATTACHED = "Robot attached"
 OBJECT = "Object"
 _KIND_ORDER = {OBJECT: 0, ROBOT_ATTACHED: 1, ROBOT_LINK: 2}
 
-#: Objects closer than this count as touching (see docs/core.md (mycobot_planning.core.collision) for why it is not 0).
+#: Objects closer than this count as touching (see docs/core.md (mycobot_planning.core.collision_detection.collision) for why it is not 0).
 SECURITY_MARGIN = 1e-6
 #: Above this many geometry objects the dynamic AABB tree beats the naive broad phase.
 _AABB_TREE_THRESHOLD = 150
@@ -364,21 +365,82 @@ def _warn_always_colliding(robot: str, a: str, b: str) -> None:
     )
 
 
+#: How far outside its hull a mesh vertex may lie (m) for the hull still to be used: qhull may
+#: leave a vertex a rounding error outside a merged facet; the pre-test margin covers far more.
+_HULL_CONTAINMENT_TOLERANCE = 1e-9
+#: A mesh is pre-tested as its hull only when no vertex lies deeper inside the hull than this (m):
+#: the mesh is convex (the Panda's, Talos's), so the hull is the same solid. A concave mesh's
+#: hull touches its neighbours' in many free states (the UR5's links, 1-4 cm deep), each costing
+#: the pre-test and then the exact check: slower than the exact check alone (docs/core.md).
+_HULL_TIGHTNESS = 1e-3
+#: Meshes of more vertices, or whose check needs more vertex-facet products (about 0.1 s), are
+#: not pre-tested: convex meshes that large are rare, and their exact check stays what it was.
+_HULL_MAX_VERTICES = 5000
+_HULL_CHECK_PRODUCTS = 20_000_000
+#: The hull pre-test calls a pair apart only when the hulls are further apart than this (m), far
+#: above GJK's relative tolerance (1e-6) and the containment tolerance: hulls that merely touch,
+#: or that GJK leaves a rounding error apart, send the state to the exact check.
+HULL_PRE_TEST_MARGIN = 1e-4
+
+
 def _convex_hull(geometry: coal.CollisionGeometry) -> coal.CollisionGeometry | None:
-    """The convex hull of a triangle mesh (a Coal Convex holding the mesh), or None for shapes
-    that are convex already, or a hull that cannot be made (a flat or degenerate mesh)."""
-    if not isinstance(geometry, coal.BVHModelBase) or geometry.num_vertices < 4:
+    """The convex hull of a convex triangle mesh, checked to contain every vertex; None for shapes
+    that are not meshes, concave meshes (see _HULL_TIGHTNESS), or when no hull can be made or
+    checked (a flat or degenerate mesh).
+
+    Coal's ``buildConvexHull`` runs qhull; every mesh vertex is then tested against the facet
+    planes of the hull's own points (scipy's qhull, on those points only), so the hull is used
+    only when it contains the mesh as loaded (same frame, scale already applied). Not
+    ``buildConvexRepresentation``: that wraps the mesh's own vertices and triangles as a Convex
+    without computing a hull, and GJK's support function, which climbs from vertex to
+    neighbouring vertex, stops at the first local maximum of a non-convex mesh (docs/core.md)."""
+    if not isinstance(geometry, coal.BVHModelBase) or not 4 <= geometry.num_vertices <= _HULL_MAX_VERTICES:
         return None
     try:
         copy = geometry.clone()
-        copy.buildConvexRepresentation(False)
+        copy.buildConvexHull(True, "Qt")
         hull = copy.convex
-        hull.computeLocalAABB()
-    except Exception:  # qhull refuses flat or degenerate point sets
+        points = np.array(hull.points(), dtype=float)
+        planes = ConvexHull(points).equations  # (n, 4): outward unit normal, offset
+    except Exception:  # qhull refuses flat or degenerate point sets (and "too many neighbors")
         return None
+    vertices = np.asarray(geometry.vertices(), dtype=float)
+    if len(vertices) * len(planes) > _HULL_CHECK_PRODUCTS:
+        return None
+    sample = vertices[::max(1, len(vertices) // 1000)]  # a concave mesh shows on a few vertices
+    if _signed_distances(sample, planes).min() < -_HULL_TIGHTNESS:
+        return None
+    signed = _signed_distances(vertices, planes)
+    if not (signed.max() <= _HULL_CONTAINMENT_TOLERANCE and signed.min() >= -_HULL_TIGHTNESS):
+        return None
+    hull.computeLocalAABB()
     if not hull.aabb_local.volume() > 0.0:
         return None
     return hull
+
+
+def _signed_distances(points: np.ndarray, planes: np.ndarray) -> np.ndarray:
+    """Each point's signed distance to a convex hull's boundary (> 0 outside): its largest value
+    over the hull's facet planes (unit normal, offset), in blocks of at most a million products."""
+    out = np.full(len(points), -np.inf)
+    step = max(1, 1_000_000 // max(1, len(points)))
+    for k in range(0, len(planes), step):
+        block = planes[k:k + step]
+        np.maximum(out, np.max(points @ block[:, :3].T + block[:, 3], axis=1), out=out)
+    return out
+
+
+def _set_collision_requests(data: pin.GeometryData, margin: float) -> None:
+    """Every pair's request: first contact only, no contact details, the given margin, and GJK
+    started afresh. Pinocchio's own requests warm-start GJK from the pair's previous answer, which
+    only the all-pairs loop updates (the broad phase works on a copy of the request), so a state
+    near the margin got a verdict that depended on which states had been checked before, by which
+    path (a myCobot state 1.04 µm from contact: free for the planner, colliding for the validator
+    after it had checked the states before it)."""
+    for k in range(len(data.collisionRequests)):
+        request = coal.CollisionRequest(coal.CollisionRequestFlag.NO_REQUEST, 1)
+        request.security_margin = margin
+        data.collisionRequests[k] = request
 
 
 def _se3(matrix: np.ndarray) -> pin.SE3:
@@ -391,7 +453,7 @@ class _SceneData:
     them. Pinocchio's model/data split: the CompiledScene is the model, this is the data."""
 
     __slots__ = ("data", "geometry_data", "manager", "hull_data", "hull_geometry_data", "hull_manager", "check",
-                 "distance_data")
+                 "all_pairs", "distance_data", "group_checkers")
 
     def __init__(self, scene: "CompiledScene", data: pin.Data | None = None) -> None:
         pin_model, gm = scene.pin_model, scene.geometry_model
@@ -402,10 +464,32 @@ class _SceneData:
             self.manager = scene._manager_type(pin_model, gm, self.geometry_data)
             if scene._hull_model is not None:
                 self.hull_data = pin_model.createData()
-                self.hull_geometry_data = scene._geometry_data_of(scene._hull_model)
+                self.hull_geometry_data = scene._geometry_data_of(scene._hull_model,
+                                                                  SECURITY_MARGIN + HULL_PRE_TEST_MARGIN)
                 self.hull_manager = scene._manager_type(pin_model, scene._hull_model, self.hull_geometry_data)
         self.distance_data: dict[tuple, tuple[pin.GeometryData, list[int]]] = {}
-        self.check = self._checker(scene)
+        #: group_collides' checkers, by (moving joints, reference configuration): each owns its buffers
+        self.group_checkers: dict[tuple, Callable[[np.ndarray], bool]] = {}
+        self.all_pairs = self._all_pairs_checker(scene)
+        self.check = self._checker(scene) if self.manager is not None else self.all_pairs
+
+    def _all_pairs_checker(self, scene: "CompiledScene"):
+        """The plain exact check: every active pair's narrow phase in turn (no broad phase, no
+        pre-test), one Pinocchio call per configuration. What judges the fast path: the
+        trajectory validator decides with it, so it never shares the checker it judges."""
+        compute = pin.computeCollisions
+        pin_model, data = scene.pin_model, self.data
+        gm, gd = scene.geometry_model, self.geometry_data
+        if not scene.pairs:
+            def no_pairs(q: np.ndarray) -> bool:
+                return False
+
+            return no_pairs
+
+        def all_pairs(q: np.ndarray) -> bool:
+            return compute(pin_model, data, gm, gd, q, True)
+
+        return all_pairs
 
     def _checker(self, scene: "CompiledScene"):
         """The hot path: a closure doing exactly one Pinocchio call per configuration."""
@@ -564,12 +648,12 @@ class CompiledScene:
         # the constructing thread's buffers: the ones made above
         self._local.scene_data = _SceneData(self, data)
 
-    def _geometry_data_of(self, gm: pin.GeometryModel) -> pin.GeometryData:
-        """Fresh geometry data for this scene's geometry (or its hulls'): the margin on every
-        request, the pairs found free once and for all switched off."""
+    def _geometry_data_of(self, gm: pin.GeometryModel, margin: float = SECURITY_MARGIN) -> pin.GeometryData:
+        """Fresh geometry data for this scene's geometry (or its hulls', with the pre-test's wider
+        margin): every request as _set_collision_requests makes it, the pairs found free once and
+        for all switched off."""
         gd = gm.createData()
-        for request in gd.collisionRequests:
-            request.security_margin = SECURITY_MARGIN
+        _set_collision_requests(gd, margin)
         for k in self._inactive_pairs:
             gd.deactivateCollisionPair(k)
         return gd
@@ -593,6 +677,12 @@ class CompiledScene:
             return self._thread_data().check
 
     @property
+    def collides_all_pairs(self) -> Callable[[np.ndarray], bool]:
+        """The calling thread's plain exact all-pairs check (no broad phase, no pre-test): the
+        judge of the fast path (see _SceneData._all_pairs_checker)."""
+        return self._thread_data().all_pairs
+
+    @property
     def manager(self):
         """The calling thread's broad phase (None when the scene has none)."""
         return self._thread_data().manager
@@ -613,16 +703,21 @@ class CompiledScene:
         return self._thread_data().geometry_data
 
     def _hull_geometry(self, robot: RobotCollisionInfo, gm: pin.GeometryModel) -> pin.GeometryModel | None:
-        """The same geometry and pairs with every link mesh replaced by its convex hull (checked
-        behind a broad phase of its own); None when no link has a hull.
+        """The same geometry and pairs with every link mesh replaced by its checked hull
+        (_convex_hull), behind a broad phase of its own with the margin widened by
+        HULL_PRE_TEST_MARGIN; None unless every mesh of the scene has a hull (convex link meshes,
+        no world or attached mesh): a hull against a mesh is tested triangle by triangle, which on
+        Tiago (some link meshes convex, some not) made a free state near the torso cost 5.6 ms
+        instead of 16 µs.
 
-        A hull contains its mesh, so a state the hulls find free is free, and the meshes are
-        consulted only for states the hulls find in collision: every verdict is still the
-        meshes' own. Convex-convex tests (GJK) are cheaper than mesh-mesh BVH traversals: on
-        the Panda's meshes a free state costs about a quarter less; a state the hulls find in
-        collision but the meshes do not (an object in a link's concavity) costs both checks."""
+        A hull contains its mesh, so a state the hulls find more than the margin apart is free,
+        and the meshes decide every other state: every verdict is still the meshes' own.
+        Convex-convex tests (GJK) are cheaper than mesh-mesh BVH traversals: on the Panda with a
+        box, a free state within 2 cm of a contact costs 9.4 µs instead of 17.3 µs; a colliding
+        state costs both checks (34 µs instead of 25 µs)."""
         hulls = robot.hull_geometries
-        if not any(h is not None for h in hulls):
+        meshes = [k for k, g in enumerate(gm.geometryObjects) if isinstance(g.geometry, coal.BVHModelBase)]
+        if not meshes or any(k >= len(hulls) or hulls[k] is None for k in meshes):
             return None
         hull_gm = pin.GeometryModel()
         for index, geom in enumerate(gm.geometryObjects):
@@ -637,6 +732,96 @@ class CompiledScene:
         return hull_gm
 
     # ------------------------------------------------------------------ collision
+    def group_collides(self, moving_joints: frozenset[int], q_ref: np.ndarray) -> Callable[[np.ndarray], bool]:
+        """The collision test for states that differ from ``q_ref`` only in the Pinocchio joints
+        ``moving_joints`` (a planning group's joints and the mimic followers they drive): a pair
+        of bodies whose kinematic path holds none of them keeps its relative pose in every such
+        state, so it is checked once here, exactly, and left out of the per-state check. If one
+        of them collides, every such state collides and the test says so for every state.
+
+        Exact for those states only: planners of one group use it (PlanningScene's group
+        validity checker); anything judging arbitrary states uses collides/collides_all_pairs.
+        Built once per group and reference configuration in the calling thread (a few kept per
+        thread), and used in that thread."""
+        checkers = self._thread_data().group_checkers
+        key = (moving_joints, np.asarray(q_ref, dtype=float).tobytes())
+        cached = checkers.get(key)
+        if cached is None:
+            cached = self._build_group_collides(moving_joints, np.array(q_ref, dtype=float))
+            if len(checkers) >= 8:
+                checkers.pop(next(iter(checkers)))
+            checkers[key] = cached
+        return cached
+
+    def fixed_pairs(self, moving_joints: frozenset[int]) -> list[int]:
+        """Active pair indices whose two bodies are linked by a kinematic path without any of
+        ``moving_joints`` (the path between parent joints a and b: the joints supporting one but
+        not the other; a world object hangs on the universe, an attached object on its link's
+        joint)."""
+        supports = self.pin_model.supports
+        joints = [int(g.parentJoint) for g in self.geometry_model.geometryObjects]
+        path_moves: dict[tuple[int, int], bool] = {}
+        fixed = []
+        for k in self.active_pairs:
+            i, j = self.pairs[k]
+            a, b = joints[i], joints[j]
+            key = (a, b) if a <= b else (b, a)
+            moves = path_moves.get(key)
+            if moves is None:
+                path = set(supports[a]) ^ set(supports[b])
+                moves = bool(path & moving_joints)
+                path_moves[key] = moves
+            if not moves:
+                fixed.append(k)
+        return fixed
+
+    def _build_group_collides(self, moving_joints: frozenset[int], q_ref: np.ndarray) -> Callable[[np.ndarray], bool]:
+        fixed = self.fixed_pairs(moving_joints)
+        if not fixed:
+            return self.collides
+        pin_model, gm = self.pin_model, self.geometry_model
+        gd = self._geometry_data_of(gm)
+        pin.updateGeometryPlacements(pin_model, pin_model.createData(), gm, gd, q_ref)
+        if any(pin.computeCollision(gm, gd, k) for k in fixed):
+            def always(q: np.ndarray) -> bool:
+                return True
+
+            return always
+        for k in fixed:
+            gd.deactivateCollisionPair(k)
+        if not any(gd.activeCollisionPairs):
+            def never(q: np.ndarray) -> bool:
+                return False
+
+            return never
+        compute = pin.computeCollisions
+        data = pin_model.createData()
+        if self._manager_type is None:
+            def remaining_pairs(q: np.ndarray) -> bool:
+                return compute(pin_model, data, gm, gd, q, True)
+
+            return remaining_pairs
+        manager = self._manager_type(pin_model, gm, gd)
+        if self._hull_model is not None:
+            hull_gd = self._geometry_data_of(self._hull_model, SECURITY_MARGIN + HULL_PRE_TEST_MARGIN)
+            for k in fixed:
+                hull_gd.deactivateCollisionPair(k)
+            hull_manager = self._manager_type(pin_model, self._hull_model, hull_gd)
+            hull_data = pin_model.createData()
+
+            def hulls_then_meshes(q: np.ndarray) -> bool:
+                return compute(pin_model, hull_data, hull_manager, q, True) and \
+                    compute(pin_model, data, manager, q, True)
+
+            hulls_then_meshes.keep = (gd, hull_gd)  # the managers hold references only
+            return hulls_then_meshes
+
+        def broadphase(q: np.ndarray) -> bool:
+            return compute(pin_model, data, manager, q, True)
+
+        broadphase.keep = gd
+        return broadphase
+
     def contacts(self, q: np.ndarray, max_contacts: int | None = None) -> list[Contact]:
         """Every colliding active pair at q (a full pass without early exit), with depths."""
         buffers = self._thread_data()

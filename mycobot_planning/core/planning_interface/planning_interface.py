@@ -94,7 +94,8 @@ class MotionPlanResponse(ErrorCodeResult):
     start_state: RobotState | None = None
     path: np.ndarray | None = field(default=None, repr=False)  # geometric waypoints before timing
     #: The pipeline already ran the trajectory validator on this trajectory (start state, limits,
-    #: collisions at its resolution) and it passed: callers need not check it again.
+    #: collisions at its resolution, by the scene's checker) and it passed: callers need not
+    #: check it again (a judge of the planner still can, with the validator's plain check).
     validated: bool = False
 
 

@@ -6,6 +6,7 @@ The full story: docs/core.md, section mycobot_planning.core.planning_scene.
 from __future__ import annotations
 
 import copy as _copy
+import threading
 import weakref
 from dataclasses import dataclass
 from typing import Any, Callable, Iterable, Mapping, Sequence
@@ -593,31 +594,77 @@ class PlanningScene:
         else:
             indices = np.asarray(group, dtype=int)
         full = np.array(self._state_or_current(reference_state).positions, dtype=float)
+        collides = self._group_collision_test(indices, full)
         if not check_bounds:
             slots = self._model.q_slots(indices)
             if slots is not None:
-                return self._collision_free_checker(full, slots)
-        is_valid_positions = self.is_valid_positions
+                q = np.array(self._robot.to_q(full), dtype=float)
+
+                def collision_free(values: np.ndarray) -> bool:
+                    q[slots] = values
+                    return not collides(q)
+
+                return collision_free
+        robot = self._robot
+        to_q = robot.to_q
+        lower, upper = robot.lower, robot.upper
+        bounds = [(lower[i], upper[i]) for i in indices.tolist()] if check_bounds else None
+        if check_bounds:
+            others = np.ones(len(full), dtype=bool)
+            others[indices] = False
+            if not all(low <= value <= high for value, low, high, other
+                       in zip(full.tolist(), lower, upper, others.tolist()) if other):
+                def outside_limits(values: np.ndarray) -> bool:
+                    return False  # a joint the checker holds fixed is outside its limits
+
+                return outside_limits
 
         def check(values: np.ndarray) -> bool:
+            if type(values) is not np.ndarray or values.dtype != np.float64:
+                values = np.asarray(values, dtype=float)
+            if values.shape != (len(indices),):
+                raise StateError(f"expected {len(indices)} joint positions, got {values.size}")
+            if bounds is not None:
+                for value, (low, high) in zip(values.tolist(), bounds):
+                    if not low <= value <= high:
+                        return False
             full[indices] = values
-            return is_valid_positions(full)
+            return not collides(to_q(full))
 
         return check
 
-    def _collision_free_checker(self, full: np.ndarray, slots: np.ndarray) -> Callable[[np.ndarray], bool]:
-        """Collision test writing the group's values straight into a Pinocchio configuration."""
-        q = np.array(self._robot.to_q(full), dtype=float)
-        scene = self  # the slot is replaced on every change: look it up per call
+    def moving_joints(self, indices: np.ndarray) -> frozenset[int]:
+        """The Pinocchio joints that move when these variables change: their own joints and the
+        mimic followers they drive (what the group collision test may not hold fixed)."""
+        jmap = self._model.jacobian_map(np.asarray(indices, dtype=int))
+        moving_v = set(np.flatnonzero(np.any(jmap != 0.0, axis=1)).tolist())
+        pin_model = self._model.pin_model
+        return frozenset(
+            j for j in range(1, pin_model.njoints)
+            if moving_v.intersection(range(pin_model.idx_vs[j], pin_model.idx_vs[j] + pin_model.nvs[j]))
+        )
 
-        def collision_free(values: np.ndarray) -> bool:
+    def _group_collision_test(self, indices: np.ndarray, full: np.ndarray) -> Callable[[np.ndarray], bool]:
+        """Collision test for configurations that differ from ``full`` only in ``indices``
+        (CompiledScene.group_collides: the pairs no moving joint affects are decided once). It
+        follows later changes of this scene: the compiled scene is replaced on every change, so
+        it is looked up per call and the group test rebuilt when it differs. The group test
+        writes buffers of the thread that built it, so each calling thread keeps its own."""
+        moving = self.moving_joints(indices)
+        q_ref = np.array(self._robot.to_q(full), dtype=float)
+        scene = self
+        local = threading.local()
+
+        def collides(q: np.ndarray) -> bool:
             compiled = scene._slot.value
             if compiled is None:
                 compiled = scene._compiled()
-            q[slots] = values
-            return not compiled.collides(q)
+            last = getattr(local, "last", None)
+            if last is None or compiled is not last[0]:
+                last = local.last = (compiled, compiled.group_collides(moving, q_ref))
+            return last[1](q)
 
-        return collision_free
+        return collides
 
     def colliding_rows(
         self,
@@ -626,6 +673,7 @@ class PlanningScene:
         values: np.ndarray,
         order: np.ndarray | None = None,
         stop_at_first: bool = False,
+        all_pairs: bool = False,
     ) -> np.ndarray:
         """Collision verdicts (True: in collision; joint limits not considered) for many states
         at once: each row of ``values`` fills the group's variables (a group name, or variable
@@ -635,7 +683,13 @@ class PlanningScene:
 
         ``order`` (row indices) is the order the rows are checked in; with ``stop_at_first`` the
         checks end at the first colliding row, which is then the only True (rows not reached
-        are False)."""
+        are False).
+
+        Without ``all_pairs`` the rows go through the group's collision test (as validity_checker):
+        pairs whose path holds none of the given variables' joints are decided once.
+        ``all_pairs=True`` decides with the plain exact check of every active pair (no broad phase,
+        no pre-test, nothing decided once), the same verdicts at several times the cost: for a
+        checker that must not share the one it judges (the trajectory validator as a judge)."""
         values = np.asarray(values, dtype=float)
         if values.ndim != 2:
             raise StateError(f"expected a 2-D array of states, got shape {values.shape}")
@@ -643,7 +697,10 @@ class PlanningScene:
         if values.shape[1] != len(indices):
             raise StateError(f"expected {len(indices)} values per state, got {values.shape[1]}")
         full = np.array(self._state_or_current(reference_state).positions, dtype=float)
-        collides = self._compiled().collides
+        if all_pairs:
+            collides = self._compiled().collides_all_pairs
+        else:  # the rows differ from full only in indices: the group test (pairs no index moves decided once)
+            collides = self._group_collision_test(indices, full)
         count = values.shape[0]
         slots = self._model.q_slots(indices)
         if slots is not None:
@@ -678,12 +735,15 @@ class PlanningScene:
         compiled = self._compiled()
         return bool(compiled.collides(self._robot.to_q(np.asarray(state.positions, dtype=float))))
 
-    def check_collision(self, state: RobotState | None = None, max_contacts: int | None = None) -> CollisionReport:
-        """Collision verdict plus the contacts (every colliding pair, up to max_contacts)."""
+    def check_collision(
+        self, state: RobotState | None = None, max_contacts: int | None = None, all_pairs: bool = False
+    ) -> CollisionReport:
+        """Collision verdict plus the contacts (every colliding pair, up to max_contacts).
+        ``all_pairs=True``: the verdict is the plain exact check's (see colliding_rows)."""
         state = self._state_or_current(state)
         compiled = self._compiled()
         q = self._robot.to_q(np.asarray(state.positions, dtype=float))
-        if not compiled.collides(q):
+        if not (compiled.collides_all_pairs if all_pairs else compiled.collides)(q):
             return CollisionReport(False, [])
         contacts = compiled.contacts(q, max_contacts)
         return CollisionReport(True, contacts)
