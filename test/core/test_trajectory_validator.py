@@ -381,7 +381,8 @@ def test_the_validator_does_not_judge_with_the_checker_it_judges(mycobot):
     scene.add_object(box_at_link(mycobot, arm_state(mycobot, (a + b) / 2), "link6_flange"))
     traj = quintic_rest_to_rest(list(mycobot.group("arm").joint_names), a, b, 2.0)
     compiled = scene._compiled()
-    compiled.collides = lambda q: False  # a broken fast path
+    compiled.collides = lambda q: False  # a broken fast path, for any state
+    compiled.group_collides = lambda moving, q_ref: compiled.collides  # and for a group's states
     assert scene.is_state_valid(arm_state(mycobot, (a + b) / 2))  # the premise: it is broken
     for first_collision in (False, True):
         report = validate_trajectory(scene, traj, "arm", first_collision=first_collision)
