@@ -20,17 +20,9 @@ def test_shipped_srdf_loads(arm: ExampleArm) -> None:
     assert all("skipped" in w or "moves on its own" in w for w in model.load_warnings)
 
 
-#: Fewer OMPL goals where judging a plan is slow by design: the trajectory validator judges every
-#: state with the plain exact all-pairs check (issue 25), and Tiago's concave hand meshes, 37 µm
-#: apart in a free state, cost about 33 ms per state there (50 goals took 400 s on the loaded
-#: machine, 10 about a fifth). bench `robots` still plans all 50.
-OMPL_GOALS = {"tiago": 10}
-
-
 @pytest.mark.parametrize("arm", EXAMPLE_ARMS, ids=[a.robot for a in EXAMPLE_ARMS])
 def test_setup_assistant_config_plans(arm: ExampleArm, tmp_path: Path) -> None:
-    result = evaluate_arm(arm, tmp_path / arm.robot, samples=2000, ik_poses=200,
-                          ompl_goals=OMPL_GOALS.get(arm.robot, 50))
+    result = evaluate_arm(arm, tmp_path / arm.robot, samples=2000, ik_poses=200, ompl_goals=50)
     assert result.dof >= 5
     assert result.ik_success_rate >= 0.99, result.record()
     assert result.ompl_success_rate >= 0.99, result.record()
