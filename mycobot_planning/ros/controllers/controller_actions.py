@@ -91,9 +91,15 @@ class ControllerActions:
         self.state_pub = manager.create_publisher(JointTrajectoryControllerState, f"/{name}/controller_state", 10)
         self._state_msg = JointTrajectoryControllerState()
         self._state_msg.joint_names = list(controller.config.joints)
+        self._closing = False
 
     def destroy(self) -> None:
+        self._closing = True
         self.server.destroy()
+
+    def _going_down(self) -> bool:
+        """SIGINT/SIGTERM or destroy(): the action server is going away, nothing can be reported."""
+        return self._closing or not self._manager.context.ok()
 
     # ------------------------------------------------------------------ controller_state
     def publish_state(self, state: FollowerState, stamp: Any) -> None:
@@ -128,15 +134,15 @@ class ControllerActions:
         while True:
             time.sleep(POLL_PERIOD)
             state = self._c.state()
-            if not self._manager.context.ok():  # SIGINT/SIGTERM: the action server is going away
+            if self._going_down():
                 return "shutdown", "the node is shutting down", state
             if state.goal_id != goal_id:
                 return "preempted", f"goal {goal_id} was preempted by goal {state.goal_id}", state
             if goal_handle.is_cancel_requested:
                 self._c.stop(f"goal {goal_id} canceled by its client")
                 return "canceled", f"goal {goal_id} canceled", self._c.state()
-            if feedback is not None:
-                self._send_feedback(goal_handle, feedback, state)
+            if feedback is not None and not self._send_feedback(goal_handle, feedback, state):
+                return "shutdown", "the node is shutting down", state
             if state.status == ControllerStatus.SUCCEEDED:
                 return "succeeded", state.message, state
             if state.status in ControllerStatus.TERMINAL:
@@ -154,7 +160,10 @@ class ControllerActions:
                 self._c.stop("goal time tolerance exceeded")
                 return "stalled", state.message + f"; goal_time_tolerance {goal_time_tolerance:g} s exceeded", state
 
-    def _send_feedback(self, goal_handle: Any, feedback: Any, state: FollowerState) -> None:
+    def _send_feedback(self, goal_handle: Any, feedback: Any, state: FollowerState) -> bool:
+        """Publish one feedback message; False when the node went down since the last check (the
+        context can be shut down between that check and this publish: rcl then calls the feedback
+        publisher invalid). Any other failure to publish is logged and the goal goes on."""
         if isinstance(feedback, FollowJointTrajectory.Feedback):
             feedback.header.stamp = self._manager.get_clock().now().to_msg()
             feedback.desired, feedback.actual, feedback.error = _state_points(state)
@@ -163,7 +172,13 @@ class ControllerActions:
             feedback.effort = 0.0
             feedback.stalled = state.status == ControllerStatus.STALLED
             feedback.reached_goal = False
-        goal_handle.publish_feedback(feedback)
+        try:
+            goal_handle.publish_feedback(feedback)
+        except Exception as exc:  # rclpy's RCLError / InvalidHandle: no public exception type for either
+            if self._going_down():
+                return False
+            self._log().warning(f"{self._c.config.name}: could not publish feedback: {exc}")
+        return True
 
     # ------------------------------------------------------------------ FollowJointTrajectory
     def _command(self, trajectory: Any, goal_id: str) -> TrajectoryCommand:
