@@ -87,8 +87,11 @@ class MoveGroupContext(PlanningSceneMonitor):
         self.last_plan_problem = "nothing has been planned yet"
         self.trajectory_listeners: list[Callable[[JointTrajectory], None]] = []
         self.executor = TrajectoryExecutionManager(
-            model, controllers, bus, self.joint_positions, settings or ExecutionSettings(), clock=clock, log=self._log
+            model, controllers, bus, self.joint_positions, settings or ExecutionSettings(), clock=clock, log=self._log,
+            scene_source=self.scene_copy,
         )
+        # MoveIt's plan_execution: every change of the monitored scene re-checks the path ahead
+        self.scene_listeners.append(self.executor.scene_changed)
         self.queries = StateQueries(model)
 
     def log(self, level: str, text: str) -> None:

@@ -452,9 +452,13 @@ def test_stop_during_execution_preempts_and_stops_the_controllers(mycobot):
     manager = make_manager(mycobot, bus)
     bus.hooks.append((bus.now + 0.4, manager.stop))
     result = manager.execute(arm_trajectory([0] * 6, GOAL, duration=1.0))
-    assert result.error_code.val == PREEMPTED and result.message == "execution stopped on request"
-    assert bus.controllers["arm_controller"].stops == 1
+    assert result.error_code.val == PREEMPTED and result.message.startswith("execution stopped on request; at rest")
+    arm = bus.controllers["arm_controller"]
+    assert arm.stops == 0 and len(arm.sent) == 2  # the stop is a second goal along the path, not a cancel
+    stop = arm.sent[1]
+    assert stop.points[-1].velocities == [0.0] * 6
     assert 0.0 < bus.positions["link3_to_link4"] < 0.5  # stopped mid-way
+    assert bus.positions["link3_to_link4"] == stop.points[-1].positions[2]  # at rest where the stop ends
     assert manager.stop() is False  # nothing left to stop
 
 

@@ -108,11 +108,11 @@ def test_a_straight_motion_is_sampled_evenly_along_the_way(mycobot):
     """A rest-to-rest straight motion speeds up and slows down: its samples are spread evenly
     along the motion, every gap within the resolution and hardly more states than that needs
     (evenly in time, the fast middle needed halving: half again as many)."""
-    from mycobot_planning.core.trajectory_processing.trajectory_validator import _dense_samples
+    from mycobot_planning.core.trajectory_processing.trajectory_validator import dense_samples
 
     start = ready(mycobot)
     traj = timed(mycobot, [start.group_positions("arm"), [1.0, 0.5, 0.5, 0.5, 0.5, 0.5]])
-    ts, q, _, _, exhausted = _dense_samples(traj, 0.002)
+    ts, q, _, _, exhausted = dense_samples(traj, 0.002)
     steps = np.max(np.abs(np.diff(q, axis=0)), axis=1)
     travel = float(np.max(np.abs(traj.positions[-1] - traj.positions[0])))
     assert not exhausted and steps.max() <= 0.002

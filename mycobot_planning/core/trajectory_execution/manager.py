@@ -11,12 +11,16 @@ import time
 import uuid
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
+import numpy as np
+
 from interfaces_py.msgs import JointTrajectory, MoveItErrorCode, PlanningScene as PlanningSceneMsg
 
 from ..planning_scene.planning_scene import PlanningScene
 from ..robot_model.robot_model import RobotModel
+from ..robot_trajectory.robot_trajectory import TimedTrajectory, joint_trajectory_to_timed
 from .controller_manager import ControllerBus, ControllerInfo, check_controllers, select_controllers, split_trajectory
 from .monitor import ExecutionMonitor, ExecutionResult
+from .path_ahead import PathAhead, PathCollision, stop_command, stopping_trajectory
 from .settings import ExecutionError, ExecutionSettings, error_code as _code
 from .task_solution import SolutionResult, SolutionStep, check_solution, execute_solution
 from .trajectory_preparation import check_start_state, prepare_trajectory, trajectory_duration
@@ -29,6 +33,13 @@ class TrajectoryExecutionManager:
     ``clock`` and ``wait`` are injectable so tests can run on simulated time; by default ``wait``
     sleeps until ``notify()`` is called (a controller state or joint state arrived) or the poll
     period passes.
+
+    ``scene_source`` (a copy of the monitored scene) enables watching the path ahead: every
+    ``scene_changed()`` during an execution re-checks what remains of the trajectory, off the
+    execution loop; a collision ahead stops the arm along its path before it (see path_ahead)
+    and the execution fails with MOTION_PLAN_INVALIDATED_BY_ENVIRONMENT_CHANGE. A stop request
+    decelerates the same way. ``stop_lead`` (s): how far ahead of now a stop command begins, the
+    time it takes to reach the controllers.
     """
 
     def __init__(
@@ -42,6 +53,8 @@ class TrajectoryExecutionManager:
         wait: Callable[[float], None] | None = None,
         poll_period: float = 0.01,
         log: Callable[[str, str], None] | None = None,
+        scene_source: Callable[[], PlanningScene] | None = None,
+        stop_lead: float = 0.03,
     ) -> None:
         check_controllers(model, controllers)
         self.model = model
@@ -64,6 +77,11 @@ class TrajectoryExecutionManager:
         # Goal ids "<prefix><n>/<controller>": unique per manager, readable in controller logs.
         self.goal_prefix = f"exec-{uuid.uuid4().hex[:6]}-"
         self._goal_counter = 0
+        self._scene_source = scene_source
+        self.stop_lead = stop_lead
+        self._watch: _PathWatch | None = None
+        #: what the last path watch saw: checks made, and ms from a scene change to its verdict
+        self.watch_stats: dict[str, Any] = {"checks": 0, "reaction_ms": []}
 
     # ------------------------------------------------------------------ status
     @property
@@ -83,6 +101,14 @@ class TrajectoryExecutionManager:
     def notify(self) -> None:
         """New feedback arrived: wake the monitoring loop."""
         self._wake.set()
+
+    def scene_changed(self) -> None:
+        """The monitored scene changed: re-check the path ahead of a running execution (the
+        check runs on the watch thread; bursts of changes are coalesced into one check of the
+        newest scene)."""
+        watch = self._watch
+        if watch is not None:
+            watch.changed()
 
     def _default_wait(self, timeout: float) -> None:
         self._wake.wait(timeout)
@@ -191,13 +217,45 @@ class TrajectoryExecutionManager:
                 return ExecutionResult(_code(MoveItErrorCode.PREEMPTED, "execution stopped on request before it started"))
             self._monitor = monitor
         self._log("info", f"executing {description}: {monitor.duration:.3f} s on {', '.join(monitor.controller_names)}")
+        watch = None
+        if self._scene_source is not None:
+            ahead = PathAhead(self.model, prepared)
+            path = ahead.trajectory
+            watch = _PathWatch(ahead, self._scene_source, self._clock, started, self._wake, self.watch_stats,
+                               self._log)
+        else:
+            path = joint_trajectory_to_timed(prepared)
         try:
             for controller, command in commands:
                 self.bus.send(controller.name, command)
         except Exception as exc:
             self._stop_all(commands)
             raise ExecutionError(MoveItErrorCode.CONTROL_FAILED, f"sending the trajectory failed: {exc}") from None
+        if watch is not None:
+            self._watch = watch
+            watch.start()
+        try:
+            outcome = self._follow(path, commands, monitor, started, watch)
+        finally:
+            self._watch = None
+            if watch is not None:
+                watch.close()
+        elapsed = self._clock() - started
+        limit = monitor.deadline - started if math.isfinite(monitor.deadline) else None
+        level = "info" if outcome else ("warning" if outcome.val in (
+            MoveItErrorCode.PREEMPTED, MoveItErrorCode.MOTION_PLAN_INVALIDATED_BY_ENVIRONMENT_CHANGE) else "error")
+        self._log(level, f"execution of {description}: {outcome}")
+        return ExecutionResult(outcome, monitor.controller_names, elapsed, monitor.duration, limit)
+
+    def _follow(self, path: TimedTrajectory, commands: Sequence[tuple[ControllerInfo, JointTrajectory]],
+                monitor: ExecutionMonitor, started: float, watch: "_PathWatch | None") -> MoveItErrorCode:
+        """Watch the running commands until they end; a collision ahead or a stop request ends
+        them with a stop along the path."""
         while True:
+            hit = watch.collision if watch is not None else None
+            if hit is not None:
+                return self._controlled_stop(path, commands, started, _code(
+                    MoveItErrorCode.MOTION_PLAN_INVALIDATED_BY_ENVIRONMENT_CHANGE, hit.message()), hit)
             for controller, _ in commands:
                 latest = self.bus.controller_state(controller.name)
                 if latest is not None:
@@ -206,16 +264,60 @@ class TrajectoryExecutionManager:
                                self.bus.controller_state(controller.name, monitor.expected_goal(controller.name)))
             now = self._clock()
             outcome = monitor.poll(now, self._fresh_positions())
+            if outcome is not None and outcome.val == MoveItErrorCode.PREEMPTED:
+                return self._controlled_stop(path, commands, started, outcome, None)
             if outcome is not None:
+                if not outcome:
+                    self._stop_all(commands)
+                return outcome
+            self._wait(self._poll_period)
+
+    def _controlled_stop(self, path: TimedTrajectory, commands: Sequence[tuple[ControllerInfo, JointTrajectory]],
+                         started: float, outcome: MoveItErrorCode, hit: PathCollision | None) -> MoveItErrorCode:
+        """Bring the arm to rest along its path within the acceleration limits (before ``hit``
+        when given) and answer ``outcome`` once the controllers report it at rest. Where no such
+        stop exists (the obstacle too close, the stop refused), the controllers' goals are
+        cancelled: they hold where they are at once."""
+        t0 = self._clock() - started + self.stop_lead
+        names = path.joint_names
+        limits = np.array([self.model.acceleration_limits[self.model.variable_index(n)] for n in names])
+        before = hit.free_until if hit is not None else None
+        plan = None if (hit is not None and before is None) else stopping_trajectory(path, t0, limits, before)
+        text = outcome.message
+        if plan is None:
+            self._stop_all(commands)
+            return _code(outcome.val, f"{text}; too close to stop along the path within the acceleration "
+                                      "limits: halted at once")
+        self._goal_counter += 1
+        goal_id = f"{self.goal_prefix}{self._goal_counter}"
+        current = self._fresh_positions() or {}
+        try:
+            stops = split_trajectory(stop_command(plan, self.stop_lead, goal_id), self.controllers, current,
+                                     [c.name for c, _ in commands], goal_id)
+            baseline = {c.name: self.bus.controller_state(c.name) for c, _ in stops}
+            for controller, command in stops:
+                self.bus.send(controller.name, command)
+        except Exception as exc:  # a stop that cannot be sent: hold at once
+            self._stop_all(commands)
+            return _code(outcome.val, f"{text}; the stop along the path could not be sent ({exc}): halted at once")
+        now = self._clock()
+        monitor = ExecutionMonitor(stops, self.settings, now, baseline)
+        while True:
+            for controller, _ in stops:
+                latest = self.bus.controller_state(controller.name)
+                if latest is not None:
+                    monitor.heard(controller.name, latest.received)
+                monitor.update(controller.name, self.bus.controller_state(controller.name,
+                                                                          monitor.expected_goal(controller.name)))
+            done = monitor.poll(self._clock(), self._fresh_positions())
+            if done is not None:
                 break
             self._wait(self._poll_period)
-        if not outcome:
-            self._stop_all(commands)
-        elapsed = self._clock() - started
-        limit = monitor.deadline - started if math.isfinite(monitor.deadline) else None
-        level = "info" if outcome else ("warning" if outcome.val == MoveItErrorCode.PREEMPTED else "error")
-        self._log(level, f"execution of {description}: {outcome}")
-        return ExecutionResult(outcome, monitor.controller_names, elapsed, monitor.duration, limit)
+        where = f"at rest at {plan.rest_at:.2f} s of the trajectory after a {plan.duration:.2f} s stop"
+        if not done:
+            self._stop_all(stops)
+            return _code(outcome.val, f"{text}; the stop along the path failed ({done.message}): halted")
+        return _code(outcome.val, f"{text}; {where}")
 
     def _already_there(self, trajectory: JointTrajectory, current: Mapping[str, float]) -> bool:
         """A zero-duration trajectory whose point is where the robot is (a plan from a state to
@@ -245,3 +347,61 @@ class TrajectoryExecutionManager:
         """Execute a task solution step by step (see task_solution.execute_solution)."""
         return execute_solution(self, steps, apply_diff, scene)
 
+
+class _PathWatch:
+    """The thread that re-checks the path ahead after scene changes (see scene_changed): it
+    sleeps until a change arrives, checks the newest scene, and records the first collision
+    ahead, which the execution loop then acts on (woken through ``wake``)."""
+
+    def __init__(self, path: PathAhead, scene_source: Callable[[], PlanningScene], clock: Callable[[], float],
+                 started: float, wake: threading.Event, stats: dict[str, Any],
+                 log: Callable[[str, str], None]) -> None:
+        self.path = path
+        self._log = log
+        self._scene_source = scene_source
+        self._clock = clock
+        self._started = started
+        self._wake = wake
+        self._changed = threading.Event()
+        self._closed = False
+        self._since: float | None = None  # when the oldest unchecked change arrived
+        self.collision: PathCollision | None = None
+        stats["checks"] = 0
+        stats["reaction_ms"] = []
+        self._stats = stats
+        self._thread = threading.Thread(target=self._run, name="path ahead watch", daemon=True)
+
+    def start(self) -> None:
+        self._thread.start()
+
+    def changed(self) -> None:
+        if self._since is None:
+            self._since = time.monotonic()
+        self._changed.set()
+
+    def close(self) -> None:
+        self._closed = True
+        self._changed.set()
+        if self._thread.is_alive() and self._thread is not threading.current_thread():
+            self._thread.join(timeout=5.0)
+
+    def _run(self) -> None:
+        while True:
+            self._changed.wait()
+            if self._closed:
+                return
+            self._changed.clear()
+            since, self._since = self._since, None
+            t_from = self._clock() - self._started
+            try:
+                hit = self.path.first_collision(self._scene_source(), t_from)
+            except Exception as exc:  # a failed check must not end the watch: the next change checks again
+                self._log("error", f"checking the path ahead failed: {type(exc).__name__}: {exc}")
+                continue
+            self._stats["checks"] += 1
+            if since is not None:
+                self._stats["reaction_ms"].append((time.monotonic() - since) * 1e3)
+            if hit is not None:
+                self.collision = hit
+                self._wake.set()
+                return

@@ -18,6 +18,7 @@ __all__ = [
     "DEFAULT_RESOLUTION",
     "TrajectoryValidationError",
     "ValidationReport",
+    "dense_samples",
     "validate_trajectory",
 ]
 
@@ -193,7 +194,7 @@ def _subdivide(starts: np.ndarray, widths: np.ndarray, counts: np.ndarray, last:
     return ts
 
 
-def _dense_samples(
+def dense_samples(
     traj: TimedTrajectory, resolution: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]:
     """Times and (q, qd, qdd) such that every gap moves at most ``resolution`` (max-norm), except
@@ -507,7 +508,7 @@ def validate_trajectory(
 
     if monotonic:
         _check_jumps(trajectory, names, units, vmax, tolerance, findings)
-        ts, q, qd, qdd, exhausted = _dense_samples(trajectory, resolution)
+        ts, q, qd, qdd, exhausted = dense_samples(trajectory, resolution)
         if exhausted:
             findings.add(
                 f"trajectory moves too far to check at resolution {resolution:g} "
