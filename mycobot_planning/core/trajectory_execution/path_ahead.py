@@ -3,8 +3,8 @@ stop short of it along the path itself, within the joint acceleration limits.
 
 A trajectory being executed is sampled once, at the validator's resolution, when it starts; each
 scene change then checks only the samples still ahead of the arm, in time order, and names the
-first contact. A stop is a re-timing of the same path: the path parameter slows down on a smooth
-(cubic) velocity profile, so the arm never leaves the path that was checked and comes to rest
+first contact. A stop is a re-timing of the same path: the path speed falls as fast as the joint
+acceleration limits allow, so the arm never leaves the path that was checked and comes to rest
 where the path was still free. docs/trajectory_execution.md, "Reacting to scene changes".
 """
 from __future__ import annotations
@@ -23,8 +23,6 @@ from ..trajectory_processing.trajectory_validator import DEFAULT_RESOLUTION, den
 
 __all__ = ["PathAhead", "PathCollision", "StopPlan", "stopping_trajectory", "stop_command"]
 
-#: largest number of re-timings tried before a stop is declared impossible within the limits
-_MAX_STOP_ROUNDS = 60
 #: s between the points of a stop command (a controller's period)
 STOP_SAMPLE_PERIOD = 0.01
 
@@ -94,55 +92,95 @@ class StopPlan:
     duration: float
 
 
-def _profile(trajectory: TimedTrajectory, t0: float, span: float, period: float) -> tuple[np.ndarray, ...]:
-    """(t, tau, q, qd, qdd, path_qdd, braking) of the path re-timed from ``t0`` with the path
-    speed falling from 1 to 0 over ``span`` seconds as 1 - 3 s^2 + 2 s^3 (s = t / span): smooth
-    at both ends, so the acceleration neither jumps when the stop begins nor when it ends; the
-    path advances span/2. ``path_qdd`` is the path's own |acceleration| at tau, ``braking`` the
-    |acceleration| the slowing down adds."""
-    t = np.arange(0.0, span, period)
-    t = np.append(t[span - t > 0.01 * period], span)
-    s = t / span
-    tau = t0 + span * (s - s ** 3 + 0.5 * s ** 4)
-    speed = 1.0 - 3.0 * s ** 2 + 2.0 * s ** 3
-    slowing = (6.0 * s ** 2 - 6.0 * s) / span
-    q, qd, qdd = trajectory.sample(tau)
-    braking = qd * slowing[:, None]
-    return (t, tau, q, qd * speed[:, None], qdd * (speed ** 2)[:, None] + braking, np.abs(qdd),
-            np.abs(braking))
+def _slowest(qd: np.ndarray, curv: np.ndarray, limits: np.ndarray) -> float:
+    """The largest lower bound on the path speed's rate s' that -a <= qdd s^2 + qd s' <= a puts."""
+    return float(np.max(np.where(qd > 0, -limits - curv, limits - curv) / qd))
 
 
 def stopping_trajectory(trajectory: TimedTrajectory, t0: float, acceleration_limits: np.ndarray,
                         stop_before: float | None = None, period: float = STOP_SAMPLE_PERIOD,
-                        margin: float = 0.95) -> StopPlan | None:
+                        margin: float = 0.9, step: float = 0.002) -> StopPlan | None:
     """The quickest stop along ``trajectory`` from its time ``t0`` (s from its first point)
-    whose joint accelerations stay within ``margin`` x ``acceleration_limits`` (per joint of the
-    trajectory; inf: unlimited), or within what the path itself asks where a hand-made path
-    already asks for more. Velocities never exceed the trajectory's own. With
-    ``stop_before`` the arm must be at rest by that trajectory time; None when it cannot be
-    (the caller then halts at once)."""
+    with every joint's acceleration within ``margin`` x ``acceleration_limits`` (per joint of the
+    trajectory; inf: unlimited; the margin absorbs what a controller's spline between the points
+    adds where the path's own acceleration steps). With ``stop_before`` the arm must be at rest by that trajectory
+    time; None when it cannot be (the caller then halts at once).
+
+    The path speed s (1: as planned, 0: at rest) falls as fast as the limits allow: a joint's
+    acceleration along the path is q''(tau) s^2 + q'(tau) s', so each joint bounds s' from below
+    and the stop takes the largest bound, integrated every ``step`` seconds (1-D time-optimal
+    path parameterisation, braking only). Velocities never exceed the trajectory's own. Where the
+    path brakes hard itself, the stop may just follow it; where a hand-made path asks for more
+    than the limits itself, the path speed still falls (by 1/s).
+    The result has a point every ``period`` seconds and ends at rest."""
     t0 = float(min(max(t0, 0.0), trajectory.duration))
-    start = trajectory.times[0] + t0
-    limits = np.asarray(acceleration_limits, dtype=float) * margin
-    limits = np.where(np.isfinite(limits) & (limits > 0), limits, np.inf)
-    _, qd0, _ = trajectory.sample(start)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        need = np.where(np.isfinite(limits), np.abs(qd0) / limits, 0.0)
-    span = max(1.5 * float(np.max(need, initial=0.0)), 2 * period)
-    for _ in range(_MAX_STOP_ROUNDS):
-        rest_at = t0 + 0.5 * span
-        if stop_before is not None and rest_at > stop_before:
-            return None
-        t, tau, q, qd, qdd, path_qdd, braking = _profile(trajectory, start, span, period)
-        # within the limits; where the path itself asks for more, the braking within them
-        fine = (np.abs(qdd) <= limits + 1e-9) | ((path_qdd > limits) & (braking <= limits + 1e-9))
-        if np.all(fine):
-            qdd[-1] = 0.0
-            qd[-1] = 0.0
-            stop = TimedTrajectory(trajectory.joint_names, t, q, qd, qdd, interpolation="quintic")
-            return StopPlan(stop, t0, float(tau[-1] - trajectory.times[0]), float(span))
-        span *= 1.15
-    return None
+    first = float(trajectory.times[0])
+    end = first + trajectory.duration
+    full = np.asarray(acceleration_limits, dtype=float)
+    full = np.where(np.isfinite(full) & (full > 0), full, np.inf)
+    limits = full * margin
+    tau, speed = first + t0, 1.0
+    taus, speeds, slowings, stamps = [], [], [], []
+    now = 0.0
+    for _ in range(int(60.0 / step)):
+        q, qd, qdd = trajectory.sample(tau)
+        moving = np.abs(qd) > 1e-9
+        if tau >= end or not np.any(moving) or speed <= 0.0:
+            taus.append(min(tau, end))
+            stamps.append(now)
+            speeds.append(0.0)
+            slowings.append(0.0)
+            break
+        # -a <= qdd s^2 + qd s' <= a  =>  s' >= (-a - qdd s^2) / qd  (qd > 0), (a - qdd s^2) / qd (qd < 0)
+        curv = qdd[moving] * speed * speed
+        slowing = _slowest(qd[moving], curv, limits[moving])
+        if slowing > 0.0:  # the path brakes at its limits itself here: follow it (full limits)
+            slowing = min(_slowest(qd[moving], curv, full[moving]), 0.0)
+            if slowing >= 0.0 and _slowest(qd[moving], curv, full[moving]) > 0.0:
+                slowing = -1.0  # a hand-made path asking for more than the limits: brake anyway
+        taus.append(tau)
+        stamps.append(now)
+        speeds.append(speed)
+        slowings.append(slowing)
+        new_speed = speed + slowing * step
+        if new_speed <= 0.0 and slowing < 0.0:  # at rest within this step
+            dt = speed / -slowing
+            tau += 0.5 * speed * dt
+            taus.append(min(tau, end))
+            stamps.append(now + dt)
+            speeds.append(0.0)
+            slowings.append(slowing)
+            break
+        advance = 0.5 * (speed + new_speed) * step
+        if tau + advance >= end:  # the path itself ends (at rest) within this step
+            taus.append(end)
+            stamps.append(now + (end - tau) / max(0.5 * (speed + new_speed), 1e-9))
+            speeds.append(0.0)
+            slowings.append(slowing)
+            break
+        tau += advance
+        speed = new_speed
+        now += step
+    else:
+        return None
+    tau_arr = np.array(taus)
+    rest_at = float(tau_arr[-1] - first)
+    if stop_before is not None and rest_at > stop_before:
+        return None
+    times = np.array(stamps)
+    keep = np.unique(np.append(np.arange(0, len(times), max(1, round(period / step))), len(times) - 1))
+    if len(keep) > 1 and times[keep[-1]] - times[keep[-2]] < 0.01 * period:
+        keep = np.delete(keep, -2)
+    q, qd, qdd = trajectory.sample(tau_arr[keep])
+    s_k, ds_k = np.array(speeds)[keep, None], np.array(slowings)[keep, None]
+    velocities = qd * s_k
+    accelerations = qdd * s_k ** 2 + qd * ds_k
+    velocities[-1] = 0.0
+    # the braking acceleration holds until the very end (as the samples before it): an interpolating
+    # controller told "0" there would brake harder in the last interval to meet it
+    accelerations[-1] = accelerations[-2] if len(keep) > 1 else 0.0
+    stop = TimedTrajectory(trajectory.joint_names, times[keep], q, velocities, accelerations, interpolation="quintic")
+    return StopPlan(stop, t0, rest_at, float(times[-1]))
 
 
 def stop_command(plan: StopPlan, lead: float, goal_id: str) -> JointTrajectory:

@@ -452,6 +452,11 @@ class MoveGroupFace(Node):
         feedback = MoveGroup.Feedback()
         options = goal.planning_options
         try:
+            try:  # checked before anything is applied: a refused goal changes nothing
+                replanning = move_action.Replanning.checked(bool(options.replan), int(options.replan_attempts),
+                                                            float(options.replan_delay), self._log)
+            except RequestError as exc:
+                raise ConversionError(exc.code, exc.message) from None
             diff = options.planning_scene_diff
             if (len(diff.world.collision_objects) or len(diff.robot_state.joint_state.name)
                     or len(diff.robot_state.attached_collision_objects)):
@@ -481,9 +486,20 @@ class MoveGroupFace(Node):
             executing.set()
             return True
 
+        def replanning_now(attempt: int) -> None:
+            feedback.state = "PLANNING"  # as move_group: PLANNING again, then MONITOR
+            goal_handle.publish_feedback(feedback)
+
+        def replanned(planned: PlanResult) -> None:
+            result.planned_trajectory = robot_trajectory_to_ros(planned.trajectory, self.core.model.root_link)
+            feedback.state = "MONITOR"
+            goal_handle.publish_feedback(feedback)
+
         executing = threading.Event()
         planned, executed = self._execute_with_cancel(goal_handle, lambda: move_action.plan_and_execute(
-            self.core, requests, start, path, plan_only=options.plan_only, before_execution=planned_ok), executing)
+            self.core, requests, start, path, plan_only=options.plan_only, before_execution=planned_ok,
+            replanning=replanning, cancelled=lambda: goal_handle.is_cancel_requested, on_replan=replanning_now,
+            on_replanned=replanned), executing)
         if planned is None:  # refused: another execution runs
             result.error_code = _typed_code(executed.error_code)
             goal_handle.abort()
