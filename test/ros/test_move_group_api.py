@@ -56,6 +56,7 @@ class Client(ProbeNode):
     def __init__(self) -> None:
         super().__init__("move_group_api_test")  # spun by spin_until, not in the background
         self.joint_state: JointState | None = None
+        self.recorded: list[JointState] | None = None  # every /joint_states message while recording
         self.node.create_subscription(JointState, "/joint_states", self._on_js, 10)
         self.move = ActionClient(self.node, MoveGroup, "/move_action")
         self.execute = ActionClient(self.node, ExecuteTrajectory, "/execute_trajectory")
@@ -64,6 +65,8 @@ class Client(ProbeNode):
 
     def _on_js(self, msg: JointState) -> None:
         self.joint_state = msg
+        if self.recorded is not None:
+            self.recorded.append(msg)
 
     def spin_until(self, future, timeout: float = 30.0):
         self.executor.spin_until_future_complete(future, timeout_sec=timeout)
@@ -502,3 +505,174 @@ def test_path_constraints_are_honoured(client: Client, model: RobotModel) -> Non
     assert 0.0 < turning.fraction < 0.6
     assert max(tilt(p.positions) for p in turning.solution.joint_trajectory.points) <= 0.1 * np.sqrt(2) + 1e-6
     move(client, READY)
+
+
+# ------------------------------------------------------------------------------- reacting while moving (issue 29)
+SWEEP_START = [-1.2, -0.8, -0.6, 0.0, 0.0, 0.0]
+SWEEP_END = [1.2, -0.8, -0.6, 0.0, 0.0, 0.0]
+
+
+def flange_position(model: RobotModel, joint1: float) -> np.ndarray:
+    values = list(SWEEP_START)
+    values[0] = joint1
+    return tip_pose(model, values)[:3, 3]
+
+
+def sweep_goal(replan: bool = False, attempts: int = 0, delay: float = 0.0) -> MoveGroup.Goal:
+    goal = MoveGroup.Goal()
+    goal.request = joint_goal(SWEEP_END).motion_plan_request
+    goal.request.max_velocity_scaling_factor = 0.3
+    goal.request.max_acceleration_scaling_factor = 0.3
+    goal.planning_options.replan = replan
+    goal.planning_options.replan_attempts = attempts
+    goal.planning_options.replan_delay = delay
+    return goal
+
+
+def run_with_intrusion(client: Client, action, goal, obj: CollisionObject | None, after: float = 0.8,
+                       cancel_after: float | None = None):
+    """Send ``goal``, record /joint_states, publish ``obj`` on /collision_object ``after`` s into
+    the motion (the first MONITOR feedback; the goal's start for execute_trajectory); cancel
+    ``cancel_after`` s into it when given. Returns (result response, feedback states, recording)."""
+    states: list[str] = []
+    client.recorded = []
+    started: list[float] = []
+
+    def on_feedback(msg) -> None:
+        states.append(msg.feedback.state)
+        if msg.feedback.state == "MONITOR" and not started:
+            started.append(time.monotonic())
+
+    handle = client.send(action, goal, feedback=on_feedback)
+    result_future = handle.get_result_async()
+    sent = cancelled = False
+    deadline = time.monotonic() + 60.0
+    while not result_future.done() and time.monotonic() < deadline:
+        client.executor.spin_once(timeout_sec=0.02)
+        if started and obj is not None and not sent and time.monotonic() - started[0] > after:
+            client.object_pub.publish(obj)
+            sent = True
+        if started and cancel_after is not None and not cancelled and time.monotonic() - started[0] > cancel_after:
+            handle.cancel_goal_async()
+            cancelled = True
+    assert result_future.done(), "no result in time"
+    for _ in range(10):  # the last joint states
+        client.executor.spin_once(timeout_sec=0.02)
+    recording, client.recorded = client.recorded, None
+    return result_future.result(), states, recording
+
+
+def assert_recorded_motion_free(model: RobotModel, recording, *objects) -> None:
+    """Every recorded /joint_states state is free of collisions in the scene with ``objects``
+    (the plain exact all-pairs check)."""
+    from interfaces_py.msgs import CollisionObject as SceneObject
+    from mycobot_planning.core.planning_scene.planning_scene import PlanningScene
+    from mycobot_planning.core.transforms import make_pose
+
+    scene = PlanningScene(model)
+    for obj in objects:  # boxes as box() makes them
+        p = obj.pose.position
+        scene.add_object(SceneObject.box(obj.id, list(obj.primitives[0].dimensions), make_pose([p.x, p.y, p.z])))
+    names = [n for n in recording[0].name if n in model.variable_names]
+    index = np.array([model.variable_index(n) for n in names])
+    rows = np.array([[dict(zip(m.name, m.position))[n] for n in names] for m in recording])
+    assert len(rows) > 20
+    hits = scene.colliding_rows(index, None, rows, all_pairs=True)
+    assert not np.any(hits), f"{int(hits.sum())} recorded states collide, first at {rows[np.argmax(hits)]}"
+
+
+def remove(client: Client, object_id: str) -> None:
+    client.object_pub.publish(box(object_id, [0, 0, 0], operation=CollisionObject.REMOVE))
+    assert wait_until(lambda: object_id not in world_ids(client), 5.0)
+
+
+def at_rest(client: Client) -> bool:
+    first = client.arm()
+    time.sleep(0.2)
+    return bool(np.allclose(client.arm(), first, atol=1e-4))
+
+
+@pytest.mark.parametrize("replan", [False, True])
+def test_move_action_reacts_to_an_object_appearing_on_its_path(client: Client, model: RobotModel, replan) -> None:
+    """The issue's scene: joint 1 sweeps from -1.2 to +1.2 rad; during the motion a 6 cm box
+    appears where the flange passes at mid-sweep. Without replanning the arm stops short
+    (MOTION_PLAN_INVALIDATED_BY_ENVIRONMENT_CHANGE); with it, it plans around and arrives."""
+    move(client, SWEEP_START)
+    intruder = box("intruder", flange_position(model, 0.0))
+    try:
+        response, states, recording = run_with_intrusion(client, client.move, sweep_goal(replan, 3), intruder)
+        code = response.result.error_code
+        assert_recorded_motion_free(model, recording, intruder)
+        if replan:
+            assert code.val == C.SUCCESS, code.message
+            assert "replan" in code.message
+            assert np.allclose(client.arm(), SWEEP_END, atol=0.02)
+            assert states.count("MONITOR") >= 2 and states.count("PLANNING") >= 2
+        else:
+            assert code.val == C.MOTION_PLAN_INVALIDATED_BY_ENVIRONMENT_CHANGE, code.message
+            assert "intruder" in code.message and "at rest" in code.message
+            assert response.status == GoalStatus.STATUS_ABORTED
+            arm = client.arm()
+            assert -1.2 < arm[0] < 0.0  # stopped on the way, before the box
+            assert at_rest(client)
+    finally:
+        remove(client, "intruder")
+
+
+def test_execute_trajectory_stops_short_of_an_object_on_its_path(client: Client, model: RobotModel) -> None:
+    move(client, SWEEP_START)
+    request = joint_goal(SWEEP_END)
+    request.motion_plan_request.max_velocity_scaling_factor = 0.3
+    request.motion_plan_request.max_acceleration_scaling_factor = 0.3
+    response = client.call(GetMotionPlan, "/plan_kinematic_path", request).motion_plan_response
+    assert response.error_code.val == C.SUCCESS
+    intruder = box("intruder", flange_position(model, 0.0))
+    try:
+        result, _, recording = run_with_intrusion(client, client.execute,
+                                                  ExecuteTrajectory.Goal(trajectory=response.trajectory), intruder)
+        assert result.result.error_code.val == C.MOTION_PLAN_INVALIDATED_BY_ENVIRONMENT_CHANGE
+        assert_recorded_motion_free(model, recording, intruder)
+        assert at_rest(client)
+    finally:
+        remove(client, "intruder")
+
+
+def test_an_object_away_from_the_path_does_not_stop_the_motion(client: Client, model: RobotModel) -> None:
+    move(client, SWEEP_START)
+    far = box("bystander", [0.0, -0.35, 0.05], size=(0.05, 0.05, 0.05))
+    try:
+        response, _, _ = run_with_intrusion(client, client.move, sweep_goal(), far)
+        assert response.result.error_code.val == C.SUCCESS, response.result.error_code.message
+        assert np.allclose(client.arm(), SWEEP_END, atol=0.02)
+    finally:
+        remove(client, "bystander")
+
+
+def test_cancel_brings_the_arm_to_rest_along_its_path(client: Client) -> None:
+    move(client, SWEEP_START)
+    response, _, recording = run_with_intrusion(client, client.move, sweep_goal(), None, cancel_after=1.0)
+    assert response.status == GoalStatus.STATUS_CANCELED
+    assert response.result.error_code.val == C.PREEMPTED
+    assert at_rest(client)
+    arm = client.arm()
+    assert SWEEP_START[0] < arm[0] < SWEEP_END[0]
+    assert np.allclose(arm[1:], SWEEP_START[1:], atol=1e-3)  # stopped on the path (only joint 1 moves)
+
+
+@pytest.mark.parametrize("attempts, delay, words", [(-1, 0.0, "replan_attempts must be >= 0"),
+                                                    (2, float("nan"), "replan_delay must be a number")])
+def test_bad_replanning_options_are_refused_and_change_nothing(client: Client, attempts, delay, words) -> None:
+    move(client, READY)
+    goal = MoveGroup.Goal()
+    goal.request = joint_goal(FAR).motion_plan_request
+    goal.planning_options.replan = True
+    goal.planning_options.replan_attempts = attempts
+    goal.planning_options.replan_delay = delay
+    goal.planning_options.planning_scene_diff.is_diff = True
+    goal.planning_options.planning_scene_diff.world.collision_objects = [box("not_applied", [0.3, 0.3, 0.3])]
+    handle = client.send(client.move, goal)
+    response = client.spin_until(handle.get_result_async())
+    assert response.status == GoalStatus.STATUS_ABORTED
+    assert words in response.result.error_code.message
+    assert "not_applied" not in world_ids(client)
+    assert np.allclose(client.arm(), READY, atol=0.01)
