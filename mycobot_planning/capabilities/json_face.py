@@ -439,7 +439,8 @@ class MoveGroupJsonFace(MoveGroupContext):
         return None, "", controllers or None
 
     def plan_and_execute(self, params: Mapping[str, Any]) -> dict[str, Any]:
-        """Plan, then execute the plan if planning succeeded: {"error_code", "plan", "execution"}."""
+        """Plan, then execute the plan if planning succeeded: {"error_code", "plan", "execution"}.
+        "replan", "replan_attempts", "replan_delay" as MoveIt's planning_options (move_action)."""
         if isinstance(params, Mapping) and "wait" in params:
             rest = {k: v for k, v in params.items() if k != "wait"}
             return self._run(params, lambda: self.plan_and_execute(rest), "plan and execute")
@@ -451,6 +452,15 @@ class MoveGroupJsonFace(MoveGroupContext):
                                         "stop it first or wait for it to finish"),
                     "plan": None, "execution": None}
         try:
+            replanning = move_action.Replanning()
+            if isinstance(params, Mapping):
+                if not isinstance(params.get("replan", False), bool):
+                    raise RequestError(MoveItErrorCode.INVALID_MOTION_PLAN,
+                                       f"replan must be true or false, got {params['replan']!r}")
+                replanning = move_action.Replanning.checked(
+                    params.get("replan", False), params.get("replan_attempts", 0), params.get("replan_delay", 0.0),
+                    self._log)
+                params = {k: v for k, v in params.items() if k not in ("replan", "replan_attempts", "replan_delay")}
             request, start, frame, path = self._request(params)
         except RequestError as exc:
             self.last_plan, self.last_plan_problem = None, f"the last planning request failed: {exc.message}"
@@ -458,7 +468,7 @@ class MoveGroupJsonFace(MoveGroupContext):
             failed = self._fail(exc.code, exc.message)
             return {"error_code": failed["error_code"], "plan": failed, "execution": None}
         planned, executed = move_action.plan_and_execute(self, [(request, frame)], start, path,
-                                                         params.get("display", True))
+                                                         params.get("display", True), replanning=replanning)
         if planned is None:  # another execution started meanwhile
             return {"error_code": executed.error_code.to_dict(), "plan": None, "execution": None}
         reply = self._plan_reply(planned, started)

@@ -20,7 +20,7 @@ from mycobot_planning.core import PlanningScene, RobotState
 from mycobot_planning.core.planning_interface.planning_interface import JointGoal, MotionPlanRequest, time_group_path
 from mycobot_planning.core.planning_interface.planning_pipeline import PlanningPipeline
 from mycobot_planning.core.robot_trajectory.robot_trajectory import timed_to_joint_trajectory
-from mycobot_planning.core.trajectory_execution import ExecutionSettings, TrajectoryExecutionManager
+from mycobot_planning.core.trajectory_execution import ExecutionSettings, SolutionStep, TrajectoryExecutionManager
 from mycobot_planning.core.trajectory_execution.path_ahead import PathAhead, stopping_trajectory
 from mycobot_planning.core.trajectory_processing.trajectory_limits import DEFAULT_LIMIT_TOLERANCE
 from mycobot_planning.core.transforms import make_pose
@@ -180,6 +180,30 @@ def test_execution_stops_short_of_an_object_appearing_on_the_path(mycobot):
     for point in stop.points:
         assert not collides(scene, mycobot, point.positions)
     assert manager.watch_stats["checks"] >= 1
+
+
+def test_a_task_solution_stops_at_the_step_whose_path_became_invalid(mycobot):
+    """MTC cannot replan a solution: its execution stops at the step whose path is blocked and
+    the error names that step; the steps before it ran, those after it did not."""
+    bus = SimBus(mycobot)
+    there = sweep(mycobot, -1.2, -0.6)
+    across = sweep(mycobot, -0.6, 1.2)
+    back = sweep(mycobot, 1.2, 0.0)
+    bus.positions.update(zip(ARM, there.positions[0]))
+    scene = PlanningScene(mycobot)
+    manager, intrusion = watched_manager(mycobot, bus, scene)
+    steps = [SolutionStep("approach", "arm", timed_to_joint_trajectory(there, 0.01)),
+             SolutionStep("sweep", "arm", timed_to_joint_trajectory(across, 0.01)),
+             SolutionStep("return", "arm", timed_to_joint_trajectory(back, 0.01))]
+    # during the second step: the first takes there.duration (+ a poll period or two)
+    intrusion.at(there.duration + 0.3 * across.duration, lambda s: s.add_object(flange_box(mycobot, 0.3)))
+    result = manager.execute_solution(steps, lambda diff: None)
+    assert result.error_code.val == INVALIDATED, result.message
+    assert result.failed_step == 1 and result.steps_completed == 1
+    assert "step 1 ('sweep')" in result.message and "intruder" in result.message
+    assert len(bus.controllers["arm_controller"].sent) == 3  # approach, sweep, the stop; never 'return'
+    final = [bus.positions[n] for n in ARM]
+    assert -0.6 < final[0] < 0.3 and not collides(scene, mycobot, final)
 
 
 @pytest.mark.parametrize("change", ["far object", "removed object"])
@@ -359,3 +383,21 @@ def test_cancel_while_waiting_to_replan_ends_the_goal(server, mycobot):
                                                cancelled=on_invalidated_wait, on_replan=replans.append)
     assert executed.error_code.val == MoveItErrorCode.PREEMPTED and "waiting to replan" in executed.message
     assert replans == []
+
+
+def test_the_json_face_replans_too(server, mycobot):
+    start, goal = list(POSE), list(POSE)
+    start[0], goal[0] = -1.2, 1.2
+    _start(server, start)
+    box = flange_box(mycobot, 0.0, size=0.05)
+    _drive(server, 0.8, lambda core: core.apply_collision_objects([box]))
+    reply = server.plan_and_execute({"group": "arm", "goal": {"joints": dict(zip(ARM, goal))}, "seed": 7,
+                                     "max_velocity_scaling_factor": 0.3, "max_acceleration_scaling_factor": 0.3,
+                                     "replan": True, "replan_attempts": 2, "replan_delay": 0.0})
+    assert reply["error_code"]["val"] == MoveItErrorCode.SUCCESS, reply["error_code"]
+    assert "after 1 replan" in reply["error_code"]["message"]
+    for bad, words in (({"replan": "yes"}, "replan must be true or false"),
+                       ({"replan": True, "replan_attempts": -3}, "replan_attempts must be >= 0"),
+                       ({"replan": True, "replan_delay": float("inf")}, "replan_delay must be")):
+        reply = server.plan_and_execute({"group": "arm", "goal": {"joints": dict(zip(ARM, start))}, **bad})
+        assert reply["error_code"]["val"] == MoveItErrorCode.INVALID_MOTION_PLAN and words in reply["error_code"]["message"]
