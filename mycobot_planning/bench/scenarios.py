@@ -18,6 +18,7 @@ from .concurrency_scenarios import CONCURRENCY_SCENARIOS
 from .objectives_scenarios import OBJECTIVES_SCENARIOS
 from .peers.parts import bench_peers_parts
 from .perception_scenarios import bench_perception
+from .react_scenarios import REACT_SCENARIOS
 from .pick_place_scenarios import PICK_PLACE_SCENARIOS
 from .robots_scenarios import bench_robots
 from .robustness import bench_robustness
@@ -252,4 +253,5 @@ SCENARIOS: dict[str, Callable[..., None]] = {
     **OBJECTIVES_SCENARIOS,
     **SIM_SCENARIOS,
     **CONCURRENCY_SCENARIOS,
+    **REACT_SCENARIOS,
 }

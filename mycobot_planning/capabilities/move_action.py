@@ -91,6 +91,10 @@ def plan_and_execute(ctx: MoveGroupContext, requests: Sequence[tuple[MotionPlanR
                                                             "canceled while waiting to replan", SOURCE))
         if on_replan is not None:
             on_replan(attempt)
+        group = requests[0][0].group if requests else ""
+        joints = list(ctx.model.group(group).joint_names) if group and ctx.model.has_group(group) else []
+        if joints and not ctx.wait_for_rest(joints):
+            ctx.log("warning", "replanning: the arm did not come to rest within 2 s; planning from where it is")
         replanned = plan_any(ctx, requests, None, path_constraints, display)
         if replanned.trajectory is None:
             code = replanned.error_code

@@ -208,6 +208,27 @@ class MoveGroupContext(PlanningSceneMonitor):
                 self.planning.discard(context)
             context.clear()
 
+    def wait_for_rest(self, joints: Sequence[str], timeout: float = 2.0, tolerance: float = 1e-4,
+                      settle: float = 0.03) -> bool:
+        """Whether /joint_states shows ``joints`` at rest (two readings ``settle`` s apart within
+        ``tolerance``) within ``timeout`` s: what replanning waits for after a stop, so that the
+        new plan starts where the arm really is."""
+        deadline = time.monotonic() + timeout
+        reference: tuple[float, list[float]] | None = None
+        while time.monotonic() < deadline:
+            positions, age = self.joint_positions()
+            if positions is not None and all(j in positions for j in joints):
+                values = [positions[j] for j in joints]
+                now = time.monotonic()
+                if reference is None:
+                    reference = (now, values)
+                elif now - reference[0] >= settle:
+                    if max(abs(a - b) for a, b in zip(values, reference[1])) <= tolerance:
+                        return True
+                    reference = (now, values)
+            time.sleep(0.005)
+        return False
+
     def display(self, trajectory: JointTrajectory) -> None:
         for listener in list(self.trajectory_listeners):
             try:

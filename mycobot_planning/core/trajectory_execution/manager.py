@@ -25,6 +25,10 @@ from .settings import ExecutionError, ExecutionSettings, error_code as _code
 from .task_solution import SolutionResult, SolutionStep, check_solution, execute_solution
 from .trajectory_preparation import check_start_state, prepare_trajectory, trajectory_duration
 
+#: s: the least time a stop command's first point may lie ahead of its sending
+MIN_STOP_LEAD = 0.008
+
+
 class TrajectoryExecutionManager:
     """Executes trajectories and task solutions, one at a time, through a ControllerBus.
 
@@ -80,6 +84,9 @@ class TrajectoryExecutionManager:
         self._scene_source = scene_source
         self.stop_lead = stop_lead
         self._watch: _PathWatch | None = None
+        self._reaction_ms: float | None = None
+        self.invalidations = 0
+        self.last_reaction_ms: float | None = None
         #: what the last path watch saw: checks made, and ms from a scene change to its verdict
         self.watch_stats: dict[str, Any] = {"checks": 0, "reaction_ms": []}
 
@@ -96,6 +103,10 @@ class TrajectoryExecutionManager:
                 "description": self._description if running else "",
                 "elapsed": (self._clock() - self._started_at) if running else 0.0,
                 "last_result": self.last_result,
+                # executions stopped by a scene change so far, and the last one's reaction (ms from
+                # the change's arrival to the stop command)
+                "invalidations": self.invalidations,
+                "last_reaction_ms": self.last_reaction_ms,
             }
 
     def notify(self) -> None:
@@ -234,6 +245,7 @@ class TrajectoryExecutionManager:
         if watch is not None:
             self._watch = watch
             watch.start()
+        self._reaction_ms = None
         try:
             outcome = self._follow(path, commands, monitor, started, watch)
         finally:
@@ -245,7 +257,7 @@ class TrajectoryExecutionManager:
         level = "info" if outcome else ("warning" if outcome.val in (
             MoveItErrorCode.PREEMPTED, MoveItErrorCode.MOTION_PLAN_INVALIDATED_BY_ENVIRONMENT_CHANGE) else "error")
         self._log(level, f"execution of {description}: {outcome}")
-        return ExecutionResult(outcome, monitor.controller_names, elapsed, monitor.duration, limit)
+        return ExecutionResult(outcome, monitor.controller_names, elapsed, monitor.duration, limit, self._reaction_ms)
 
     def _follow(self, path: TimedTrajectory, commands: Sequence[tuple[ControllerInfo, JointTrajectory]],
                 monitor: ExecutionMonitor, started: float, watch: "_PathWatch | None") -> MoveItErrorCode:
@@ -272,31 +284,60 @@ class TrajectoryExecutionManager:
                 return outcome
             self._wait(self._poll_period)
 
+    def _record_reaction(self, hit: PathCollision | None) -> None:
+        """For a stop caused by ``hit``: ms from the scene change's arrival to now (the stop sent)."""
+        watch = self._watch
+        if hit is None or watch is None or watch.hit_since is None:
+            return
+        self._reaction_ms = (time.monotonic() - watch.hit_since) * 1e3
+        with self._state_lock:
+            self.invalidations += 1
+            self.last_reaction_ms = self._reaction_ms
+
     def _controlled_stop(self, path: TimedTrajectory, commands: Sequence[tuple[ControllerInfo, JointTrajectory]],
                          started: float, outcome: MoveItErrorCode, hit: PathCollision | None) -> MoveItErrorCode:
         """Bring the arm to rest along its path within the acceleration limits (before ``hit``
         when given) and answer ``outcome`` once the controllers report it at rest. Where no such
         stop exists (the obstacle too close, the stop refused), the controllers' goals are
         cancelled: they hold where they are at once."""
-        t0 = self._clock() - started + self.stop_lead
         names = path.joint_names
         limits = np.array([self.model.acceleration_limits[self.model.variable_index(n)] for n in names])
         before = hit.free_until if hit is not None else None
-        plan = None if (hit is not None and before is None) else stopping_trajectory(path, t0, limits, before)
+        lead, plan, spent = self.stop_lead, None, 0.0
+        for _ in range(3):
+            mark = time.monotonic()
+            t_arm = self._clock() - started
+            ahead = self._watch.path if self._watch is not None else None
+            fresh, age = self._current_positions()
+            if (ahead is not None and fresh is not None and age is not None
+                    and age <= self.settings.joint_state_timeout and all(n in fresh for n in ahead.joint_names)):
+                # where the arm really is (a controller that accepted the goal late runs behind
+                # the clock), plus how old that joint state is
+                t_arm = ahead.locate(np.array([fresh[n] for n in ahead.joint_names]), t_arm) + age
+            if hit is not None and before is None:
+                break
+            plan = stopping_trajectory(path, t_arm + lead, limits, before)
+            spent = time.monotonic() - mark
+            if plan is None or lead - spent >= MIN_STOP_LEAD:
+                break
+            lead = self.stop_lead + 2.0 * spent  # the computation was slow: begin the stop further ahead
         text = outcome.message
         if plan is None:
             self._stop_all(commands)
+            self._record_reaction(hit)
             return _code(outcome.val, f"{text}; too close to stop along the path within the acceleration "
                                       "limits: halted at once")
         self._goal_counter += 1
         goal_id = f"{self.goal_prefix}{self._goal_counter}"
         current = self._fresh_positions() or {}
         try:
-            stops = split_trajectory(stop_command(plan, self.stop_lead, goal_id), self.controllers, current,
+            first_point = max(lead - (time.monotonic() - mark), MIN_STOP_LEAD)
+            stops = split_trajectory(stop_command(plan, first_point, goal_id), self.controllers, current,
                                      [c.name for c, _ in commands], goal_id)
             baseline = {c.name: self.bus.controller_state(c.name) for c, _ in stops}
             for controller, command in stops:
                 self.bus.send(controller.name, command)
+            self._record_reaction(hit)
         except Exception as exc:  # a stop that cannot be sent: hold at once
             self._stop_all(commands)
             return _code(outcome.val, f"{text}; the stop along the path could not be sent ({exc}): halted at once")
@@ -366,6 +407,8 @@ class _PathWatch:
         self._closed = False
         self._since: float | None = None  # when the oldest unchecked change arrived
         self.collision: PathCollision | None = None
+        #: when the scene change behind the collision found arrived (time.monotonic)
+        self.hit_since: float | None = None
         stats["checks"] = 0
         stats["reaction_ms"] = []
         self._stats = stats
@@ -402,6 +445,7 @@ class _PathWatch:
             if since is not None:
                 self._stats["reaction_ms"].append((time.monotonic() - since) * 1e3)
             if hit is not None:
+                self.hit_since = since
                 self.collision = hit
                 self._wake.set()
                 return

@@ -29,6 +29,8 @@ class ExecutionResult(ErrorCodeResult):
     duration: float = 0.0  # measured, s
     expected_duration: float = 0.0
     allowed_duration: float | None = None
+    #: ms from the scene change that invalidated the path (its arrival) to the stop command sent
+    reaction_ms: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -37,6 +39,7 @@ class ExecutionResult(ErrorCodeResult):
             "duration": self.duration,
             "expected_duration": self.expected_duration,
             "allowed_duration": self.allowed_duration,
+            "reaction_ms": self.reaction_ms,
         }
 
 

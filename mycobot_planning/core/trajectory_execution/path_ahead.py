@@ -23,14 +23,17 @@ from ..trajectory_processing.trajectory_validator import DEFAULT_RESOLUTION, den
 
 __all__ = ["PathAhead", "PathCollision", "StopPlan", "stopping_trajectory", "stop_command"]
 
+#: m: a stop along the path ends where the robot is still this far from the first contact
+STOP_CLEARANCE = 0.01
 #: s between the points of a stop command (a controller's period)
 STOP_SAMPLE_PERIOD = 0.01
 
 
 @dataclass(frozen=True)
 class PathCollision:
-    """The first colliding state ahead: its time on the trajectory, the last free time checked
-    before it (None when the arm is already in collision), and the contacts."""
+    """The first colliding state ahead: its time on the trajectory, the last time before it
+    where the robot is still the path's clearance away from any contact (None when there is
+    none: the arm is already in or next to the contact), and the contacts."""
 
     time: float
     free_until: float | None
@@ -47,7 +50,7 @@ class PathAhead:
     """A trajectory under execution, sampled once at ``resolution`` (max joint step, rad or m)."""
 
     def __init__(self, model: RobotModel, trajectory: JointTrajectory | TimedTrajectory,
-                 resolution: float = DEFAULT_RESOLUTION) -> None:
+                 resolution: float = DEFAULT_RESOLUTION, clearance: float = STOP_CLEARANCE) -> None:
         timed = trajectory if isinstance(trajectory, TimedTrajectory) else joint_trajectory_to_timed(trajectory)
         self.model = model
         self.trajectory = timed
@@ -59,6 +62,7 @@ class PathAhead:
         self.times = ts - timed.times[0]
         self.positions = q[:, keep]
         self.duration = timed.duration
+        self.clearance = clearance
 
     def first_collision(self, scene: PlanningScene, t_from: float) -> PathCollision | None:
         """The first state at or after ``t_from`` (s from the start; the sample just before it is
@@ -73,12 +77,56 @@ class PathAhead:
         if not np.any(hits):
             return None
         k = int(np.argmax(hits))
-        state = np.array(scene.current_state.positions, dtype=float)
-        state[self.indices] = rows[k]
-        report = scene.check_collision(RobotState(self.model, state), max_contacts=3)
+        base = np.array(scene.current_state.positions, dtype=float)
+
+        def state(row: np.ndarray) -> RobotState:
+            values = base.copy()
+            values[self.indices] = row
+            return RobotState(self.model, values)
+
+        report = scene.check_collision(state(rows[k]), max_contacts=3)
         contacts = tuple(str(c) for c in report.contacts)
-        free = float(self.times[first + k - 1]) if k > 0 else None
-        return PathCollision(float(self.times[first + k]), free, float(t_from), self.duration, contacts)
+        world = any("Object" in (c.kind_a, c.kind_b) for c in report.contacts)
+        # clearance from the world's objects; a self-contact (an attached object) is kept apart
+        # at the path's resolution only
+        free = self._clear_before(scene, rows, k, state) if world else (k - 1 if k > 0 else None)
+        return PathCollision(float(self.times[first + k]), None if free is None else float(self.times[first + free]),
+                             float(t_from), self.duration, contacts)
+
+    def _clear_before(self, scene: PlanningScene, rows: np.ndarray, k: int, state) -> int | None:
+        """The last row before ``k`` at least ``clearance`` m from every world object, or None
+        when there is none: backwards in doubling steps, then halving between the last row found
+        too close and the first found clear (a handful of distance queries)."""
+        def clear(j: int) -> bool:
+            return scene.distance(state(rows[j]), include_self=False).min_distance >= self.clearance
+
+        near, step = k, 1
+        j = k - 1
+        while j >= 0 and not clear(j):
+            near, j, step = j, j - step, step * 2
+        if j < 0:
+            if k > 0 and near > 0 and clear(0):
+                j = 0
+            else:
+                return None
+        while near - j > 1:  # j clear, near too close
+            mid = (j + near) // 2
+            if clear(mid):
+                j = mid
+            else:
+                near = mid
+        return j
+
+    def locate(self, positions: np.ndarray, around: float, window: float = 0.3) -> float:
+        """The time on the path (within ``window`` s before and a sixth of it after ``around``)
+        whose state is nearest ``positions`` (the trajectory's joints, max-norm): where a
+        controller that started late or runs behind really is."""
+        lo = np.searchsorted(self.times, around - window)
+        hi = np.searchsorted(self.times, around + window / 6.0, side="right")
+        if hi <= lo:
+            return float(min(max(around, 0.0), self.duration))
+        error = np.max(np.abs(self.positions[lo:hi] - np.asarray(positions, dtype=float)), axis=1)
+        return float(self.times[lo + int(np.argmin(error))])
 
 
 @dataclass(frozen=True)
@@ -92,95 +140,99 @@ class StopPlan:
     duration: float
 
 
-def _slowest(qd: np.ndarray, curv: np.ndarray, limits: np.ndarray) -> float:
-    """The largest lower bound on the path speed's rate s' that -a <= qdd s^2 + qd s' <= a puts."""
-    return float(np.max(np.where(qd > 0, -limits - curv, limits - curv) / qd))
-
-
 def stopping_trajectory(trajectory: TimedTrajectory, t0: float, acceleration_limits: np.ndarray,
                         stop_before: float | None = None, period: float = STOP_SAMPLE_PERIOD,
-                        margin: float = 0.9, step: float = 0.002) -> StopPlan | None:
+                        margin: float = 0.9, step: float = 0.001, horizon: float = 3.0) -> StopPlan | None:
     """The quickest stop along ``trajectory`` from its time ``t0`` (s from its first point)
     with every joint's acceleration within ``margin`` x ``acceleration_limits`` (per joint of the
     trajectory; inf: unlimited; the margin absorbs what a controller's spline between the points
-    adds where the path's own acceleration steps). With ``stop_before`` the arm must be at rest by that trajectory
-    time; None when it cannot be (the caller then halts at once).
+    adds where the path's own acceleration steps). With ``stop_before`` the arm must be at rest
+    by that trajectory time; None when it cannot be (the caller then halts at once).
 
-    The path speed s (1: as planned, 0: at rest) falls as fast as the limits allow: a joint's
-    acceleration along the path is q''(tau) s^2 + q'(tau) s', so each joint bounds s' from below
-    and the stop takes the largest bound, integrated every ``step`` seconds (1-D time-optimal
-    path parameterisation, braking only). Velocities never exceed the trajectory's own. Where the
-    path brakes hard itself, the stop may just follow it; where a hand-made path asks for more
-    than the limits itself, the path speed still falls (by 1/s).
-    The result has a point every ``period`` seconds and ends at rest."""
+    The path speed s (1: as planned, 0: at rest) falls as fast as the limits allow. A joint's
+    acceleration along the path is q''(tau) s^2 + q'(tau) s'; with x = s^2, dx/dtau = 2 s', and
+    each joint bounds s' from below by a bound linear in x. So x is integrated over the path
+    parameter tau on a grid of ``step`` seconds of path time, sampled in one vectorised call
+    (1-D time-optimal path parameterisation, braking only), then turned into time. Velocities
+    never exceed the trajectory's own. Where the path brakes at its limits itself the stop
+    follows it; where a hand-made path asks for more than the limits itself, the path speed
+    still falls (s' = -1/s). The result has a point every ``period`` seconds and ends at rest."""
     t0 = float(min(max(t0, 0.0), trajectory.duration))
     first = float(trajectory.times[0])
     end = first + trajectory.duration
     full = np.asarray(acceleration_limits, dtype=float)
     full = np.where(np.isfinite(full) & (full > 0), full, np.inf)
     limits = full * margin
-    tau, speed = first + t0, 1.0
-    taus, speeds, slowings, stamps = [], [], [], []
-    now = 0.0
-    for _ in range(int(60.0 / step)):
-        q, qd, qdd = trajectory.sample(tau)
-        moving = np.abs(qd) > 1e-9
-        if tau >= end or not np.any(moving) or speed <= 0.0:
-            taus.append(min(tau, end))
-            stamps.append(now)
-            speeds.append(0.0)
-            slowings.append(0.0)
+    grid = np.arange(first + t0, min(end, first + t0 + horizon), step)
+    grid = np.append(grid, min(end, first + t0 + horizon)) if grid.size == 0 or grid[-1] < end else grid
+    _, qd, qdd = trajectory.sample(grid)
+    moving = np.abs(qd) > 1e-9
+    safe_qd = np.where(moving, qd, 1.0)
+    # s' >= (c - qdd x) / qd with c = -a (qd > 0) or +a (qd < 0): lower bounds linear in x
+    c_margin = np.where(qd > 0, -limits, limits) / safe_qd
+    c_full = np.where(qd > 0, -full, full) / safe_qd
+    slope = qdd / safe_qd
+    x = 1.0
+    xs, rates, taus = [1.0], [], [float(grid[0])]
+    rest = None
+    for i in range(grid.size - 1):
+        m = moving[i]
+        if not m.any():  # the path itself is at rest here
+            rest = float(grid[i])
             break
-        # -a <= qdd s^2 + qd s' <= a  =>  s' >= (-a - qdd s^2) / qd  (qd > 0), (a - qdd s^2) / qd (qd < 0)
-        curv = qdd[moving] * speed * speed
-        slowing = _slowest(qd[moving], curv, limits[moving])
-        if slowing > 0.0:  # the path brakes at its limits itself here: follow it (full limits)
-            slowing = min(_slowest(qd[moving], curv, full[moving]), 0.0)
-            if slowing >= 0.0 and _slowest(qd[moving], curv, full[moving]) > 0.0:
-                slowing = -1.0  # a hand-made path asking for more than the limits: brake anyway
-        taus.append(tau)
-        stamps.append(now)
-        speeds.append(speed)
-        slowings.append(slowing)
-        new_speed = speed + slowing * step
-        if new_speed <= 0.0 and slowing < 0.0:  # at rest within this step
-            dt = speed / -slowing
-            tau += 0.5 * speed * dt
-            taus.append(min(tau, end))
-            stamps.append(now + dt)
-            speeds.append(0.0)
-            slowings.append(slowing)
+        rate = float(np.max(c_margin[i, m] - slope[i, m] * x))
+        if rate > 0.0:  # the path brakes at its limits itself: follow it within the full limits
+            rate = min(float(np.max(c_full[i, m] - slope[i, m] * x)), 0.0)
+            if rate >= 0.0 and float(np.max(c_full[i, m] - slope[i, m] * x)) > 0.0:
+                rate = -1.0  # a hand-made path asking for more than the limits: brake anyway
+        rates.append(rate)
+        h = float(grid[i + 1] - grid[i])
+        x_next = x + 2.0 * rate * h
+        if x_next <= 0.0:
+            rest = float(grid[i]) + (x / (-2.0 * rate) if rate < 0 else h)
+            taus.append(rest)
+            xs.append(0.0)
             break
-        advance = 0.5 * (speed + new_speed) * step
-        if tau + advance >= end:  # the path itself ends (at rest) within this step
-            taus.append(end)
-            stamps.append(now + (end - tau) / max(0.5 * (speed + new_speed), 1e-9))
-            speeds.append(0.0)
-            slowings.append(slowing)
-            break
-        tau += advance
-        speed = new_speed
-        now += step
+        x = x_next
+        xs.append(x)
+        taus.append(float(grid[i + 1]))
     else:
+        if grid[-1] < end - 1e-12:
+            return None  # not at rest within the horizon
+        rest = float(grid[-1])
+    if rest is None:
         return None
+    # the rate at the rest point: the braking that got there (0 where the path itself rests)
+    rates.append(rates[-1] if rates and len(taus) > len(rates) and xs[-1] == 0.0 else 0.0)
+    while len(rates) < len(taus):
+        rates.append(0.0)
     tau_arr = np.array(taus)
-    rest_at = float(tau_arr[-1] - first)
+    rest_at = float(rest - first)
     if stop_before is not None and rest_at > stop_before:
         return None
-    times = np.array(stamps)
-    keep = np.unique(np.append(np.arange(0, len(times), max(1, round(period / step))), len(times) - 1))
-    if len(keep) > 1 and times[keep[-1]] - times[keep[-2]] < 0.01 * period:
-        keep = np.delete(keep, -2)
-    q, qd, qdd = trajectory.sample(tau_arr[keep])
-    s_k, ds_k = np.array(speeds)[keep, None], np.array(slowings)[keep, None]
-    velocities = qd * s_k
-    accelerations = qdd * s_k ** 2 + qd * ds_k
+    speed = np.sqrt(np.maximum(np.array(xs), 0.0))
+    # time to cover each tau step at the mean of its end speeds (exact for s linear in time)
+    dtau = np.diff(tau_arr)
+    mean = 0.5 * (speed[:-1] + speed[1:])
+    times = np.concatenate(([0.0], np.cumsum(np.where(mean > 0, dtau / np.maximum(mean, 1e-12), 0.0))))
+    rate_arr = np.array(rates[:len(taus)])
+    ts = np.arange(0.0, times[-1], period)
+    ts = np.append(ts[times[-1] - ts > 0.01 * period], times[-1])
+    # within step i the speed is linear in time with slope rates[i]: tau is exact there
+    i = np.clip(np.searchsorted(times, ts, side="right") - 1, 0, len(times) - 1)
+    dt = ts - times[i]
+    tau_k = np.minimum(tau_arr[i] + speed[i] * dt + 0.5 * rate_arr[i] * dt * dt, tau_arr[-1])
+    s_k = np.maximum(speed[i] + rate_arr[i] * dt, 0.0)[:, None]
+    ds_k = rate_arr[i][:, None]
+    q, qd_k, qdd_k = trajectory.sample(tau_k)
+    velocities = qd_k * s_k
+    accelerations = qdd_k * s_k ** 2 + qd_k * ds_k
     velocities[-1] = 0.0
-    # the braking acceleration holds until the very end (as the samples before it): an interpolating
+    # the braking acceleration holds until the very end (as at the samples before it): a
     # controller told "0" there would brake harder in the last interval to meet it
-    accelerations[-1] = accelerations[-2] if len(keep) > 1 else 0.0
-    stop = TimedTrajectory(trajectory.joint_names, times[keep], q, velocities, accelerations, interpolation="quintic")
-    return StopPlan(stop, t0, rest_at, float(times[-1]))
+    accelerations[-1] = accelerations[-2] if len(ts) > 1 else 0.0
+    stop = TimedTrajectory(trajectory.joint_names, ts, q, velocities, accelerations, interpolation="quintic")
+    return StopPlan(stop, t0, rest_at, float(ts[-1]))
 
 
 def stop_command(plan: StopPlan, lead: float, goal_id: str) -> JointTrajectory:
