@@ -29,7 +29,6 @@ Register in scenarios.SCENARIOS as "react".
 from __future__ import annotations
 
 import re
-import threading
 import time
 from typing import Any
 
@@ -43,137 +42,6 @@ LEAD = 0.6
 STOPS = 10
 BOX_SIZE = 0.04
 REST_THRESHOLD = 1e-6
-ARM = ["link1_to_link2", "link2_to_link3", "link3_to_link4", "link4_to_link5", "link5_to_link6",
-       "link6_to_link6_flange"]
-
-
-class _Probe:
-    """A client node: move_action, /collision_object, /trajectory_execution_event, /planned_path
-    and every /joint_states message with its arrival time."""
-
-    def __init__(self) -> None:
-        import rclpy
-        from moveit_msgs.action import MoveGroup
-        from moveit_msgs.msg import CollisionObject
-        from rclpy.context import Context
-        from rclpy.executors import MultiThreadedExecutor
-        from rclpy.node import Node
-        from rclpy.qos import DurabilityPolicy, QoSProfile
-        from sensor_msgs.msg import JointState
-        from std_msgs.msg import String
-        from trajectory_msgs.msg import JointTrajectory
-
-        from interfaces_py.action_client import ActionClient
-        from interfaces_py.background_spin import BackgroundSpin
-
-        self._rclpy = rclpy
-        self.context = Context()
-        rclpy.init(context=self.context)
-        self.node = Node("bench_react", context=self.context)
-        self.executor = MultiThreadedExecutor(num_threads=2, context=self.context)
-        self.executor.add_node(self.node)
-        self.lock = threading.Lock()
-        self.move = ActionClient(self.node, MoveGroup, "/move_action")
-        self.objects = self.node.create_publisher(CollisionObject, "/collision_object", 10)
-        self.events = self.node.create_publisher(String, "/trajectory_execution_event", 10)
-        self.history: list[tuple[float, np.ndarray]] = []
-        self.plans: list[Any] = []
-        self.plan_times: list[float] = []
-        self._index: list[int] | None = None
-        self.node.create_subscription(JointState, "/joint_states", self._on_joint_state, 50)
-        latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-        self.node.create_subscription(JointTrajectory, "/planned_path", self._on_plan, latched)
-        self.spinner = BackgroundSpin(self.executor, name="react bench probe")
-
-    def _on_joint_state(self, msg: Any) -> None:
-        now = time.perf_counter()
-        if self._index is None:
-            names = list(msg.name)
-            if not all(j in names for j in ARM):
-                return
-            self._index = [names.index(j) for j in ARM]
-        with self.lock:
-            self.history.append((now, np.asarray(msg.position, dtype=float)[self._index]))
-            if len(self.history) > 20000:
-                del self.history[:10000]
-
-    def _on_plan(self, msg: Any) -> None:
-        with self.lock:
-            self.plans.append(msg)
-            self.plan_times.append(time.perf_counter())
-
-    def arm(self) -> np.ndarray:
-        with self.lock:
-            return self.history[-1][1].copy()
-
-    def since(self, t: float) -> list[tuple[float, np.ndarray]]:
-        with self.lock:
-            return [(s, p) for s, p in self.history if s >= t]
-
-    def close(self) -> None:
-        self.spinner.stop()
-        self.node.destroy_node()
-        self._rclpy.try_shutdown(context=self.context)
-
-
-def _goal(values: np.ndarray, scaling: float, replan: bool) -> Any:
-    from moveit_msgs.action import MoveGroup
-    from moveit_msgs.msg import Constraints, JointConstraint
-
-    goal = MoveGroup.Goal()
-    r = goal.request
-    r.group_name = "arm"
-    r.allowed_planning_time = 5.0
-    r.max_velocity_scaling_factor = scaling
-    r.max_acceleration_scaling_factor = scaling
-    r.goal_constraints = [Constraints(joint_constraints=[
-        JointConstraint(joint_name=j, position=float(v), tolerance_above=1e-3, tolerance_below=1e-3, weight=1.0)
-        for j, v in zip(ARM, values)])]
-    goal.planning_options.replan = replan
-    goal.planning_options.replan_attempts = 3 if replan else 0
-    return goal
-
-
-def _send(probe: _Probe, goal: Any, timeout: float = 60.0) -> Any:
-    """Send a goal; returns the result future."""
-    if not probe.move.wait_for_server(30.0):
-        raise RuntimeError("move_action is not offered")
-    handle_future = probe.move.send_goal_async(goal)
-    _wait(handle_future.done, timeout, "the goal's acceptance")
-    handle = handle_future.result()
-    if not handle.accepted:
-        raise RuntimeError("move_action refused the goal")
-    return handle.get_result_async()
-
-
-def _run(probe: _Probe, goal: Any, timeout: float = 90.0) -> Any:
-    future = _send(probe, goal)
-    _wait(future.done, timeout, "the goal's result")
-    return future.result().result
-
-
-def _wait(predicate, timeout: float, what: str) -> None:
-    deadline = time.monotonic() + timeout
-    while not predicate():
-        if time.monotonic() > deadline:
-            raise RuntimeError(f"timed out waiting for {what}")
-        time.sleep(0.002)
-
-
-def _box(object_id: str, position: np.ndarray | None, remove: bool = False) -> Any:
-    from geometry_msgs.msg import Pose
-    from moveit_msgs.msg import CollisionObject
-    from shape_msgs.msg import SolidPrimitive
-
-    obj = CollisionObject(id=object_id, operation=CollisionObject.REMOVE if remove else CollisionObject.ADD)
-    obj.header.frame_id = "world"
-    if not remove:
-        obj.pose.position.x, obj.pose.position.y, obj.pose.position.z = (float(v) for v in position)
-        obj.pose.orientation.w = 1.0
-        obj.primitives = [SolidPrimitive(type=SolidPrimitive.BOX, dimensions=[BOX_SIZE] * 3)]
-        obj.primitive_poses = [Pose()]
-        obj.primitive_poses[0].orientation.w = 1.0
-    return obj
 
 
 def _random_pair(model: Any, scene: Any, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
@@ -209,6 +77,7 @@ def _intrusion(model: Any, trajectory: Any, goal: np.ndarray, rng: np.random.Gen
     from mycobot_planning.core import PlanningScene, RobotState
     from mycobot_planning.core.trajectory_execution.path_ahead import PathAhead
     from mycobot_planning.core.transforms import make_pose
+    from mycobot_planning.ros.demos.react_demo import ARM
 
     path = PathAhead(model, trajectory)
     for _ in range(50):
@@ -241,12 +110,13 @@ def _rest_time(history: list[tuple[float, np.ndarray]], asked: float) -> float:
 def bench_react(repeat: int, seed: int) -> None:
     """See the module docstring."""
     from interfaces_py.clients import MoveGroupClient
-    from mycobot_planning.core import PlanningScene, RobotModel, RobotState
+    from mycobot_planning.core import PlanningScene, RobotModel
     from mycobot_planning.core.robot_trajectory.robot_trajectory import joint_trajectory_to_timed
-    from mycobot_planning.core.transforms import make_pose
-    from interfaces_py.msgs import CollisionObject as SceneObject
     from interfaces_py.ros_conversions import joint_trajectory_from_msg
     from std_msgs.msg import String
+
+    from mycobot_planning.ros.demos.react_demo import (ReactProbe, box_msg, clearances, joint_goal, run_goal,
+                                                       send_goal, wait_for)
 
     from .ros_scenarios import RobotProcesses, bench_domain_id
 
@@ -256,50 +126,50 @@ def bench_react(repeat: int, seed: int) -> None:
     per_repeat = max(1, -(-INTRUSIONS // repeat))
     reactions: list[float] = []
     medians: list[float] = []
-    clearances: list[float] = []
+    stop_clearances: list[float] = []
     replanned_clearances: list[float] = []
     outcomes: list[bool] = []
     invalidated = 0
     latencies, decels = [], []
     with RobotProcesses(bench_domain_id()):
-        probe = _Probe()
+        probe = ReactProbe()
         server = MoveGroupClient("arm", node=probe.node, timeout=15.0)
         try:
             if not server.wait_for_server(30.0):
                 raise RuntimeError("the planning_server does not answer")
-            _wait(lambda: server.call("get_state").get("joint_state_received"), 30.0, "joint states at the server")
-            _wait(lambda: len(probe.history) > 0, 30.0, "/joint_states here")
+            wait_for(lambda: server.call("get_state").get("joint_state_received"), 30.0, "joint states at the server")
+            wait_for(lambda: len(probe.history) > 0, 30.0, "/joint_states here")
             run = 0
             for index in range(repeat):
                 repeat_reactions = []
                 while len(outcomes) < (index + 1) * per_repeat:
                     run += 1
                     start, goal = _random_pair(model, free, rng)
-                    if _run(probe, _goal(start, 1.0, False)).error_code.val != 1:
+                    if run_goal(probe, joint_goal(start, 1.0, False)).error_code.val != 1:
                         raise RuntimeError("could not move to the start")
                     with probe.lock:
                         probe.plans.clear()
                         probe.plan_times.clear()
                     before = server.call("get_state")["execution"]["invalidations"]
-                    future = _send(probe, _goal(goal, 0.5, True))
-                    _wait(lambda: probe.plans, 30.0, "the plan on /planned_path")
+                    future = send_goal(probe, joint_goal(goal, 0.5, True))
+                    wait_for(lambda: probe.plans, 30.0, "the plan on /planned_path")
                     with probe.lock:
                         plan_msg = probe.plans[0]
                     trajectory = joint_trajectory_to_timed(joint_trajectory_from_msg(plan_msg))
                     found = _intrusion(model, trajectory, goal, rng)
                     if found is None:  # no place on this plan: let it finish, take another pair
-                        _wait(future.done, 90.0, "the goal's result")
+                        wait_for(future.done, 90.0, "the goal's result")
                         run -= 1
                         continue
                     where, t_contact = found
                     object_id = f"intruder{run}"
                     # the motion starts when the arm leaves the start (/joint_states)
-                    _wait(lambda: future.done() or np.max(np.abs(probe.arm() - start)) > 1e-4, 30.0, "the motion")
+                    wait_for(lambda: future.done() or np.max(np.abs(probe.arm() - start)) > 1e-4, 30.0, "the motion")
                     publish_at = time.perf_counter() + t_contact - LEAD
-                    _wait(lambda: time.perf_counter() >= publish_at or future.done(), 60.0, "the intrusion time")
+                    wait_for(lambda: time.perf_counter() >= publish_at or future.done(), 60.0, "the intrusion time")
                     published = time.perf_counter()
-                    probe.objects.publish(_box(object_id, where))
-                    _wait(future.done, 90.0, "the goal's result")
+                    probe.objects.publish(box_msg(object_id, where, BOX_SIZE))
+                    wait_for(future.done, 90.0, "the goal's result")
                     code = future.result().result.error_code
                     status = server.call("get_state")["execution"]
                     if status["invalidations"] > before:
@@ -307,18 +177,14 @@ def bench_react(repeat: int, seed: int) -> None:
                         reactions.append(status["last_reaction_ms"])
                         repeat_reactions.append(status["last_reaction_ms"])
                     time.sleep(0.05)
-                    scene = PlanningScene(model)
-                    scene.add_object(SceneObject.box(object_id, [BOX_SIZE] * 3, make_pose(where)))
                     with probe.lock:  # the replanned motion begins with the second plan
                         replanned_at = probe.plan_times[1] if len(probe.plan_times) > 1 else float("inf")
-                    stopping, moving_on = [], []
-                    for t, positions in probe.since(published):
-                        state = RobotState(model)
-                        state.set_joint_positions(dict(zip(ARM, positions)))
-                        distance = scene.distance(state, include_self=False).min_distance
-                        (stopping if t < replanned_at else moving_on).append(distance)
+                    recorded = probe.since(published)
+                    distances = clearances(model, [p for _, p in recorded], object_id, where, BOX_SIZE)
+                    stopping = [d for (t, _), d in zip(recorded, distances) if t < replanned_at]
+                    moving_on = [d for (t, _), d in zip(recorded, distances) if t >= replanned_at]
                     clearance = float(min(stopping)) if stopping else float("nan")
-                    clearances.append(clearance)
+                    stop_clearances.append(clearance)
                     if moving_on:
                         replanned_clearances.append(float(min(moving_on)))
                     arrived = code.val == 1 and np.max(np.abs(probe.arm() - goal)) < 0.02
@@ -328,25 +194,25 @@ def bench_react(repeat: int, seed: int) -> None:
                           "replanned_min_clearance_m": round(min(moving_on), 4) if moving_on else None,
                           "reaction_ms": status["last_reaction_ms"] if status["invalidations"] > before else None,
                           "message": code.message[:160]})
-                    probe.objects.publish(_box(object_id, None, remove=True))
-                    _wait(lambda: object_id not in server.call("get_objects").get("objects", {}), 10.0,
+                    probe.objects.publish(box_msg(object_id, None, BOX_SIZE, remove=True))
+                    wait_for(lambda: object_id not in server.call("get_objects").get("objects", {}), 10.0,
                           "the box's removal")
                 if repeat_reactions:
                     medians.append(float(np.median(repeat_reactions)))
             for _ in range(STOPS):
                 start, goal = _random_pair(model, free, rng)
-                if _run(probe, _goal(start, 1.0, False)).error_code.val != 1:
+                if run_goal(probe, joint_goal(start, 1.0, False)).error_code.val != 1:
                     raise RuntimeError("could not move to the start")
                 with probe.lock:
                     probe.plans.clear()
-                future = _send(probe, _goal(goal, 1.0, False))
-                _wait(lambda: probe.plans, 30.0, "the plan on /planned_path")
+                future = send_goal(probe, joint_goal(goal, 1.0, False))
+                wait_for(lambda: probe.plans, 30.0, "the plan on /planned_path")
                 with probe.lock:
                     duration = joint_trajectory_to_timed(joint_trajectory_from_msg(probe.plans[0])).duration
                 time.sleep(rng.uniform(0.3, 0.6) * duration)
                 asked = time.perf_counter()
                 probe.events.publish(String(data="stop"))
-                _wait(future.done, 60.0, "the stopped goal's result")
+                wait_for(future.done, 60.0, "the stopped goal's result")
                 time.sleep(0.1)
                 latencies.append((_rest_time(probe.since(asked), asked) - asked) * 1e3)
                 found = re.search(r"after a ([0-9.]+) s stop", future.result().result.error_code.message)
@@ -358,7 +224,7 @@ def bench_react(repeat: int, seed: int) -> None:
     emit({"scenario": "react", "summary": True,
           "reaction_ms": round(float(np.median(reactions)), 3) if reactions else None,
           "reaction_p90_ms": round(float(np.percentile(reactions, 90)), 3) if reactions else None,
-          "min_clearance_m": round(float(np.nanmin(clearances)), 4) if clearances else None,
+          "min_clearance_m": round(float(np.nanmin(stop_clearances)), 4) if stop_clearances else None,
           "replanned_min_clearance_m": round(float(min(replanned_clearances)), 4) if replanned_clearances else None,
           "replan_success_rate": round(float(np.mean(outcomes)), 3) if outcomes else None,
           "stop_latency_ms": round(float(np.median(latencies)), 2) if latencies else None,

@@ -529,7 +529,7 @@ def sweep_goal(replan: bool = False, attempts: int = 0, delay: float = 0.0) -> M
     return goal
 
 
-def run_with_intrusion(client: Client, action, goal, obj: CollisionObject | None, after: float = 0.8,
+def run_with_intrusion(client: Client, action, goal, obj: CollisionObject | None, after: float = 0.5,
                        cancel_after: float | None = None):
     """Send ``goal``, record /joint_states, publish ``obj`` on /collision_object ``after`` s into
     the motion (the first MONITOR feedback; the goal's start for execute_trajectory); cancel

@@ -436,8 +436,11 @@ class _PathWatch:
             self._changed.clear()
             since, self._since = self._since, None
             t_from = self._clock() - self._started
+            woke = time.monotonic()
             try:
-                hit = self.path.first_collision(self._scene_source(), t_from)
+                scene = self._scene_source()
+                copied = time.monotonic()
+                hit = self.path.first_collision(scene, t_from)
             except Exception as exc:  # a failed check must not end the watch: the next change checks again
                 self._log("error", f"checking the path ahead failed: {type(exc).__name__}: {exc}")
                 continue
@@ -445,6 +448,10 @@ class _PathWatch:
             if since is not None:
                 self._stats["reaction_ms"].append((time.monotonic() - since) * 1e3)
             if hit is not None:
+                done = time.monotonic()
+                self._log("info", f"path ahead re-checked after a scene change: collision found "
+                                  f"{(woke - since) * 1e3 if since else 0.0:.1f} ms after the change arrived, scene "
+                                  f"copied in {(copied - woke) * 1e3:.1f} ms, path checked in {(done - copied) * 1e3:.1f} ms")
                 self.hit_since = since
                 self.collision = hit
                 self._wake.set()

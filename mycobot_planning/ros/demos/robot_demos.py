@@ -210,7 +210,8 @@ def show_detections(params_path: str, timeout: float) -> bool:
     return True
 
 
-def _run(demo: Demo, body: Callable[[], int]) -> int:
+def run_demo(demo: Demo, body: Callable[[], int]) -> int:
+    """Run ``body`` and stop everything the demo started, whatever happens (Ctrl-C: 130)."""
     previous = {sig: signal.signal(sig, _interrupt) for sig in (signal.SIGINT, signal.SIGTERM)}
     code = 1
     try:
@@ -265,7 +266,7 @@ def pick_place_demo(argv: list[str]) -> int:
                 check = check or 1
         return check
 
-    return _run(demo, body)
+    return run_demo(demo, body)
 
 
 def perception_demo(argv: list[str]) -> int:
@@ -293,7 +294,7 @@ def perception_demo(argv: list[str]) -> int:
         return pick_place_report.main(["--perception", str(demo.dir / "mtc_node.log"), demo.params, str(node_code),
                                        *argv])
 
-    return _run(demo, body)
+    return run_demo(demo, body)
 
 
 def main(argv: list[str] | None = None) -> int:
