@@ -33,6 +33,7 @@ from shape_msgs.msg import SolidPrimitive
 from interfaces_py.action_client import ActionClient
 from interfaces_py.msgs import CollisionObject, Pose
 from mycobot_planning.core.planning_scene.planning_scene import PlanningScene
+from mycobot_planning.paths import config_file
 from mycobot_planning.core.robot_model.robot_model import RobotModel
 from mycobot_planning.core.robot_state.robot_state import RobotState
 from mycobot_planning.core.trajectory_execution.path_ahead import PathAhead
@@ -55,11 +56,15 @@ class Client(ProbeNode):
         super().__init__("hybrid_planning_user",
                          executor=lambda context: MultiThreadedExecutor(num_threads=3, context=context))
         self.action = ActionClient(self.node, HybridPlanner, "/run_hybrid_planning")
-        self.states = self.collect(JointState, "/joint_states")
+        self.states = self.collect(JointState, "/joint_states", 1000)
         self.solutions = self.collect(MotionPlanResponse, "/global_trajectory", 1)
         self.objects = self.node.create_publisher(CollisionObjectRos, "/collision_object", 10)
         self.listen_to_joint_states()
         self.spin_in_background()
+
+    def close(self) -> None:
+        self.action.destroy()
+        super().close()
 
     def arm(self) -> np.ndarray:
         joints = self.joints()
@@ -97,7 +102,7 @@ def joint_goal(values, group: str = "arm", scaling: float = 0.3, names=ARM) -> H
 
 @pytest.fixture(scope="module")
 def client():
-    with robot_processes(extra_nodes=[bringup.hybrid_planning()]):
+    with robot_processes(extra_nodes=[bringup.hybrid_planning(["--params-file", str(config_file("hybrid_planning.yaml"))])]):
         user = Client()
         try:
             assert wait_until(lambda: bool(user.joints()), 10.0)
@@ -164,12 +169,14 @@ def test_a_box_on_the_path_ahead_is_avoided_by_replanning(client: Client, model:
     assert wait_until(lambda: np.max(np.abs(client.arm() - GOAL)) <= 0.01, 2.0), client.arm()
     with client.lock:
         recorded = [dict(zip(m.name, m.position)) for m in client.states[first_state:]]
-    path = np.array([[s[n] for n in ARM] for s in recorded])
-    assert np.max(np.abs(np.diff(path, axis=0))) < 0.05  # dense: nothing happened between two samples
-    for k, values in enumerate(path):
-        state = RobotState(model)
-        state.set_joint_positions(dict(zip(ARM, values)))
-        assert not blocked.is_state_colliding(state), f"sample {k} of the executed motion touches the box"
+    samples = np.array([[s[n] for n in ARM] for s in recorded])
+    assert len(samples) > 50 and np.max(np.abs(np.diff(samples, axis=0))) < 0.2  # a recording of the motion
+    for k in range(len(samples) - 1):  # every sample, and the straight line to the next at 0.01 rad steps
+        a, b = samples[k], samples[k + 1]
+        for s in np.linspace(0.0, 1.0, max(2, int(np.ceil(np.max(np.abs(b - a)) / 0.01)) + 1)):
+            state = RobotState(model)
+            state.set_joint_positions(dict(zip(ARM, a + s * (b - a))))
+            assert not blocked.is_state_colliding(state), f"the executed motion touches the box at sample {k}"
     client.objects.publish(CollisionObjectRos(id="box", operation=CollisionObjectRos.REMOVE))
 
 
