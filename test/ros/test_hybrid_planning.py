@@ -203,11 +203,25 @@ def nan_goal() -> HybridPlanner.Goal:
     return goal
 
 
+def two_items() -> HybridPlanner.Goal:
+    goal = joint_goal(START)
+    goal.motion_sequence.items = [goal.motion_sequence.items[0]] * 2
+    return goal
+
+
+def other_group() -> HybridPlanner.Goal:
+    goal = joint_goal(START)
+    goal.planning_group = "gripper"
+    return goal
+
+
 @pytest.mark.parametrize("goal, code, words", [
     (HybridPlanner.Goal(planning_group="arm"), MoveItErrorCodes.INVALID_MOTION_PLAN, "no items"),
+    (two_items(), MoveItErrorCodes.INVALID_MOTION_PLAN, "2 items"),
     (nan_goal(), MoveItErrorCodes.INVALID_MOTION_PLAN, "not a finite number"),
+    (other_group(), MoveItErrorCodes.INVALID_GROUP_NAME, "differs from the request's group_name 'arm'"),
     (joint_goal(START, group="nope"), MoveItErrorCodes.PLANNING_FAILED, "nope"),
-], ids=["empty motion_sequence", "NaN joint value", "unknown group"])
+], ids=["empty motion_sequence", "two items", "NaN joint value", "group mismatch", "unknown group"])
 def test_a_bad_goal_is_aborted_with_the_reason(client: Client, goal, code: int, words: str) -> None:
     answer, _ = client.run(goal, 20.0)
     assert answer.status == GoalStatus.STATUS_ABORTED

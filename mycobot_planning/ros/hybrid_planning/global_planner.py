@@ -81,6 +81,14 @@ class GlobalPlannerComponent(Node):
         return result
 
     def _execute(self, goal_handle: Any) -> GlobalPlanner.Result:
+        try:
+            return self._plan(goal_handle)
+        except Exception as exc:  # never leave a goal without an answer
+            self.get_logger().error(f"global planning failed: {type(exc).__name__}: {exc}")
+            return self._answer(goal_handle, MoveItErrorCodes.FAILURE,
+                                f"internal error ({type(exc).__name__}); the log has the details")
+
+    def _plan(self, goal_handle: Any) -> GlobalPlanner.Result:
         goal = goal_handle.request
         try:
             request = motion_plan_request(goal.planning_group, goal.motion_sequence)

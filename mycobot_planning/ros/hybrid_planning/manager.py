@@ -225,6 +225,11 @@ class HybridPlanningManager(Node):
             return self._answer(goal_handle, MoveItErrorCodes.FAILURE, "another hybrid planning run is active")
         try:
             return self._loop(goal_handle, goal, logic, run)
+        except Exception as exc:  # never leave a run without an answer, nor the planners running
+            self.get_logger().error(f"hybrid planning failed: {type(exc).__name__}: {exc}")
+            self._cancel_planners(run)
+            return self._answer(goal_handle, MoveItErrorCodes.FAILURE,
+                                f"internal error ({type(exc).__name__}); the log has the details")
         finally:
             with self._run_lock:
                 self._run = None
