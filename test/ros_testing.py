@@ -12,7 +12,7 @@ import threading
 import sys
 import time
 from pathlib import Path
-from typing import Any, Callable, Iterable, Iterator
+from typing import Any, Callable, Iterable, Iterator, Sequence
 
 import rclpy
 from rcl_interfaces.srv import SetParameters
@@ -210,13 +210,14 @@ class ProbeNode:
 @contextlib.contextmanager
 def robot_processes(*server_params: str, params_file: bool | Path = False,
                     controllers_file: Path | None = None,
-                    extra_nodes: Iterable[bringup.NodeSpec] = ()) -> Iterator[tuple[ManagedProcess, ManagedProcess]]:
+                    extra_nodes: Sequence[bringup.NodeSpec] = ()) -> Iterator[tuple[ManagedProcess, ...]]:
     """mock_controllers and planning_server on this session's domain, brought up by the bring-up
     module (up when ROS discovery shows them and the server has joint states), stopped at exit.
 
     ``server_params`` are ``name:=value`` overrides; ``params_file`` adds config/planning_server.yaml
     (True) or the given file; ``controllers_file``: a params file for mock_controllers;
-    ``extra_nodes``: more nodes started after them (e.g. bringup.hybrid_planning())."""
+    ``extra_nodes``: more nodes started after them (e.g. bringup.hybrid_planning()), their
+    processes yielded after the two."""
     use_session_domain()
     args: list[str] = []
     if params_file:
@@ -231,7 +232,7 @@ def robot_processes(*server_params: str, params_file: bool | Path = False,
             robot.start(timeout=90.0)
         except bringup.BringupError as exc:
             raise AssertionError(str(exc)) from None
-        yield robot["mock_controllers"], robot["planning_server"]
+        yield (robot["mock_controllers"], robot["planning_server"], *(robot[spec.name] for spec in extra_nodes))
 
 
 #: panda_moveit_config's initial positions of the arm ('ready')

@@ -11,6 +11,7 @@ leaves the arm at rest; bad goals refused with a reason. One bring-up serves the
 from __future__ import annotations
 
 import math
+import signal
 import time
 
 import numpy as np
@@ -101,14 +102,20 @@ def joint_goal(values, group: str = "arm", scaling: float = 0.3, names=ARM) -> H
 
 
 @pytest.fixture(scope="module")
-def client():
-    with robot_processes(extra_nodes=[bringup.hybrid_planning(["--params-file", str(config_file("hybrid_planning.yaml"))])]):
-        user = Client()
-        try:
-            assert wait_until(lambda: bool(user.joints()), 10.0)
-            yield user
-        finally:
-            user.close()
+def processes():
+    hybrid = bringup.hybrid_planning(["--params-file", str(config_file("hybrid_planning.yaml"))])
+    with robot_processes(extra_nodes=[hybrid]) as started:
+        yield started
+
+
+@pytest.fixture(scope="module")
+def client(processes):
+    user = Client()
+    try:
+        assert wait_until(lambda: bool(user.joints()), 10.0)
+        yield user
+    finally:
+        user.close()
 
 
 @pytest.fixture(scope="module")
@@ -227,3 +234,15 @@ def test_a_bad_goal_is_aborted_with_the_reason(client: Client, goal, code: int, 
     assert answer.status == GoalStatus.STATUS_ABORTED
     assert answer.result.error_code.val == code
     assert words in answer.result.error_message
+
+
+def test_sigint_mid_motion_ends_the_process_cleanly(client: Client, processes) -> None:
+    """Last: Ctrl-C while the local planner drives the arm ends the process with 0, no traceback."""
+    hybrid = processes[2]
+    before = client.arm()
+    client.send(joint_goal(START if np.max(np.abs(before - START)) > 0.5 else GOAL, scaling=0.2))
+    assert wait_until(lambda: np.max(np.abs(client.arm() - before)) > 0.05, 10.0), "the arm did not move"
+    hybrid.signal(signal.SIGINT)
+    assert wait_until(lambda: not hybrid.alive(), 10.0), "hybrid_planning did not exit on SIGINT"
+    assert hybrid.returncode() == 0
+    assert "Traceback" not in hybrid.log_path.read_text()

@@ -58,6 +58,7 @@ class GlobalPlannerComponent(Node):
                           "move_group's GetMotionPlan service that plans", non_empty=True, read_only=True),
         ])
         group = ReentrantCallbackGroup()
+        self._closing = False
         self._publisher = self.create_publisher(MotionPlanResponse, self._params.get("global_solution_topic"), 1)
         self._plan_client = self.create_client(GetMotionPlan, self._params.get("plan_service"), callback_group=group)
         self._server = ActionServer(self, GlobalPlanner, self._params.get("global_planning_action_name"),
@@ -67,12 +68,19 @@ class GlobalPlannerComponent(Node):
                                f"through {self._params.get('plan_service')}")
 
     def close(self) -> None:
+        self._closing = True
         self._server.destroy()
+
+    def going_down(self) -> bool:
+        """SIGINT/SIGTERM or close(): nothing can reach a client any more."""
+        return self._closing or not self.context.ok()
 
     def _answer(self, goal_handle: Any, code: int, message: str, group: str = "") -> GlobalPlanner.Result:
         result = GlobalPlanner.Result()
         result.response.group_name = group
         result.response.error_code = MoveItErrorCodes(val=code, message=message, source="global_planner_component")
+        if self.going_down():  # the goal ends with the node
+            return result
         if goal_handle.is_cancel_requested:
             goal_handle.canceled()
         else:
@@ -84,6 +92,8 @@ class GlobalPlannerComponent(Node):
         try:
             return self._plan(goal_handle)
         except Exception as exc:  # never leave a goal without an answer
+            if self.going_down():
+                return GlobalPlanner.Result()
             self.get_logger().error(f"global planning failed: {type(exc).__name__}: {exc}")
             return self._answer(goal_handle, MoveItErrorCodes.FAILURE,
                                 f"internal error ({type(exc).__name__}); the log has the details")
@@ -104,6 +114,8 @@ class GlobalPlannerComponent(Node):
         future.add_done_callback(lambda _f: done.set())
         deadline = time.monotonic() + max(request.allowed_planning_time, 5.0) + ANSWER_MARGIN
         while not done.wait(CANCEL_POLL):
+            if self.going_down():
+                return GlobalPlanner.Result()
             if goal_handle.is_cancel_requested:
                 return self._answer(goal_handle, MoveItErrorCodes.PREEMPTED, "global planning canceled",
                                     request.group_name)
@@ -113,6 +125,8 @@ class GlobalPlannerComponent(Node):
                                     request.group_name)
         response = future.result().motion_plan_response
         result = GlobalPlanner.Result(response=response)
+        if self.going_down():
+            return result
         if goal_handle.is_cancel_requested:
             goal_handle.canceled()
             return result

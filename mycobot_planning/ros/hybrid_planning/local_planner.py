@@ -110,6 +110,7 @@ class LocalPlannerComponent(Node):
         self._scene_msg: PlanningSceneRos | None = None
         self._scene_version = 0
         self._active = False
+        self._closing = False
         self._goal_counter = 0
         inputs = MutuallyExclusiveCallbackGroup()
         self.create_subscription(MotionPlanResponse, self._params.get("global_solution_topic"),
@@ -129,7 +130,12 @@ class LocalPlannerComponent(Node):
             f"on {self._params.get('local_solution_topic')}")
 
     def close(self) -> None:
+        self._closing = True
         self._server.destroy()
+
+    def going_down(self) -> bool:
+        """SIGINT/SIGTERM or close(): nothing can reach a client (nor the controller) any more."""
+        return self._closing or not self.context.ok()
 
     # ------------------------------------------------------------------ inputs
     def _on_global_trajectory(self, msg: MotionPlanResponse) -> None:
@@ -163,6 +169,8 @@ class LocalPlannerComponent(Node):
     def _finish(self, goal_handle: Any, code: int, message: str, how: str) -> LocalPlanner.Result:
         result = LocalPlanner.Result(error_message=message)
         result.error_code = MoveItErrorCodes(val=code, message=message, source="local_planner_component")
+        if self.going_down():  # the goal ends with the node
+            return result
         if how == "succeed":
             goal_handle.succeed()
         elif how == "canceled":
@@ -177,11 +185,11 @@ class LocalPlannerComponent(Node):
             self._model = load_robot_model(NodeWaiter(self))
         return self._model
 
-    @staticmethod
-    def _wait_for(what: str, ready: Any, goal_handle: Any) -> bool:
+    def _wait_for(self, what: str, ready: Any, goal_handle: Any) -> bool:
+        """Whether ``ready()`` came true within INPUT_TIMEOUT (not when canceled or going down)."""
         deadline = time.monotonic() + INPUT_TIMEOUT
         while not ready():
-            if goal_handle.is_cancel_requested or time.monotonic() > deadline:
+            if goal_handle.is_cancel_requested or self.going_down() or time.monotonic() > deadline:
                 return False
             time.sleep(0.01)
         return True
@@ -201,6 +209,8 @@ class LocalPlannerComponent(Node):
         try:
             return self._run(goal_handle)
         except Exception as exc:  # never leave a goal without an answer
+            if self.going_down():
+                return LocalPlanner.Result()
             self.get_logger().error(f"local planning failed: {type(exc).__name__}: {exc}")
             return self._finish(goal_handle, MoveItErrorCodes.FAILURE,
                                 f"internal error ({type(exc).__name__}: {exc})", "abort")
@@ -240,6 +250,8 @@ class LocalPlannerComponent(Node):
                 stamp, joint_time = self._joint_stamp, self._joint_time
                 scene_msg, version = self._scene_msg, self._scene_version
             now = time.monotonic()
+            if self.going_down():  # the controller finishes the last command (the reference, 0.05 s ahead)
+                return LocalPlanner.Result()
             if goal_handle.is_cancel_requested:
                 if solver is not None:
                     stop = solver.stop(joints, velocities)

@@ -97,6 +97,7 @@ class HybridPlanningManager(Node):
                           read_only=True),
         ])
         group = ReentrantCallbackGroup()
+        self._closing = False
         self._run: _Run | None = None
         self._run_lock = threading.Lock()
         self._global = ActionClient(self, GlobalPlanner, self._params.get("global_planning_action_name"),
@@ -112,7 +113,12 @@ class HybridPlanningManager(Node):
                                f"with {self._params.get('planner_logic_plugin_name')}")
 
     def close(self) -> None:
+        self._closing = True
         self._server.destroy()
+
+    def going_down(self) -> bool:
+        """SIGINT/SIGTERM or close(): nothing can reach a client any more."""
+        return self._closing or not self.context.ok()
 
     # ------------------------------------------------------------------ events
     def _on_global_solution(self, msg: MotionPlanResponse) -> None:
@@ -195,6 +201,8 @@ class HybridPlanningManager(Node):
     def _answer(self, goal_handle: Any, code: int, message: str) -> HybridPlanner.Result:
         result = HybridPlanner.Result(error_message=message)
         result.error_code = MoveItErrorCodes(val=code, message=message, source="hybrid_planning_manager")
+        if self.going_down():  # the goal ends with the node
+            return result
         if code == MoveItErrorCodes.SUCCESS:
             goal_handle.succeed()
         elif goal_handle.is_cancel_requested:
@@ -226,6 +234,8 @@ class HybridPlanningManager(Node):
         try:
             return self._loop(goal_handle, goal, logic, run)
         except Exception as exc:  # never leave a run without an answer, nor the planners running
+            if self.going_down():
+                return HybridPlanner.Result()
             self.get_logger().error(f"hybrid planning failed: {type(exc).__name__}: {exc}")
             self._cancel_planners(run)
             return self._answer(goal_handle, MoveItErrorCodes.FAILURE,
@@ -241,6 +251,8 @@ class HybridPlanningManager(Node):
             try:
                 event, detail = run.events.get(timeout=POLL)
             except queue.Empty:
+                if self.going_down():
+                    return HybridPlanner.Result()
                 if goal_handle.is_cancel_requested:
                     return self._cancel(goal_handle, run)
                 continue
