@@ -157,6 +157,18 @@ def test_the_local_planner_brings_the_arm_to_the_goal_within_the_velocity_limits
     assert np.all(np.array(arm.lead_in_speeds) <= solver.velocity_limits)
 
 
+def test_at_full_speed_the_arm_keeps_the_global_trajectorys_pace(mycobot):
+    start, goal = np.array(START), np.array([1.5, 0.5, 0.7, -1.0, 1.2, 0.8])
+    trajectory = global_trajectory(mycobot, start, goal, scaling=1.0)
+    solver = ForwardTrajectory(mycobot, trajectory, PERIOD)
+    arm = SimulatedArm(solver.joint_names, start)
+    done, feedback, took = run(solver, arm, PlanningScene(mycobot))
+    assert done and feedback == []
+    # the arm follows `lead` behind the reference, so the gate measures to where the reference was
+    assert took < trajectory.duration + 2 * solver.lead
+    assert np.all(np.array(arm.lead_in_speeds) <= solver.velocity_limits)
+
+
 def box_on_the_path(mycobot, solver: ForwardTrajectory, fraction: float) -> CollisionObject:
     q, _, _ = solver.timed.sample(solver.timed.duration * fraction)
     state = RobotState(mycobot)

@@ -8,7 +8,8 @@ give:
 * the reference (SimpleSampler) advances along the global trajectory while the arm is within
   ``WAYPOINT_RADIAN_TOLERANCE`` (L1 over the joints) of it; the reference is forwarded as a
   one-point JointTrajectory a short ``lead`` ahead (longer when the joints could not get there
-  that fast within their velocity limits);
+  that fast within their velocity limits), so the arm is meant to follow ``lead`` seconds
+  behind it: the distance is measured to where the reference was ``lead`` ago;
 * with ``stop_before_collision``, the path still ahead of the arm is checked in the current
   scene whenever the scene (or the trajectory) changed
   (core.trajectory_execution.path_ahead.PathAhead): on a collision the arm is brought to rest
@@ -72,11 +73,13 @@ class SimpleSampler:
     def at_end(self) -> bool:
         return self.time >= self.trajectory.duration
 
-    def advance(self, q: np.ndarray, elapsed: float) -> bool:
-        """Advance by ``elapsed`` s when ``q`` is close enough to the reference; whether it moved."""
+    def advance(self, q: np.ndarray, elapsed: float, lag: float = 0.0) -> bool:
+        """Advance by ``elapsed`` s when ``q`` is close enough to the reference (to where the
+        reference was ``lag`` s of trajectory time ago, when the arm is meant to follow it that
+        far behind); whether it moved."""
         if self.at_end or elapsed <= 0:
             return False
-        reference, _ = self.reference()
+        reference, _, _ = self.trajectory.sample(self.trajectory.times[0] + max(self.time - lag, 0.0))
         if float(np.sum(np.abs(np.asarray(q, dtype=float) - reference))) > self.tolerance:
             return False
         self.time = min(self.time + elapsed, self.trajectory.duration)
@@ -229,7 +232,7 @@ class ForwardTrajectory:
         if self.sampler.at_end and float(np.max(np.abs(q - self.final_positions), initial=0.0)) <= self.goal_tolerance:
             out.done = True
             return out
-        self.sampler.advance(q, elapsed)
+        self.sampler.advance(q, elapsed, lag=self.lead)
         if self._sent_time != self.sampler.time:
             self._sent_time = self.sampler.time
             out.trajectory = self._point_command(q, *self.sampler.reference())
