@@ -27,7 +27,7 @@ from moveit_msgs.msg import (
     MotionSequenceItem,
     MoveItErrorCodes,
 )
-from rclpy.executors import MultiThreadedExecutor
+from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from shape_msgs.msg import SolidPrimitive
 
@@ -54,8 +54,9 @@ class Client(ProbeNode):
     /collision_object publisher."""
 
     def __init__(self) -> None:
-        super().__init__("hybrid_planning_user",
-                         executor=lambda context: MultiThreadedExecutor(num_threads=3, context=context))
+        # single-threaded: once the spin thread stops no callback can still be running when the
+        # node goes (a multi-threaded executor's workers may: InvalidHandle "never retrieved")
+        super().__init__("hybrid_planning_user")
         self.action = ActionClient(self.node, HybridPlanner, "/run_hybrid_planning")
         self.states = self.collect(JointState, "/joint_states", 1000)
         self.solutions = self.collect(MotionPlanResponse, "/global_trajectory", 1)
@@ -64,6 +65,9 @@ class Client(ProbeNode):
         self.spin_in_background()
 
     def close(self) -> None:
+        if self.spinner is not None:  # no executor waits on the action client while it goes
+            self.spinner.stop()
+            self.spinner = None
         self.action.destroy()
         super().close()
 
@@ -234,6 +238,37 @@ def test_a_bad_goal_is_aborted_with_the_reason(client: Client, goal, code: int, 
     assert answer.status == GoalStatus.STATUS_ABORTED
     assert answer.result.error_code.val == code
     assert words in answer.result.error_message
+
+
+def test_single_plan_execution_holds_the_arm_without_replanning(client: Client, model: RobotModel) -> None:
+    """planner_logic_plugin_name set at run time (MoveIt's plugin name; a bad one is refused):
+    "Collision ahead" then leaves the arm held, with no new global plan, until the cancel."""
+    refused = client.set_param("hybrid_planning_manager",
+                               Parameter("planner_logic_plugin_name", value="moveit::hybrid_planning/Nope"))
+    assert not refused.successful and "ReplanInvalidatedTrajectory" in refused.reason
+    name = "moveit::hybrid_planning/SinglePlanExecution"
+    assert client.set_param("hybrid_planning_manager", Parameter("planner_logic_plugin_name", value=name)).successful
+    try:
+        move_to(client, START)
+        with client.lock:
+            client.solutions.clear()
+        handle, feedback = client.send(joint_goal(GOAL, scaling=0.2))
+        assert wait_until(lambda: len(client.solutions) >= 1, 15.0), "no global solution published"
+        first, _ = joint_trajectory_from_ros(client.solutions[0].trajectory)
+        box = box_at_flange(model, np.array(first.points[len(first.points) // 2].positions))
+        client.objects.publish(box_msg(box))
+        assert wait_until(lambda: "Collision ahead" in feedback, 10.0)
+        time.sleep(1.0)
+        held = client.arm()
+        time.sleep(0.3)
+        assert np.max(np.abs(client.arm() - held)) < 1e-4 and np.max(np.abs(held - GOAL)) > 0.1
+        assert len(client.solutions) == 1  # no replan
+        assert wait_until(handle.cancel_goal_async().done, 5.0)
+        assert client.result(handle, 10.0).status == GoalStatus.STATUS_CANCELED
+    finally:
+        client.objects.publish(CollisionObjectRos(id="box", operation=CollisionObjectRos.REMOVE))
+        client.set_param("hybrid_planning_manager", Parameter(
+            "planner_logic_plugin_name", value="moveit::hybrid_planning/ReplanInvalidatedTrajectory"))
 
 
 def test_sigint_mid_motion_ends_the_process_cleanly(client: Client, processes) -> None:
