@@ -63,6 +63,7 @@ setup(
             f"plot_solution = {PACKAGE}.nodes.plot_solution:main",
             f"run_objective = {PACKAGE}.nodes.run_objective:main",
             f"objective_server = {PACKAGE}.nodes.objective_server:main",
+            f"hybrid_planning = {PACKAGE}.nodes.hybrid_planning:main",
             f"setup_assistant = {PACKAGE}.setup_assistant.__main__:main",
             f"ros2 = {PACKAGE}.ros2cli.__main__:main",
         ],

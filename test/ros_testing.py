@@ -12,7 +12,7 @@ import threading
 import sys
 import time
 from pathlib import Path
-from typing import Any, Callable, Iterable, Iterator
+from typing import Any, Callable, Iterable, Iterator, Sequence
 
 import rclpy
 from rcl_interfaces.srv import SetParameters
@@ -209,12 +209,15 @@ class ProbeNode:
 
 @contextlib.contextmanager
 def robot_processes(*server_params: str, params_file: bool | Path = False,
-                    controllers_file: Path | None = None) -> Iterator[tuple[ManagedProcess, ManagedProcess]]:
+                    controllers_file: Path | None = None,
+                    extra_nodes: Sequence[bringup.NodeSpec] = ()) -> Iterator[tuple[ManagedProcess, ...]]:
     """mock_controllers and planning_server on this session's domain, brought up by the bring-up
     module (up when ROS discovery shows them and the server has joint states), stopped at exit.
 
     ``server_params`` are ``name:=value`` overrides; ``params_file`` adds config/planning_server.yaml
-    (True) or the given file; ``controllers_file``: a params file for mock_controllers."""
+    (True) or the given file; ``controllers_file``: a params file for mock_controllers;
+    ``extra_nodes``: more nodes started after them (e.g. bringup.hybrid_planning()), their
+    processes yielded after the two."""
     use_session_domain()
     args: list[str] = []
     if params_file:
@@ -222,14 +225,14 @@ def robot_processes(*server_params: str, params_file: bool | Path = False,
     for param in server_params:
         args += ["-p", param]
     nodes = [bringup.mock_controllers(["--ros-args", "--params-file", str(controllers_file)] if controllers_file else []),
-             bringup.planning_server(args)]
+             bringup.planning_server(args), *extra_nodes]
     log_dir = _log_dir() / f"robot-{os.getpid()}-{time.monotonic_ns()}"
     with bringup.Robot(nodes, log_dir, env=ros_env(), cwd=REPO) as robot:
         try:
             robot.start(timeout=90.0)
         except bringup.BringupError as exc:
             raise AssertionError(str(exc)) from None
-        yield robot["mock_controllers"], robot["planning_server"]
+        yield (robot["mock_controllers"], robot["planning_server"], *(robot[spec.name] for spec in extra_nodes))
 
 
 #: panda_moveit_config's initial positions of the arm ('ready')

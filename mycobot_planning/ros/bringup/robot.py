@@ -114,6 +114,16 @@ def extra_node(name: str, args: Sequence[str] = (), node: str | None = None,
     return NodeSpec(name, list(args), ready or Readiness(nodes=(f"/{node or name}",)))
 
 
+HYBRID_PLANNING_READY = Readiness(
+    nodes=("/hybrid_planning_manager", "/global_planner_component", "/local_planner_component"),
+    actions=("/run_hybrid_planning", "/global_planning_action", "/local_planning_action"))
+
+
+def hybrid_planning(args: Sequence[str] = ()) -> NodeSpec:
+    """Hybrid planning's manager, global and local planner in one process (after the planning_server)."""
+    return NodeSpec("hybrid_planning", ros_args(args), HYBRID_PLANNING_READY)
+
+
 def robot_nodes(hardware: str = "", run_dir: Path | None = None, server_args: Sequence[str] = (),
                 driver_params: Sequence[str] = ()) -> list[NodeSpec]:
     """The processes of a robot in start order: the mock controllers, or with ``hardware`` (a
