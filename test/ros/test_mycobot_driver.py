@@ -18,6 +18,8 @@ from trajectory_msgs.msg import JointTrajectoryPoint  # noqa: E402
 
 from interfaces_py.action_client import ActionClient  # noqa: E402
 from interfaces_py.ros_conversions import seconds_to_duration  # noqa: E402
+from mycobot_planning.core.robot_trajectory.robot_trajectory import TimedTrajectory  # noqa: E402
+from mycobot_planning.core.trajectory_execution.path_ahead import stop_command, stopping_trajectory  # noqa: E402
 from mycobot_planning.hardware.emulator import EmulatedArm  # noqa: E402
 
 ARM = ["link1_to_link2", "link2_to_link3", "link3_to_link4", "link4_to_link5", "link5_to_link6",
@@ -133,6 +135,45 @@ def test_out_of_limits_trajectory_is_refused_before_any_command(rig):
     assert wait_until(lambda: "outside its limits" in driver.output(), WAIT)
     time.sleep(0.5)
     assert not [n for _, n, _ in emulator.received(mark) if n in ("SEND_ANGLES", "SEND_ANGLE")]
+
+
+def test_a_stop_along_the_path_preempts_the_running_goal_on_the_arm(rig):
+    """What move_group sends to stop the arm short of an obstacle (or on a stop request): a new
+    goal along the same path that slows down to rest; it preempts the running goal and the arm's
+    readback ends where the stop ends, short of the first goal's target."""
+    emulator, driver, probe = rig
+    emulator.clear()
+    start = probe.arm_positions()
+    target = start + np.array([0.9, 0.0, 0.0, 0.0, 0.0, 0.0])
+    duration = 2.0
+    accepted, first = probe.move(target, duration=duration)
+    assert accepted
+    time.sleep(0.6)
+    # the first goal's path, as the probe built it (cosine blend), timed from its start
+    ts = np.linspace(0.0, duration, 201)
+    blend = (1 - np.cos(np.pi * ts / duration)) / 2
+    path = TimedTrajectory(ARM, ts, start + np.outer(blend, target - start),
+                           np.outer(np.pi / duration * np.sin(np.pi * ts / duration) / 2, target - start),
+                           np.outer((np.pi / duration) ** 2 * np.cos(np.pi * ts / duration) / 2, target - start))
+    now = probe.arm_positions()
+    t_arm = float(ts[np.argmin(np.max(np.abs(path.positions - now), axis=1))])
+    plan = stopping_trajectory(path, t_arm + 0.1, np.full(6, 5.0))
+    assert plan is not None and plan.rest_at < duration
+    stop = stop_command(plan, 0.1, "stop")
+    goal = FollowJointTrajectory.Goal()
+    goal.trajectory.joint_names = ARM
+    for p in stop.points:
+        point = JointTrajectoryPoint()
+        point.positions, point.velocities = list(p.positions), list(p.velocities)
+        point.time_from_start = seconds_to_duration(p.time_from_start)
+        goal.trajectory.points.append(point)
+    accepted, second = probe.send(probe.arm, goal)
+    assert accepted
+    assert result_of(second).result.error_code == FollowJointTrajectory.Result.SUCCESSFUL
+    assert "preempted" in result_of(first).result.error_string
+    rest = stop.points[-1].positions
+    assert wait_until(lambda: np.allclose(np.radians(emulator.state()["angles"]), rest, atol=0.01), WAIT)
+    assert np.radians(emulator.state()["angles"])[0] < target[0] - 0.1  # short of the first goal's target
 
 
 def test_stalled_servo_is_aborted_by_path_tolerance(rig):
