@@ -12,6 +12,8 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..core.errors import StateError
+from ..core.robot_trajectory.robot_trajectory import TimedTrajectory
+from ..core.trajectory_execution.path_ahead import stopping_trajectory
 from ..core.trajectory_processing.trajectory_limits import DEFAULT_LIMIT_TOLERANCE, motion_limit_problem
 
 
@@ -93,6 +95,11 @@ class _Plan:
         if self.velocities is not None:
             return "cubic"
         return "linear"
+
+
+#: s between the samples of the path a smooth stop slows down along, and how far ahead they reach
+_STOP_SAMPLE = 0.005
+_STOP_HORIZON = 3.0
 
 
 def _fmt(value: float) -> str:
@@ -282,6 +289,7 @@ class JointTrajectoryFollower:
         self._message = f"{name} idle"
         self._goal_id = ""
         self._spline: _Spline | None = None
+        self._stopping: str | None = None  # the reason of a smooth stop under way
         self._goal_start = 0.0
         self._stall_time: float | None = None
         self._last_update: float | None = None
@@ -499,6 +507,7 @@ class JointTrajectoryFollower:
         else:
             pos = plan.positions
         self._spline = _Spline(times, pos, vel, acc, plan.kind)
+        self._stopping = None
         self._goal_id = goal_id
         self._goal_start = now
         self._stall_time = None
@@ -508,14 +517,45 @@ class JointTrajectoryFollower:
         self._last_update = now
         self._track(now)
 
-    def stop(self, now: float, reason: str = "stop requested") -> list[FollowerState]:
+    def stop(self, now: float, reason: str = "stop requested", smooth: bool = False) -> list[FollowerState]:
         """Stop the goal being followed and hold the current position. Returns the report of the
-        stopped goal (empty when there was nothing to stop)."""
+        stopped goal (empty when there was nothing to stop, or while a smooth stop runs).
+
+        ``smooth``: decelerate along the goal's own path within the joint acceleration limits
+        (core.trajectory_execution.path_ahead.stopping_trajectory) and report STOPPED once at
+        rest, as a cancelled goal should end on hardware; without it, or with unlimited
+        accelerations, or while stalled, the joints hold where they are at once."""
         self.update(now)
         if self._spline is None:
             return []
+        if self._stopping is not None:  # already decelerating: a second stop changes nothing
+            return []
+        if smooth and self._stall_time is None and self._decelerate(now):
+            self._stopping = reason
+            self._message = f"goal {self._goal_id} stopping: {reason}"
+            return []
         self._finish(ControllerStatus.STOPPED, f"goal {self._goal_id} stopped: {reason}")
         return [self.state()]
+
+    def _decelerate(self, now: float) -> bool:
+        """Replace the spline by a stop along it from ``now``; False when there is nothing to
+        slow down (at rest, unlimited accelerations) or no stop within the path."""
+        if not np.all(np.isfinite(self.acceleration_limits)) or not np.any(np.abs(self._actual_vel) > 1e-6):
+            return False
+        spline = self._spline
+        end = min(spline.end, now + _STOP_HORIZON)
+        ts = np.append(np.arange(now, end, _STOP_SAMPLE), end) if end > now else np.array([now])
+        if ts.size < 2:
+            return False
+        samples = [spline.sample(float(t)) for t in ts]
+        path = TimedTrajectory(self.joint_names, ts - now, np.array([q for q, _, _ in samples]),
+                               np.array([v for _, v, _ in samples]), np.array([a for _, _, a in samples]))
+        plan = stopping_trajectory(path, 0.0, self.acceleration_limits)
+        if plan is None or len(plan.trajectory) < 2:
+            return False
+        stop = plan.trajectory
+        self._spline = _Spline(now + stop.times, stop.positions, stop.velocities, stop.accelerations, "quintic")
+        return True
 
     def reset_positions(self, positions: Sequence[float]) -> None:
         """Put the joints somewhere else at once (the simulator's "initial position"); only
@@ -557,6 +597,9 @@ class JointTrajectoryFollower:
             self._actual_acc[:] = 0.0
         self._last_update = now
         self._track(now)
+        if now >= self._spline.end and self._stopping is not None:
+            self._finish(ControllerStatus.STOPPED, f"goal {self._goal_id} stopped: {self._stopping}")
+            return self.state()
         if now >= self._spline.end:
             reached = bool(np.all(np.abs(self._actual_pos - self._spline.final) <= self.goal_tolerance))
             if reached:
@@ -583,6 +626,7 @@ class JointTrajectoryFollower:
     def _finish(self, status: str, message: str) -> None:
         """End the goal: hold the actual position at rest."""
         self._spline = None
+        self._stopping = None
         self._stall_time = None
         self._status = status
         self._message = message

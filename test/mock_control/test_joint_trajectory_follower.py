@@ -215,6 +215,45 @@ def test_stop_holds_position_and_is_reported_once():
     assert f.stop(6.0) == []  # nothing left to stop
 
 
+def test_smooth_stop_decelerates_along_the_path_within_the_limits_then_reports_stopped():
+    """A cancelled goal (issue 29): the joints slow down along the goal's own path within the
+    acceleration limits and the goal is STOPPED once they are at rest; a second stop changes
+    nothing; without acceleration limits the stop is at once."""
+    limits = [4.0, 4.0]
+    f = follower(velocity_limits=[3.0, 3.0], acceleration_limits=limits)
+    traj = time_parameterize([[0.0, 0.0], [1.5, -0.75]], [2.0, 2.0], limits, joint_names=JOINTS)
+    f.submit(command(traj.times, traj.positions, traj.velocities, traj.accelerations, goal_id="g"), now=0.0)
+    f.update(0.5)
+    at_stop, speed = f.positions.copy(), np.abs(f.velocities).copy()
+    assert speed[0] > 1.0
+    assert f.stop(0.5, "canceled by its client", smooth=True) == []  # not at rest yet
+    assert f.status == S.EXECUTING and "stopping" in f.state().message
+    assert f.stop(0.51, "again", smooth=True) == []
+    positions, velocities = [], []
+    t = 0.5
+    while f.status == S.EXECUTING and t < 3.0:
+        t += 0.002
+        f.update(t)
+        positions.append(f.positions.copy())
+        velocities.append(f.velocities.copy())
+    assert f.status == S.STOPPED and "canceled by its client" in f.state().message
+    velocities = np.array(velocities)
+    accelerations = np.diff(velocities, axis=0) / 0.002
+    assert np.all(np.abs(accelerations) <= np.array(limits) * 1.05 + 1e-6)
+    assert np.allclose(velocities[-1], 0.0)
+    travelled = np.array(positions[-1]) - at_stop
+    # along the path (joint 2 moves minus half of joint 1) and about v^2 / (2 a) beyond the stop point
+    assert travelled[0] > 0 and travelled[1] == pytest.approx(-0.5 * travelled[0], abs=1e-6)
+    assert speed[0] ** 2 / (2 * limits[0]) * 0.9 <= travelled[0] <= speed[0] ** 2 / (2 * limits[0] * 0.9) * 1.3
+    held = f.positions.copy()
+    f.update(5.0)
+    assert np.allclose(f.positions, held)
+    unlimited = follower()
+    unlimited.submit(command([2.0], [[1.0, 1.0]], goal_id="u"), now=0.0)
+    unlimited.update(1.0)
+    assert [e.status for e in unlimited.stop(1.0, "cancel", smooth=True)] == [S.STOPPED]
+
+
 def test_empty_trajectory_means_stop():
     f = follower()
     f.submit(command([2.0], [[1.0, 1.0]], goal_id="g"), now=0.0)

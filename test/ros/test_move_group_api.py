@@ -372,8 +372,12 @@ def test_move_action_cancel_is_preempted(client: Client) -> None:
     goal.request.max_velocity_scaling_factor = 0.2  # a slow motion, to cancel in the middle
     states = []
     handle = client.send(client.move, goal, feedback=lambda m: states.append(m.feedback.state))
-    assert wait_until(lambda: (client.executor.spin_once(timeout_sec=0.05), "MONITOR" in states)[1], 20.0)
-    time.sleep(0.3)
+    # spin without pauses: /joint_states at 100 Hz would otherwise queue ahead of the feedback
+    assert wait_until(lambda: (client.executor.spin_once(timeout_sec=0.01), "MONITOR" in states)[1], 20.0,
+                      period=0.0)
+    deadline = time.monotonic() + 0.3
+    while time.monotonic() < deadline:
+        client.executor.spin_once(timeout_sec=0.01)
     client.spin_until(handle.cancel_goal_async())
     response = client.spin_until(handle.get_result_async())
     assert response.status == GoalStatus.STATUS_CANCELED
@@ -676,3 +680,48 @@ def test_bad_replanning_options_are_refused_and_change_nothing(client: Client, a
     assert words in response.result.error_code.message
     assert "not_applied" not in world_ids(client)
     assert np.allclose(client.arm(), READY, atol=0.01)
+
+
+def test_cancelling_the_controllers_own_goal_decelerates_within_the_limits(client: Client) -> None:
+    """A FollowJointTrajectory goal cancelled mid-motion on the controller itself (what
+    moveit_simple_controller_manager does to stop): the joints slow down along the goal's path
+    within their acceleration limits (5 rad/s^2), the goal ends canceled once they are at rest."""
+    from control_msgs.action import FollowJointTrajectory
+    from trajectory_msgs.msg import JointTrajectoryPoint
+
+    from interfaces_py.ros_conversions import seconds_to_duration
+
+    move(client, SWEEP_START)
+    controller = ActionClient(client.node, FollowJointTrajectory, "/arm_controller/follow_joint_trajectory")
+    response = client.call(GetMotionPlan, "/plan_kinematic_path", joint_goal(SWEEP_END)).motion_plan_response
+    assert response.error_code.val == C.SUCCESS
+    goal = FollowJointTrajectory.Goal()
+    goal.trajectory = response.trajectory.joint_trajectory
+    duration = goal.trajectory.points[-1].time_from_start.sec + goal.trajectory.points[-1].time_from_start.nanosec * 1e-9
+    client.recorded = []
+    handle = client.send(controller, goal)
+    result = handle.get_result_async()
+    deadline = time.monotonic() + duration * 0.45
+    while time.monotonic() < deadline:
+        client.executor.spin_once(timeout_sec=0.01)
+    cancelled_at = len(client.recorded)
+    client.spin_until(handle.cancel_goal_async())
+    response = client.spin_until(result)
+    deadline = time.monotonic() + 0.3
+    while time.monotonic() < deadline:
+        client.executor.spin_once(timeout_sec=0.01)
+    recording, client.recorded = client.recorded, None
+    assert response.status == GoalStatus.STATUS_CANCELED
+    index = list(recording[0].name).index(ARM[0])
+    t = np.array([m.header.stamp.sec + m.header.stamp.nanosec * 1e-9 for m in recording])
+    v = np.array([m.velocity[index] for m in recording])
+    q = np.array([m.position[index] for m in recording])
+    assert abs(v[cancelled_at]) > 0.5  # it was moving fast when cancelled
+    # over 80 ms windows: a message's velocity is the controller's last update (up to a 10 ms
+    # period old), not its stamp's. A hold at once would show 30+ rad/s^2 here; the precise
+    # limit check is the follower's unit test.
+    k = np.arange(max(cancelled_at - 2, 0), len(v) - 8)
+    dv = np.abs(v[k + 8] - v[k]) / (t[k + 8] - t[k])
+    assert np.all(dv <= 5.0 * 1.3), dv.max()  # about the 5 rad/s^2 limit
+    assert abs(v[-1]) < 1e-6 and abs(q[-1] - q[-5]) < 1e-6  # at rest
+    assert q[-1] - q[cancelled_at] > 0.02 and q[-1] < SWEEP_END[0] - 0.1  # slowed down on the way, short of the end

@@ -13,12 +13,19 @@ from typing import Any, Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from interfaces_py.msgs import JointTrajectory, MoveItErrorCode, PlanningScene as PlanningSceneMsg
+from interfaces_py.msgs import JointTrajectory, JointTrajectoryPoint, MoveItErrorCode, PlanningScene as PlanningSceneMsg
 
 from ..planning_scene.planning_scene import PlanningScene
 from ..robot_model.robot_model import RobotModel
 from ..robot_trajectory.robot_trajectory import TimedTrajectory, joint_trajectory_to_timed
-from .controller_manager import ControllerBus, ControllerInfo, check_controllers, select_controllers, split_trajectory
+from .controller_manager import (
+    FOLLOW_JOINT_TRAJECTORY,
+    ControllerBus,
+    ControllerInfo,
+    check_controllers,
+    select_controllers,
+    split_trajectory,
+)
 from .monitor import ExecutionMonitor, ExecutionResult
 from .path_ahead import PathAhead, PathCollision, stop_command, stopping_trajectory
 from .settings import ExecutionError, ExecutionSettings, error_code as _code
@@ -27,6 +34,8 @@ from .trajectory_preparation import check_start_state, prepare_trajectory, traje
 
 #: s: the least time a stop command's first point may lie ahead of its sending
 MIN_STOP_LEAD = 0.008
+#: s: how soon a halt (no room to decelerate) holds the joints where they were last seen
+HALT_TIME = 0.02
 
 
 class TrajectoryExecutionManager:
@@ -323,7 +332,7 @@ class TrajectoryExecutionManager:
             lead = self.stop_lead + 2.0 * spent  # the computation was slow: begin the stop further ahead
         text = outcome.message
         if plan is None:
-            self._stop_all(commands)
+            self._halt(commands)
             self._record_reaction(hit)
             return _code(outcome.val, f"{text}; too close to stop along the path within the acceleration "
                                       "limits: halted at once")
@@ -369,6 +378,28 @@ class TrajectoryExecutionManager:
             return False
         tolerance = self.settings.goal_tolerance or 1e-6
         return all(abs(v - current[n]) <= tolerance for n, v in zip(trajectory.joint_names, trajectory.points[0].positions))
+
+    def _halt(self, commands: Sequence[tuple[ControllerInfo, JointTrajectory]]) -> None:
+        """Hold every joint where /joint_states last put it, at once (a one-point goal reached
+        in HALT_TIME s, preempting the running one): no room is left to decelerate along the path.
+        A controller without a fresh joint state for all its joints, or a gripper, is cancelled."""
+        current = self._fresh_positions()
+        self._goal_counter += 1
+        goal_id = f"{self.goal_prefix}{self._goal_counter}"
+        for controller, _ in commands:
+            if (current is None or controller.action_type != FOLLOW_JOINT_TRAJECTORY
+                    or not all(j in current for j in controller.joints)):
+                self._stop_all([(controller, _)])
+                continue
+            hold = JointTrajectory(joint_names=list(controller.joints), frame_id=f"{goal_id}/{controller.name}",
+                                   points=[JointTrajectoryPoint(positions=[float(current[j]) for j in controller.joints],
+                                                                velocities=[0.0] * len(controller.joints),
+                                                                time_from_start=HALT_TIME)])
+            try:
+                self.bus.send(controller.name, hold)
+            except Exception as exc:
+                self._log("error", f"holding controller '{controller.name}' failed ({exc}); cancelling its goal")
+                self._stop_all([(controller, _)])
 
     def _stop_all(self, commands: Sequence[tuple[ControllerInfo, JointTrajectory]]) -> None:
         for controller, _ in commands:

@@ -114,11 +114,12 @@ class ControllerActions:
         return self._manager.get_logger()
 
     def _cancel(self, goal_handle: Any) -> CancelResponse:
-        """Stop at once (hold position), so that when the client hears "cancel accepted" the
-        joints no longer move, as JTC holds position on cancel."""
+        """Decelerate to a stop along the goal's path within the joint acceleration limits (JTC
+        holds position at once; an arm moving at speed cannot, and the issue 29 contract is a stop
+        within the deceleration limits); the goal ends canceled once the joints are at rest."""
         running = self._c.running_goal()
         if running and running.endswith(str(uuid.UUID(bytes=bytes(goal_handle.goal_id.uuid)))):
-            self._c.stop(f"goal {running} canceled by its client")
+            self._c.stop(f"goal {running} canceled by its client", smooth=True)
         return CancelResponse.ACCEPT
 
     def _follow(self, goal_handle: Any, command: TrajectoryCommand, feedback: Any | None,
@@ -139,8 +140,11 @@ class ControllerActions:
             if state.goal_id != goal_id:
                 return "preempted", f"goal {goal_id} was preempted by goal {state.goal_id}", state
             if goal_handle.is_cancel_requested:
-                self._c.stop(f"goal {goal_id} canceled by its client")
-                return "canceled", f"goal {goal_id} canceled", self._c.state()
+                self._c.stop(f"goal {goal_id} canceled by its client", smooth=True)
+                state = self._c.state()
+                if state.goal_id == goal_id and state.status not in ControllerStatus.TERMINAL:
+                    continue  # still decelerating: answer once at rest
+                return "canceled", f"goal {goal_id} canceled", state
             if feedback is not None and not self._send_feedback(goal_handle, feedback, state):
                 return "shutdown", "the node is shutting down", state
             if state.status == ControllerStatus.SUCCEEDED:

@@ -136,10 +136,13 @@ class Controller:
         with self._lock:
             return self._follower.goal_id if self._follower.active else ""
 
-    def stop(self, reason: str) -> list[FollowerState]:
-        """Stop the goal (if any) and hold; logs and publishes the event."""
+    def stop(self, reason: str, smooth: bool = False) -> list[FollowerState]:
+        """Stop the goal (if any) and hold; logs and publishes the event. ``smooth``: decelerate
+        along the goal's path within the acceleration limits first (a cancelled goal)."""
         with self._lock:
-            events = self._follower.stop(self._clock(), reason)
+            events = self._follower.stop(self._clock(), reason, smooth)
+        if smooth and not events:
+            self._logger.info(f"{self.name}: decelerating to a stop: {reason}")
         if events:
             self._logger.info(f"{self.name}: {events[0].message}")
             for event in events:
