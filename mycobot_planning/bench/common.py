@@ -43,3 +43,14 @@ def spread(values: list[float]) -> dict[str, float]:
     if not values:
         return {}
     return {"repeat_min": round(min(values), 4), "repeat_max": round(max(values), 4)}
+
+
+def rest_time(history: list, asked: float, threshold: float = 1e-6) -> float | None:
+    """The time of the first (time, positions) sample at or after ``asked`` followed by two that
+    differ from it by less than ``threshold`` (the arm at rest), or None when none is."""
+    samples = [(t, p) for t, p in history if t >= asked]
+    for i in range(len(samples) - 2):
+        t, p = samples[i]
+        if all(np.max(np.abs(samples[j][1] - p)) < threshold for j in (i + 1, i + 2)):
+            return t
+    return None

@@ -31,7 +31,7 @@ import numpy as np
 
 from mycobot_planning.behavior_tree import BehaviorTreeFactory, NodeStatus
 
-from .common import emit, machine, spread, stats
+from .common import emit, machine, rest_time, spread, stats
 
 GROUPS = 111
 TICKS = 300
@@ -184,12 +184,10 @@ def _check(answer: tuple, name: str) -> None:
 
 def _rest_time(history: list, asked: float) -> float:
     """The first sample after ``asked`` followed by two unchanged ones."""
-    samples = [(t, p) for t, p in history if t >= asked]
-    for i in range(len(samples) - 2):
-        t, p = samples[i]
-        if all(np.max(np.abs(samples[j][1] - p)) < REST_THRESHOLD for j in (i + 1, i + 2)):
-            return t
-    raise RuntimeError("the arm never came to rest after the cancel")
+    found = rest_time(history, asked, REST_THRESHOLD)
+    if found is None:
+        raise RuntimeError("the arm never came to rest after the cancel")
+    return found
 
 
 OBJECTIVES_SCENARIOS = {"objectives": bench_objectives}

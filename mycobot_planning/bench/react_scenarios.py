@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from .common import emit, machine, spread
+from .common import emit, machine, rest_time, spread
 
 INTRUSIONS = 20
 #: s between the box's publication and the plan's first contact with it
@@ -96,15 +96,6 @@ def _intrusion(model: Any, trajectory: Any, goal: np.ndarray, rng: np.random.Gen
         if hit is not None and min(ends) > 0.02 and hit.time > LEAD + 0.3:
             return where, hit.time
     return None
-
-
-def _rest_time(history: list[tuple[float, np.ndarray]], asked: float) -> float:
-    samples = [(t, p) for t, p in history if t >= asked]
-    for i in range(len(samples) - 2):
-        t, p = samples[i]
-        if all(np.max(np.abs(samples[j][1] - p)) < REST_THRESHOLD for j in (i + 1, i + 2)):
-            return t
-    raise RuntimeError("the arm never came to rest after the stop")
 
 
 def bench_react(repeat: int, seed: int) -> None:
@@ -213,8 +204,9 @@ def bench_react(repeat: int, seed: int) -> None:
                 asked = time.perf_counter()
                 probe.events.publish(String(data="stop"))
                 wait_for(future.done, 60.0, "the stopped goal's result")
-                time.sleep(0.1)
-                latencies.append((_rest_time(probe.since(asked), asked) - asked) * 1e3)
+                wait_for(lambda: rest_time(probe.since(asked), asked, REST_THRESHOLD) is not None, 10.0,
+                         "the arm at rest on /joint_states after the stop")
+                latencies.append((rest_time(probe.since(asked), asked, REST_THRESHOLD) - asked) * 1e3)
                 found = re.search(r"after a ([0-9.]+) s stop", future.result().result.error_code.message)
                 decels.append(float(found.group(1)) * 1e3 if found else float("nan"))
         finally:

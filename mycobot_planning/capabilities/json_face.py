@@ -445,7 +445,7 @@ class MoveGroupJsonFace(MoveGroupContext):
             rest = {k: v for k, v in params.items() if k != "wait"}
             return self._run(params, lambda: self.plan_and_execute(rest), "plan and execute")
         started = time.perf_counter()
-        if self.executor.executing:
+        if self.executor.executing_after_stop():
             status = self.executor.status()
             return {"error_code": _code(MoveItErrorCode.FAILURE,
                                         f"refused: another execution ({status['description']}) is in progress; "

@@ -70,7 +70,7 @@ def plan_and_execute(ctx: MoveGroupContext, requests: Sequence[tuple[MotionPlanR
     request's start state no longer holds) and its execution, up to ``replanning.attempts``
     times; ``on_replan(n)`` is told of the n-th before it plans, ``on_replanned(plan)`` of its
     plan before it executes. ``cancelled()`` ends the loop (PREEMPTED)."""
-    if not plan_only and ctx.executor.executing:
+    if not plan_only and ctx.executor.executing_after_stop():
         status = ctx.executor.status()
         return None, ExecutionResult(MoveItErrorCode(
             MoveItErrorCode.FAILURE, f"refused: another execution ({status['description']}) is in progress; stop it "

@@ -247,7 +247,7 @@ class MoveGroupContext(PlanningSceneMonitor):
         if wait:
             work()
             return None
-        if self.executor.executing:
+        if self.executor.executing_after_stop():
             status = self.executor.status()
             return (f"refused: another execution ({status['description']}) is in progress; "
                     "stop it first or wait for it to finish")

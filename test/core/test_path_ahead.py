@@ -15,16 +15,15 @@ import pytest
 
 from interfaces_py.msgs import CollisionObject, MoveItErrorCode
 from mycobot_planning.capabilities import move_action
-from mycobot_planning.capabilities.json_face import MoveGroupJsonFace, RequestError
+from mycobot_planning.capabilities.json_face import RequestError
 from mycobot_planning.core import PlanningScene, RobotState
 from mycobot_planning.core.planning_interface.planning_interface import JointGoal, MotionPlanRequest, time_group_path
-from mycobot_planning.core.planning_interface.planning_pipeline import PlanningPipeline
 from mycobot_planning.core.robot_trajectory.robot_trajectory import timed_to_joint_trajectory
 from mycobot_planning.core.trajectory_execution import ExecutionSettings, SolutionStep, TrajectoryExecutionManager
 from mycobot_planning.core.trajectory_execution.path_ahead import PathAhead, stopping_trajectory
 from mycobot_planning.core.trajectory_processing.trajectory_limits import DEFAULT_LIMIT_TOLERANCE
 from mycobot_planning.core.transforms import make_pose
-from test_execution import ARM, CONTROLLERS, SimBus, _feed
+from test_execution import ARM, CONTROLLERS, SimBus, _feed, pipeline, server  # noqa: F401 (fixtures)
 
 INVALIDATED = MoveItErrorCode.MOTION_PLAN_INVALIDATED_BY_ENVIRONMENT_CHANGE
 #: the arm's pose for the sweep: joint 1 turns from -1.2 to +1.2 rad, the others hold this
@@ -270,19 +269,6 @@ def test_stop_requests_are_idempotent_and_decelerate(mycobot):
 
 
 # ------------------------------------------------------------------------------- replanning
-@pytest.fixture(scope="module")
-def pipeline():
-    return PlanningPipeline()
-
-
-@pytest.fixture()
-def server(mycobot, pipeline):
-    bus = SimBus(mycobot)
-    core = MoveGroupJsonFace(mycobot, pipeline, CONTROLLERS, bus, ExecutionSettings(), clock=bus.clock)
-    core.bus = bus
-    return core
-
-
 def _drive(core, scene_change_at: float | None, change=None) -> None:
     """The simulated robot moves, /joint_states reports it; ``change`` applies to the live
     scene ``scene_change_at`` s into the first execution, and each step after it waits for
@@ -309,6 +295,17 @@ def _drive(core, scene_change_at: float | None, change=None) -> None:
     core.executor._wait = wait
 
 
+def _sweep_with_intruder(server, mycobot) -> tuple[list[float], list[float]]:
+    """The arm at the sweep's start; a 5 cm box appears on its path 0.8 s into the first
+    execution. Returns (start, goal)."""
+    start, goal = list(POSE), list(POSE)
+    start[0], goal[0] = -1.2, 1.2
+    _start(server, start)
+    box = flange_box(mycobot, 0.0, size=0.05)
+    _drive(server, 0.8, lambda core: core.apply_collision_objects([box]))
+    return start, goal
+
+
 def _request(values) -> MotionPlanRequest:
     return MotionPlanRequest(group="arm", goal=JointGoal(dict(zip(ARM, values))), allowed_planning_time=10.0,
                              max_velocity_scaling_factor=0.3, max_acceleration_scaling_factor=0.3,
@@ -322,11 +319,7 @@ def _start(core, values) -> None:
 
 @pytest.mark.parametrize("replan", [False, True])
 def test_move_with_and_without_replanning(server, mycobot, replan):
-    start, goal = list(POSE), list(POSE)
-    start[0], goal[0] = -1.2, 1.2
-    _start(server, start)
-    box = flange_box(mycobot, 0.0, size=0.05)
-    _drive(server, 0.8, lambda core: core.apply_collision_objects([box]))
+    start, goal = _sweep_with_intruder(server, mycobot)
     replans: list[int] = []
     options = move_action.Replanning.checked(replan, 3, 0.0)
     planned, executed = move_action.plan_and_execute(server, [(_request(goal), "")], replanning=options,
@@ -364,11 +357,7 @@ def test_huge_replan_attempts_are_capped():
 
 
 def test_cancel_while_waiting_to_replan_ends_the_goal(server, mycobot):
-    start, goal = list(POSE), list(POSE)
-    start[0], goal[0] = -1.2, 1.2
-    _start(server, start)
-    box = flange_box(mycobot, 0.0, size=0.05)
-    _drive(server, 0.8, lambda core: core.apply_collision_objects([box]))
+    start, goal = _sweep_with_intruder(server, mycobot)
     cancel = threading.Event()
     replans: list[int] = []
     options = move_action.Replanning.checked(True, 3, 5.0)
@@ -386,11 +375,7 @@ def test_cancel_while_waiting_to_replan_ends_the_goal(server, mycobot):
 
 
 def test_the_json_face_replans_too(server, mycobot):
-    start, goal = list(POSE), list(POSE)
-    start[0], goal[0] = -1.2, 1.2
-    _start(server, start)
-    box = flange_box(mycobot, 0.0, size=0.05)
-    _drive(server, 0.8, lambda core: core.apply_collision_objects([box]))
+    start, goal = _sweep_with_intruder(server, mycobot)
     reply = server.plan_and_execute({"group": "arm", "goal": {"joints": dict(zip(ARM, goal))}, "seed": 7,
                                      "max_velocity_scaling_factor": 0.3, "max_acceleration_scaling_factor": 0.3,
                                      "replan": True, "replan_attempts": 2, "replan_delay": 0.0})

@@ -36,6 +36,8 @@ from .trajectory_preparation import check_start_state, prepare_trajectory, traje
 MIN_STOP_LEAD = 0.008
 #: s: how soon a halt (no room to decelerate) holds the joints where they were last seen
 HALT_TIME = 0.02
+#: s: how long a new execution waits for one that is stopping (decelerating to rest) to end
+STOPPING_WAIT = 3.0
 
 
 class TrajectoryExecutionManager:
@@ -168,7 +170,23 @@ class TrajectoryExecutionManager:
         return positions
 
     # ------------------------------------------------------------------ single trajectories
+    def stopping(self) -> bool:
+        """An execution runs and has been asked to stop: it ends as soon as the arm is at rest."""
+        with self._state_lock:
+            return self._started_at is not None and self._stop_requested
+
+    def executing_after_stop(self, timeout: float = STOPPING_WAIT) -> bool:
+        """Whether an execution is still running once a stopping one has had ``timeout`` s to
+        bring the arm to rest: a request that arrives while the previous motion decelerates
+        (a cancel followed at once by a new goal) waits for it instead of being refused."""
+        deadline = time.monotonic() + timeout
+        while self.executing and self.stopping() and time.monotonic() < deadline:
+            time.sleep(0.005)
+        return self.executing
+
     def _begin(self, description: str) -> MoveItErrorCode | None:
+        if self.stopping():
+            self.executing_after_stop()
         if not self._busy.acquire(blocking=False):
             with self._state_lock:
                 what, since = self._description, (self._clock() - self._started_at) if self._started_at else 0.0
