@@ -110,6 +110,12 @@ def _finite(values: Sequence[float], what: str) -> np.ndarray:
     return array
 
 
+def _pinv_times(u: np.ndarray, s: np.ndarray, vt: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """pinv(J) @ x from J's SVD (singular values below 1e-10 of the largest cut off)."""
+    keep = s > 1e-10 * s[0]
+    return vt[keep].T @ ((u[:, keep].T @ x) / s[keep])
+
+
 def _rotation_vector(rotation: np.ndarray) -> np.ndarray:
     return np.asarray(pin.log3(rotation), dtype=float)
 
@@ -358,8 +364,11 @@ class Servo:
             delta_x, reached = self._cartesian_delta(command, tip)
             if not reached:
                 u, sv, vt = svd = np.linalg.svd(jac, full_matrices=False)
-                keep = sv > 1e-10 * sv[0]  # the pseudo-inverse's cut-off
-                velocity = (vt[keep].T @ ((u[:, keep].T @ delta_x) / sv[keep])) / dt
+                step_q = _pinv_times(u, sv, vt, delta_x)
+                # second order: the Jacobian halfway along the step (MoveIt's first-order step
+                # drifts off a straight line by 1-2 degrees over 10 cm on the myCobot)
+                _, jac_mid = self._kinematics(q + 0.5 * step_q)
+                velocity = _pinv_times(*np.linalg.svd(jac_mid, full_matrices=False), delta_x) / dt
                 scale, status = self.singularity_scale(jac, delta_x, q, svd)
                 velocity *= scale
         if command is not None:
