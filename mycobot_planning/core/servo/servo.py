@@ -208,6 +208,12 @@ class Servo:
         pin.forwardKinematics(self.model.pin_model, self._data, q)
         return pin.updateFramePlacement(self.model.pin_model, self._data, fid).homogeneous.copy()
 
+    def _check_frame(self, frame: str) -> None:
+        try:
+            self.model.frame_id(frame)
+        except RobotModelError:
+            raise CommandError(f"unknown frame '{frame}': not a link or frame of robot '{self.model.name}'") from None
+
     def tip_pose(self) -> np.ndarray:
         return self._kinematics(self.positions)[0]
 
@@ -232,7 +238,7 @@ class Servo:
         if isinstance(command, TwistCommand):
             if not command.frame_id:
                 raise CommandError("twist command has an empty header.frame_id: say which frame its axes are in")
-            self.frame_pose(command.frame_id)
+            self._check_frame(command.frame_id)
             values = np.concatenate([_finite(command.linear, "twist linear"), _finite(command.angular, "twist angular")])
             if self.params.command_in_type == "unitless" and np.any(np.abs(values) > 1.0):
                 raise CommandError(f"unitless twist component above 1 ({[float(v) for v in values]}): "

@@ -68,6 +68,9 @@ COMMAND_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE, durab
 #: periods at rest after the last command before the servo stops publishing (and re-reads the
 #: robot's state on the next command): it must not keep commanding a controller others use
 REST_PERIODS = 5
+#: s after the arm came to rest (beyond max_expected_latency, which it still needs to arrive) during
+#: which a new command goes on from the commanded state; later ones start from the measured state
+RESUME_WINDOW = 0.3
 #: s between two log lines about the same kind of refused input
 LOG_THROTTLE = 1.0
 
@@ -299,7 +302,7 @@ class ServoNode(Node):
         if self._throttle(kind + reason[:40]):
             self.get_logger().warning(f"refused {kind} command: {reason}")
 
-    def _accept(self, kind: int, command: Any) -> None:
+    def _accept(self, kind: int, command: Any, stamp: Any = None) -> None:
         with self._lock:
             if self._legacy and kind != CommandType.POSE:
                 self._command_type = kind
@@ -320,18 +323,23 @@ class ServoNode(Node):
         except CommandError as exc:
             self._refuse(CommandType.NAMES[kind].lower(), str(exc))
             return
+        received = time.time()
+        sent = stamp.sec + stamp.nanosec * 1e-9 if stamp is not None else 0.0
+        # as MoveIt: a command is as old as its stamp; unstamped (0) or future ones from when they came
+        when = sent if 0.0 < sent <= received else received
         with self._lock:
-            self._latest[kind] = (command, time.monotonic())
+            self._latest[kind] = (command, when)
 
     def _on_twist(self, msg: TwistStamped) -> None:
         t = msg.twist
         self._accept(CommandType.TWIST, TwistCommand(msg.header.frame_id, (t.linear.x, t.linear.y, t.linear.z),
-                                                     (t.angular.x, t.angular.y, t.angular.z)))
+                                                     (t.angular.x, t.angular.y, t.angular.z)), msg.header.stamp)
 
     def _on_joint_jog(self, msg: JointJog) -> None:
         if len(msg.displacements) and self._throttle("displacements"):
             self.get_logger().warning("JointJog displacements are not yet supported; using the velocities only")
-        self._accept(CommandType.JOINT_JOG, JointJogCommand(tuple(msg.joint_names), tuple(msg.velocities)))
+        self._accept(CommandType.JOINT_JOG, JointJogCommand(tuple(msg.joint_names), tuple(msg.velocities)),
+                     msg.header.stamp)
 
     def _on_pose(self, msg: PoseStamped) -> None:
         p, o = msg.pose.position, msg.pose.orientation
@@ -343,7 +351,7 @@ class ServoNode(Node):
         if not np.all(np.isfinite(pose)):
             self._refuse("pose", "pose command has a NaN or infinite value")
             return
-        self._accept(CommandType.POSE, PoseCommand(msg.header.frame_id, pose))
+        self._accept(CommandType.POSE, PoseCommand(msg.header.frame_id, pose), msg.header.stamp)
 
     def _on_joint_state(self, msg: JointState) -> None:
         if len(msg.name) != len(msg.position):
@@ -447,7 +455,7 @@ class ServoNode(Node):
         if not self.context.ok():  # shutting down
             self._running = False
             return
-        now = time.monotonic()
+        now = time.time()  # the clock of command stamps
         with self._lock:
             measured = None if self._measured is None else self._measured.copy()
             paused = self._paused
@@ -480,7 +488,8 @@ class ServoNode(Node):
             self._rest_periods = 0
         else:
             self._rest_periods += 1
-        self._publish_command(step)
+        if self._rest_periods <= REST_PERIODS:
+            self._publish_command(step)  # then quiet: the controller is free for others
         if step.status in (StatusCode.HALT_FOR_COLLISION, StatusCode.HALT_FOR_SINGULARITY, StatusCode.JOINT_BOUND) \
                 and self._throttle(f"halt {step.status}"):
             why = STATUS_MESSAGES[step.status]
@@ -491,8 +500,8 @@ class ServoNode(Node):
                     contacts = self._loop_scene.check_collision(self._loop_state, max_contacts=1).contacts
                     why += f" (the next step would collide: {contacts[0] if contacts else 'contact'})"
             self.get_logger().warning(why)
-        if self._rest_periods >= REST_PERIODS:
-            self._synced = False  # quiet until the next command; then start from the robot's state
+        if self._rest_periods >= REST_PERIODS + (self._latency + RESUME_WINDOW) / self._period:
+            self._synced = False  # the arm has arrived: the next command starts from the robot's state
         self._publish_status(StatusCode.INVALID if invalid else step.status, invalid)
 
     def _publish_status(self, code: int, reason: str | None) -> None:
