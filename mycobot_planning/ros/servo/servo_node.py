@@ -199,6 +199,9 @@ class ServoNode(Node):
         self._flags = {k: v for k, v in values.items() if k.startswith(P + "publish_joint_")}
         # robot state and scene
         self._measured: np.ndarray | None = None
+        self._variables = {name: i for i, name in enumerate(self.model.variable_names)}
+        self._js_names: tuple[str, ...] = ()
+        self._js_index = np.zeros(0, dtype=int)
         self._measured_received = False
         self._scene_msg: dict | None = None
         self._scene_version = 0
@@ -354,23 +357,22 @@ class ServoNode(Node):
         self._accept(CommandType.POSE, PoseCommand(msg.header.frame_id, pose), msg.header.stamp)
 
     def _on_joint_state(self, msg: JointState) -> None:
-        if len(msg.name) != len(msg.position):
+        names = tuple(msg.name)
+        if len(names) != len(msg.position):
+            return
+        if names != self._js_names:  # where each name goes in the model's variables (-1: not ours)
+            self._js_names = names
+            self._js_index = np.array([self._variables.get(n, -1) for n in names], dtype=int)
+        index = self._js_index
+        values = np.asarray(msg.position, dtype=float)
+        use = (index >= 0) & np.isfinite(values)
+        if not np.any(use):
             return
         with self._lock:
             full = self._measured.copy() if self._measured is not None else self.model.default_positions().astype(float)
-        seen = 0
-        for name, value in zip(msg.name, msg.position):
-            try:
-                index = self.model.variable_index(name)
-            except PlanningError:
-                continue
-            if math.isfinite(value):
-                full[index] = value
-                seen += 1
-        if seen:
-            with self._lock:
-                self._measured = full
-                self._measured_received = True
+            full[index[use]] = values[use]
+            self._measured = full
+            self._measured_received = True
 
     def _on_scene(self, msg: PlanningSceneMsg) -> None:
         try:
@@ -478,6 +480,8 @@ class ServoNode(Node):
                 self.servo.reset(measured)
             self._synced = True
             self._rest_periods = 0
+            self.get_logger().info(f"servoing the arm from where it is ({CommandType.NAMES[kind]} commands, "
+                                   f"{now - entry[1]:.3f} s old)")
         if not self._synced:
             self._publish_status(StatusCode.INVALID if invalid else StatusCode.NO_WARNING, invalid)
             return
@@ -489,7 +493,9 @@ class ServoNode(Node):
         else:
             self._rest_periods += 1
         if self._rest_periods <= REST_PERIODS:
-            self._publish_command(step)  # then quiet: the controller is free for others
+            self._publish_command(step, now, measured)  # then quiet: the controller is free for others
+            if self._rest_periods == REST_PERIODS:
+                self.get_logger().info("the arm is at rest: servo_node stops commanding it")
         if step.status in (StatusCode.HALT_FOR_COLLISION, StatusCode.HALT_FOR_SINGULARITY, StatusCode.JOINT_BOUND) \
                 and self._throttle(f"halt {step.status}"):
             why = STATUS_MESSAGES[step.status]
@@ -508,11 +514,15 @@ class ServoNode(Node):
         message = STATUS_MESSAGES[code] if reason is None else f"{STATUS_MESSAGES[code]}: {reason}"
         self._status_pub.publish(ServoStatus(code=code, message=message))
 
-    def _publish_command(self, step: Any) -> None:
+    def _publish_command(self, step: Any, tick: float, measured: np.ndarray) -> None:
+        """The step's command, stamped with the iteration's start (``tick``, system time), its
+        point max_expected_latency ahead -- or later, when the arm (as last measured) is farther
+        from it than the velocity limits cover in that time (after the loop was held up)."""
         values = self._flags
         if self._output_is_trajectory:
             msg = JointTrajectory()
-            msg.header.stamp = self.get_clock().now().to_msg()
+            msg.header.stamp.sec = int(tick)
+            msg.header.stamp.nanosec = int((tick - int(tick)) * 1e9)
             msg.header.frame_id = ""
             msg.joint_names = self._joint_names
             point = JointTrajectoryPoint()
@@ -522,7 +532,8 @@ class ServoNode(Node):
                 point.velocities = step.velocities.tolist()
             if values[P + "publish_joint_accelerations"]:
                 point.accelerations = step.accelerations.tolist()
-            point.time_from_start = seconds_to_duration(self._latency)
+            gap = np.abs(step.positions - measured[self.servo.indices]) / self.servo.vmax
+            point.time_from_start = seconds_to_duration(max(self._latency, float(np.max(gap)) * 1.05))
             msg.points = [point]
         else:
             msg = Float64MultiArray()
