@@ -30,6 +30,7 @@ from control_msgs.msg import JointJog
 from geometry_msgs.msg import PoseStamped, TwistStamped
 from moveit_msgs.msg import PlanningScene as PlanningSceneMsg, ServoStatus
 from moveit_msgs.srv import ServoCommandType
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -245,6 +246,7 @@ class ServoNode(Node):
         self.create_service(Trigger, "~/start_servo", self._srv_start, callback_group=services)
         self.create_service(Trigger, "~/stop_servo", self._srv_stop, callback_group=services)
         self._params.on_change(self._on_params)
+        self.add_on_set_parameters_callback(self._check_together)
 
         self._loop_thread = threading.Thread(target=self._loop, name="servo loop", daemon=True)
         self._collision_thread = threading.Thread(target=self._collision_loop, name="servo collision monitor",
@@ -285,6 +287,24 @@ class ServoNode(Node):
             butterworth_filter_coeff=float(v[P + "online_signal_smoothing.butterworth_filter_coeff"]),
             use_smoothing=bool(v[P + "use_smoothing"]),
         )
+
+    def _check_together(self, params: list[Any]) -> SetParametersResult:
+        """Refuse a set whose values are fine one by one but not together (e.g. the lower
+        singularity threshold above the hard stop), before anything changes."""
+        values = self._params.values()
+        for param in params:
+            if param.name in values:
+                value = param.value
+                values[param.name] = value.tolist() if hasattr(value, "tolist") else value
+        try:
+            problems = self._servo_parameters(values).problems(len(self._joint_names))
+        except (TypeError, ValueError) as exc:
+            problems = [str(exc)]
+        if problems:
+            reason = "; ".join(problems)
+            self.get_logger().warning(f"refused parameters: {reason}")
+            return SetParametersResult(successful=False, reason=reason)
+        return SetParametersResult(successful=True)
 
     def _on_params(self, changed: dict[str, Any]) -> None:
         self._flags = {k: v for k, v in self._params.values().items() if k.startswith(P + "publish_joint_")}
