@@ -221,6 +221,7 @@ class ServoNode(Node):
         self._loop_scene_version = -1
         self._loop_state = RobotState(self.model)
         self._running = True
+        self._wake = threading.Event()
         self.loop_iterations = 0
 
         inputs = MutuallyExclusiveCallbackGroup()
@@ -352,6 +353,9 @@ class ServoNode(Node):
         when = sent if 0.0 < sent <= received else received
         with self._lock:
             self._latest[kind] = (command, when)
+            idle = not self._synced
+        if idle:
+            self._wake.set()  # start now, not at the idle loop's next tick
 
     def _on_twist(self, msg: TwistStamped) -> None:
         t = msg.twist
@@ -463,10 +467,11 @@ class ServoNode(Node):
         while self._running:
             next_time += self._period
             delay = next_time - time.monotonic()
-            if delay > 0:
-                time.sleep(delay)
+            if delay > 0 and self._wake.wait(delay):
+                next_time = time.monotonic()  # a first command woke the idle loop: its ticks start here
             elif delay < -self._period:  # fell behind (suspended): do not try to catch up
                 next_time = time.monotonic()
+            self._wake.clear()
             try:
                 self._iterate()
             except Exception as exc:  # one bad iteration must not stop the loop
