@@ -15,8 +15,8 @@ domain of its own, and from this process (one private node):
   stream's wall time (/proc/<pid>/stat; 100 = one core);
 * ``command_to_motion_ms``: from publishing one joint jog to an idle servo (quiet for a second)
   to the first change beyond 1e-6 rad of an arm joint on /joint_states, LATENCY_SAMPLES times.
-  It includes DDS delivery both ways, the servo's next iteration (up to 10 ms), the controller's
-  next cycle (100 Hz) and its /joint_states.
+  It includes DDS delivery both ways, the servo's first iteration (the command wakes the idle
+  loop), the controller's next cycle (100 Hz) and its /joint_states.
 
 Summary keys: loop_hz, loop_jitter_p99_ms, command_to_motion_ms (median; _p90 too), cpu_percent,
 plan_ms_while_servoing, plan_ms_idle (medians), plan_ratio (while / idle).
