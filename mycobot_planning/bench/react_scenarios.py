@@ -109,7 +109,7 @@ def bench_react(repeat: int, seed: int) -> None:
     from mycobot_planning.ros.demos.react_demo import (ReactProbe, box_msg, clearances, joint_goal, run_goal,
                                                        send_goal, wait_for)
 
-    from .ros_scenarios import RobotProcesses, bench_domain_id
+    from .ros_scenarios import RobotProcesses, bench_domain_id, robot_ready
 
     rng = np.random.default_rng(seed)
     model = RobotModel.mycobot()
@@ -126,10 +126,7 @@ def bench_react(repeat: int, seed: int) -> None:
         probe = ReactProbe()
         server = MoveGroupClient("arm", node=probe.node, timeout=15.0)
         try:
-            if not server.wait_for_server(30.0):
-                raise RuntimeError("the planning_server does not answer")
-            wait_for(lambda: server.call("get_state").get("joint_state_received"), 30.0, "joint states at the server")
-            wait_for(lambda: len(probe.history) > 0, 30.0, "/joint_states here")
+            robot_ready(server, lambda: len(probe.history) > 0)
             run = 0
             for index in range(repeat):
                 repeat_reactions = []

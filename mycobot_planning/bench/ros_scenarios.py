@@ -158,6 +158,14 @@ def _wait(predicate, timeout: float, what: str) -> None:
         time.sleep(0.005)
 
 
+def robot_ready(arm: Any, joint_states_here: Any) -> None:
+    """Wait until the planning_server answers and has joint states, and ``joint_states_here()``."""
+    if not arm.wait_for_server(30.0):
+        raise RuntimeError("the planning_server does not answer")
+    _wait(lambda: arm.call("get_state").get("joint_state_received"), 30.0, "joint states at the server")
+    _wait(joint_states_here, 30.0, "/joint_states here")
+
+
 def bench_exec_latency(repeat: int, seed: int) -> None:
     """Execute request -> first controller motion on /joint_states (see module docstring)."""
     from interfaces_py.clients import MoveGroupClient
@@ -167,10 +175,7 @@ def bench_exec_latency(repeat: int, seed: int) -> None:
         watcher = _JointWatcher()
         arm = MoveGroupClient("arm", node=watcher.node, timeout=15.0)
         try:
-            if not arm.wait_for_server(30.0):
-                raise RuntimeError("the planning_server does not answer")
-            _wait(lambda: arm.call("get_state").get("joint_state_received"), 30.0, "joint states at the server")
-            _wait(lambda: watcher.latest is not None, 30.0, "/joint_states here")
+            robot_ready(arm, lambda: watcher.latest is not None)
             arm.set_max_velocity_scaling_factor(1.0)
             all_samples: list[float] = []
             medians: list[float] = []
