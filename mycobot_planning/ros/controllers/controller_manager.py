@@ -117,7 +117,11 @@ class Controller:
         else:
             self._on_accepted(self.name)
         for event in result.events:
-            if event.status != ControllerStatus.ABORTED:  # the rejection was logged above
+            if event.status in (ControllerStatus.PREEMPTED, ControllerStatus.EXECUTING):
+                # a stream of commands (servo, the hybrid local planner: 100 a second) would log two
+                # lines each; the state topic carries every one of them
+                self._logger.info(f"{self.name}: {event.message}", throttle_duration_sec=1.0)
+            elif event.status != ControllerStatus.ABORTED:  # the rejection was logged above
                 self._logger.info(f"{self.name}: {event.message}")
             self.publish_event(event)
         return result
