@@ -404,6 +404,8 @@ def test_execute_trajectory_and_the_stop_event(client: Client) -> None:
     client.stop_pub.publish(String(data="stop"))
     response = client.spin_until(handle.get_result_async())
     assert response.result.error_code.val == C.PREEMPTED
+    assert "at rest" in response.result.error_code.message  # decelerated along the path, then answered
+    assert at_rest(client)
     assert not np.allclose(client.arm(), READY, atol=0.01)
 
 
@@ -721,3 +723,82 @@ def test_cancelling_the_controllers_own_goal_decelerates_within_the_limits(clien
     assert np.all(dv <= 5.0 * 1.3), dv.max()  # about the 5 rad/s^2 limit
     assert abs(v[-1]) < 1e-6 and abs(q[-1] - q[-5]) < 1e-6  # at rest
     assert q[-1] - q[cancelled_at] > 0.02 and q[-1] < SWEEP_END[0] - 0.1  # slowed down on the way, short of the end
+
+
+def three_step_solution(client: Client):
+    """An MTC solution of three sub-trajectories: to the sweep's start's neighbour (-0.6 rad),
+    across the sweep (+1.2), back (+0.6); planned at 30 % speed."""
+    from moveit_task_constructor_msgs.msg import Solution, SubTrajectory
+
+    middle, back = list(SWEEP_START), list(SWEEP_START)
+    middle[0], back[0] = -0.6, 0.6
+
+    def planned(start, goal):
+        request = joint_goal(goal)
+        request.motion_plan_request.start_state.joint_state.name = list(ARM)
+        request.motion_plan_request.start_state.joint_state.position = [float(v) for v in start]
+        request.motion_plan_request.max_velocity_scaling_factor = 0.3
+        request.motion_plan_request.max_acceleration_scaling_factor = 0.3
+        response = client.call(GetMotionPlan, "/plan_kinematic_path", request).motion_plan_response
+        assert response.error_code.val == C.SUCCESS, response.error_code.message
+        return response.trajectory
+
+    solution = Solution(task_id="react")
+    for k, (a, b) in enumerate([(SWEEP_START, middle), (middle, SWEEP_END), (SWEEP_END, back)]):
+        step = SubTrajectory(trajectory=planned(a, b))
+        step.info.id, step.info.comment = k, ["approach", "sweep", "return"][k]
+        step.scene_diff.is_diff = True
+        step.scene_diff.robot_state.is_diff = True
+        solution.sub_trajectory.append(step)
+    first = solution.sub_trajectory[0].trajectory.joint_trajectory.points[-1].time_from_start
+    return solution, first.sec + first.nanosec * 1e-9
+
+
+def run_solution(client: Client, solution, at: float, act) -> object:
+    """Execute ``solution`` on /execute_task_solution, recording /joint_states; ``act(handle)``
+    ``at`` s after the goal was accepted. Returns (result response, recording)."""
+    from moveit_task_constructor_msgs.action import ExecuteTaskSolution
+
+    executor = ActionClient(client.node, ExecuteTaskSolution, "/execute_task_solution")
+    client.recorded = []
+    handle = client.send(executor, ExecuteTaskSolution.Goal(solution=solution))
+    result = handle.get_result_async()
+    start = time.monotonic()
+    acted = False
+    while not result.done() and time.monotonic() - start < 60.0:
+        client.executor.spin_once(timeout_sec=0.01)
+        if not acted and time.monotonic() - start > at:
+            act(handle)
+            acted = True
+    response = client.spin_until(result)
+    recording, client.recorded = client.recorded, None
+    return response, recording
+
+
+def test_a_task_solution_stops_at_the_step_whose_path_became_invalid(client: Client, model: RobotModel) -> None:
+    """A box appears on the second sub-trajectory's path: the execution stops there short of the
+    box and fails naming that step (MTC does not replan); the third never runs."""
+    move(client, SWEEP_START)
+    solution, first = three_step_solution(client)
+    intruder = box("intruder", flange_position(model, 0.3))
+    try:
+        response, recording = run_solution(client, solution, first + 0.3,
+                                           lambda handle: client.object_pub.publish(intruder))
+        code = response.result.error_code
+        assert code.val == C.MOTION_PLAN_INVALIDATED_BY_ENVIRONMENT_CHANGE, code.message
+        assert "step 1" in code.message and "intruder" in code.message
+        assert_recorded_motion_free(model, recording, intruder)
+        arm = client.arm()
+        assert -0.6 < arm[0] < 0.3 and at_rest(client)  # stopped in the sweep, before the box; never returned
+    finally:
+        remove(client, "intruder")
+
+
+def test_cancelling_a_task_solution_brings_the_arm_to_rest(client: Client) -> None:
+    move(client, SWEEP_START)
+    solution, first = three_step_solution(client)
+    response, _ = run_solution(client, solution, first + 0.5, lambda handle: handle.cancel_goal_async())
+    assert response.status == GoalStatus.STATUS_CANCELED
+    assert response.result.error_code.val == C.PREEMPTED
+    assert at_rest(client)
+    assert -0.6 < client.arm()[0] < SWEEP_END[0]
