@@ -206,6 +206,8 @@ def bench_react(repeat: int, seed: int) -> None:
                 latencies.append((rest_time(probe.since(asked), asked, REST_THRESHOLD) - asked) * 1e3)
                 found = re.search(r"after a ([0-9.]+) s stop", future.result().result.error_code.message)
                 decels.append(float(found.group(1)) * 1e3 if found else float("nan"))
+                emit({"scenario": "react", "stop": len(latencies), "stop_latency_ms": round(latencies[-1], 2),
+                      "stop_decel_ms": decels[-1], "message": future.result().result.error_code.message[:160]})
         finally:
             server.close()
             probe.close()

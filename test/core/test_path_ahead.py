@@ -18,7 +18,7 @@ from mycobot_planning.capabilities import move_action
 from mycobot_planning.capabilities.json_face import RequestError
 from mycobot_planning.core import PlanningScene, RobotState
 from mycobot_planning.core.planning_interface.planning_interface import JointGoal, MotionPlanRequest, time_group_path
-from mycobot_planning.core.robot_trajectory.robot_trajectory import timed_to_joint_trajectory
+from mycobot_planning.core.robot_trajectory.robot_trajectory import TimedTrajectory, timed_to_joint_trajectory
 from mycobot_planning.core.trajectory_execution import ExecutionSettings, SolutionStep, TrajectoryExecutionManager
 from mycobot_planning.core.trajectory_execution.path_ahead import PathAhead, stopping_trajectory
 from mycobot_planning.core.trajectory_processing.trajectory_limits import DEFAULT_LIMIT_TOLERANCE
@@ -386,3 +386,21 @@ def test_the_json_face_replans_too(server, mycobot):
                        ({"replan": True, "replan_delay": float("inf")}, "replan_delay must be")):
         reply = server.plan_and_execute({"group": "arm", "goal": {"joints": dict(zip(ARM, start))}, **bad})
         assert reply["error_code"]["val"] == MoveItErrorCode.INVALID_MOTION_PLAN and words in reply["error_code"]["message"]
+
+
+def test_a_stop_on_a_path_at_its_acceleration_limit_stays_within_the_controllers_tolerance(mycobot):
+    """A planned path may touch its limits within the controllers' 5 % tolerance; where it brakes
+    that hard itself, the stop follows it instead of adding braking on top (a stop goal over the
+    tolerance is refused by the controller)."""
+    traj = sweep(mycobot, scaling=1.0)
+    over = TimedTrajectory(traj.joint_names, traj.times, traj.positions, traj.velocities * 1.0,
+                           traj.accelerations, interpolation=traj.interpolation)
+    limits = mycobot.acceleration_limits[[mycobot.variable_index(n) for n in traj.joint_names]] * 0.98
+    for fraction in np.linspace(0.05, 0.95, 19):
+        plan = stopping_trajectory(over, traj.duration * fraction, limits)
+        assert plan is not None
+        # the points, what a controller checks before it accepts a goal
+        assert np.all(np.abs(plan.trajectory.accelerations) <= limits * (1 + DEFAULT_LIMIT_TOLERANCE) + 1e-6)
+        # and its spline between them, near the limits at worst
+        q, qd, qdd = plan.trajectory.sample(np.linspace(0.0, plan.trajectory.duration, 400))
+        assert np.all(np.abs(qdd) <= limits * 1.1), fraction

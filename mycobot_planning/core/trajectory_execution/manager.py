@@ -69,7 +69,7 @@ class TrajectoryExecutionManager:
         poll_period: float = 0.01,
         log: Callable[[str, str], None] | None = None,
         scene_source: Callable[[], PlanningScene] | None = None,
-        stop_lead: float = 0.015,
+        stop_lead: float = 0.03,
     ) -> None:
         check_controllers(model, controllers)
         self.model = model

@@ -19,6 +19,7 @@ from ..planning_scene.planning_scene import PlanningScene
 from ..robot_model.robot_model import RobotModel
 from ..robot_state.robot_state import RobotState
 from ..robot_trajectory.robot_trajectory import TimedTrajectory, joint_trajectory_to_timed
+from ..trajectory_processing.trajectory_limits import DEFAULT_LIMIT_TOLERANCE
 from ..trajectory_processing.trajectory_validator import DEFAULT_RESOLUTION, dense_samples
 
 __all__ = ["PathAhead", "PathCollision", "StopPlan", "stopping_trajectory", "stop_command"]
@@ -170,7 +171,8 @@ def stopping_trajectory(trajectory: TimedTrajectory, t0: float, acceleration_lim
     safe_qd = np.where(moving, qd, 1.0)
     # s' >= (c - qdd x) / qd with c = -a (qd > 0) or +a (qd < 0): lower bounds linear in x
     c_margin = np.where(qd > 0, -limits, limits) / safe_qd
-    c_full = np.where(qd > 0, -full, full) / safe_qd
+    # the full limits with the controllers' tolerance: a planned path may touch them within it
+    c_full = np.where(qd > 0, -full, full) * (1.0 + DEFAULT_LIMIT_TOLERANCE) / safe_qd
     slope = qdd / safe_qd
     x = 1.0
     xs, rates, taus = [1.0], [], [float(grid[0])]
@@ -180,10 +182,17 @@ def stopping_trajectory(trajectory: TimedTrajectory, t0: float, acceleration_lim
         if not m.any():  # the path itself is at rest here
             rest = float(grid[i])
             break
-        rate = float(np.max(c_margin[i, m] - slope[i, m] * x))
+        # both ends of the step bound it: the path's own acceleration may step in between
+        ends = (i, i + 1) if moving[i + 1].any() else (i,)
+
+        def bound(c: np.ndarray) -> float:
+            return max(float(np.max(c[k, moving[k]] - slope[k, moving[k]] * x)) for k in ends)
+
+        rate = bound(c_margin)
         if rate > 0.0:  # the path brakes at its limits itself: follow it within the full limits
-            rate = min(float(np.max(c_full[i, m] - slope[i, m] * x)), 0.0)
-            if rate >= 0.0 and float(np.max(c_full[i, m] - slope[i, m] * x)) > 0.0:
+            full_rate = bound(c_full)
+            rate = min(full_rate, 0.0)
+            if full_rate > 0.0:
                 rate = -1.0  # a hand-made path asking for more than the limits: brake anyway
         rates.append(rate)
         h = float(grid[i + 1] - grid[i])
