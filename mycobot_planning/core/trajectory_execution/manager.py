@@ -69,7 +69,7 @@ class TrajectoryExecutionManager:
         poll_period: float = 0.01,
         log: Callable[[str, str], None] | None = None,
         scene_source: Callable[[], PlanningScene] | None = None,
-        stop_lead: float = 0.03,
+        stop_lead: float = 0.015,
     ) -> None:
         check_controllers(model, controllers)
         self.model = model
@@ -358,8 +358,8 @@ class TrajectoryExecutionManager:
         goal_id = f"{self.goal_prefix}{self._goal_counter}"
         current = self._fresh_positions() or {}
         try:
-            first_point = max(lead - (time.monotonic() - mark), MIN_STOP_LEAD)
-            stops = split_trajectory(stop_command(plan, first_point, goal_id), self.controllers, current,
+            command = stop_command(plan, lead, goal_id, elapsed=time.monotonic() - mark, min_lead=MIN_STOP_LEAD)
+            stops = split_trajectory(command, self.controllers, current,
                                      [c.name for c, _ in commands], goal_id)
             baseline = {c.name: self.bus.controller_state(c.name) for c, _ in stops}
             for controller, command in stops:

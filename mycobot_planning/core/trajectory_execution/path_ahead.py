@@ -244,15 +244,19 @@ def stopping_trajectory(trajectory: TimedTrajectory, t0: float, acceleration_lim
     return StopPlan(stop, t0, rest_at, float(ts[-1]))
 
 
-def stop_command(plan: StopPlan, lead: float, goal_id: str) -> JointTrajectory:
-    """The stop as a JointTrajectory for the controllers: its first point ``lead`` seconds after
-    receipt (the controller interpolates from where the joints are to it, as JTC does when a new
-    goal preempts a running one)."""
+def stop_command(plan: StopPlan, lead: float, goal_id: str, elapsed: float = 0.0,
+                 min_lead: float = 0.008) -> JointTrajectory:
+    """The stop as a JointTrajectory for the controllers: the plan began ``lead`` s after the arm's
+    place it was computed from, ``elapsed`` s ago; each point is timed from now (the receipt), and
+    points that would come sooner than ``min_lead`` are dropped (the arm is already past them; the
+    controller interpolates from where the joints are to the first point kept, as JTC does when a
+    new goal preempts a running one). The last point is always kept."""
     traj = plan.trajectory
+    shift = lead - elapsed
+    keep = [k for k in range(len(traj)) if traj.times[k] + shift >= min_lead] or [len(traj) - 1]
     points = [JointTrajectoryPoint(positions=[float(v) for v in traj.positions[k]],
                                    velocities=[float(v) for v in traj.velocities[k]],
                                    accelerations=[float(v) for v in traj.accelerations[k]],
-                                   time_from_start=float(lead + traj.times[k]))
-              for k in range(len(traj))]
+                                   time_from_start=float(max(traj.times[k] + shift, min_lead)))
+              for k in keep]
     return JointTrajectory(joint_names=list(traj.joint_names), points=points, frame_id=goal_id)
-
