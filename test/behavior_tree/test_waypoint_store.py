@@ -35,6 +35,14 @@ def test_save_list_rename_erase_round_trip_through_the_file_in_moveit_pro_s_form
                                                                                          ["arm"])
 
 
+@pytest.mark.parametrize("mode", [0o640, 0o604])
+def test_a_rewrite_keeps_the_file_s_permissions(tmp_path, mode):
+    store, path = _store(tmp_path)
+    path.chmod(mode)
+    store.save(Waypoint("w", ["a"], [0.0]))
+    assert path.stat().st_mode & 0o777 == mode
+
+
 @pytest.mark.parametrize("name, why", [
     ("", "must not be empty"), ("   ", "must not be empty"), ("bad\x00name", "control characters"),
     ("two\nlines", "control characters"), ("esc\x1b[31m", "control characters"), ("x" * 300, "at most"),
