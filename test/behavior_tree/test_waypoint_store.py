@@ -114,3 +114,15 @@ def test_the_shipped_waypoints_are_inside_the_mycobot_limits():
     assert len(store.list()) == 7
     for waypoint in store.list():
         store.check(waypoint)
+
+
+def test_two_stores_on_one_file_see_each_other_s_changes(tmp_path):
+    """The objective_server and the planning_server share the waypoints file: neither loses what
+    the other saved."""
+    first, path = _store(tmp_path)
+    second = WaypointStore(path, LIMITS)
+    first.save(Waypoint("from first", ["a"], [0.1]))
+    assert second.names() == ["from first"]
+    second.save(Waypoint("from second", ["a"], [0.2]))
+    first.rename("from second", "renamed")
+    assert WaypointStore(path).names() == ["from first", "renamed"] == second.names()

@@ -51,8 +51,28 @@ class WaypointStore:
         self.limits = dict(limits or {})
         self._lock = threading.Lock()
         self._waypoints: dict[str, Waypoint] = {}
+        self._signature: tuple[int, int, int] | None = None
         if self.path is not None:
+            self._signature = self._stat()
             self._waypoints = self._load(self.path)
+
+    def _stat(self) -> tuple[int, int, int] | None:
+        try:
+            st = self.path.stat()
+        except OSError:
+            return None
+        return st.st_ino, st.st_mtime_ns, st.st_size
+
+    def _current(self) -> dict[str, Waypoint]:
+        """The waypoints, re-read when the file changed since this store last read or wrote it
+        (another process saved one: the objective_server and the planning_server share the
+        file). Called with the lock held."""
+        if self.path is not None:
+            signature = self._stat()
+            if signature is not None and signature != self._signature:
+                self._waypoints = self._load(self.path)
+                self._signature = signature
+        return self._waypoints
 
     @staticmethod
     def _load(path: Path) -> dict[str, Waypoint]:
@@ -84,17 +104,18 @@ class WaypointStore:
 
     def names(self) -> list[str]:
         with self._lock:
-            return list(self._waypoints)
+            return list(self._current())
 
     def list(self) -> list[Waypoint]:
         """Every waypoint, in file order."""
         with self._lock:
-            return list(self._waypoints.values())
+            return list(self._current().values())
 
     def get(self, name: str) -> Waypoint:
         with self._lock:
-            waypoint = self._waypoints.get(name)
-            known = ", ".join(self._waypoints) or "none"
+            current = self._current()
+            waypoint = current.get(name)
+            known = ", ".join(current) or "none"
         if waypoint is None:
             raise WaypointError(f"no waypoint named '{name}' (waypoints: {known})")
         return waypoint
@@ -128,10 +149,11 @@ class WaypointStore:
         self.check(waypoint)
         waypoint.positions = [float(p) for p in waypoint.positions]
         with self._lock:
-            if waypoint.name in self._waypoints and not overwrite:
+            current = self._current()
+            if waypoint.name in current and not overwrite:
                 raise WaypointError(f"a waypoint named '{waypoint.name}' exists already (save with overwrite to "
                                     "replace it)")
-            updated = dict(self._waypoints)
+            updated = dict(current)
             updated[waypoint.name] = waypoint
             self._commit(updated)
 
@@ -141,11 +163,12 @@ class WaypointStore:
         if problem:
             raise WaypointError(problem)
         with self._lock:
-            if old_name not in self._waypoints:
-                raise WaypointError(f"no waypoint named '{old_name}' (waypoints: {', '.join(self._waypoints) or 'none'})")
-            if new_name != old_name and new_name in self._waypoints:
+            current = self._current()
+            if old_name not in current:
+                raise WaypointError(f"no waypoint named '{old_name}' (waypoints: {', '.join(current) or 'none'})")
+            if new_name != old_name and new_name in current:
                 raise WaypointError(f"a waypoint named '{new_name}' exists already")
-            updated = {(new_name if name == old_name else name): w for name, w in self._waypoints.items()}
+            updated = {(new_name if name == old_name else name): w for name, w in current.items()}
             updated[new_name] = Waypoint(new_name, *(getattr(updated[new_name], f) for f in (
                 "joint_names", "positions", "description", "favorite", "joint_group_names")))
             self._commit(updated)
@@ -153,13 +176,15 @@ class WaypointStore:
     def erase(self, name: str) -> None:
         """Remove waypoint ``name``."""
         with self._lock:
-            if name not in self._waypoints:
-                raise WaypointError(f"no waypoint named '{name}' (waypoints: {', '.join(self._waypoints) or 'none'})")
-            self._commit({n: w for n, w in self._waypoints.items() if n != name})
+            current = self._current()
+            if name not in current:
+                raise WaypointError(f"no waypoint named '{name}' (waypoints: {', '.join(current) or 'none'})")
+            self._commit({n: w for n, w in current.items() if n != name})
 
     def _commit(self, updated: dict[str, Waypoint]) -> None:
         """Write ``updated`` (atomically) and only then make it the store's content: a failed
         write changes neither the file nor the store. Called with the lock held."""
         if self.path is not None:
             atomic_write_text(self.path, yaml.safe_dump([w.to_yaml() for w in updated.values()], sort_keys=False))
+            self._signature = self._stat()
         self._waypoints = updated
