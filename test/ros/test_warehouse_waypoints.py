@@ -84,13 +84,14 @@ def test_warehouse_services_save_list_rename_get_delete_and_refuse_a_bad_name(sy
 
 
 def test_waypoints_save_list_rename_erase_and_move_to_through_plan_and_execute(system):
-    probe, rpc, _, _, waypoints = system
+    probe, rpc, server, _, waypoints = system
     start = probe.joints()
     rpc.call("save_waypoint", {"name": "Start", "description": "where the test began"})
     with pytest.raises(RpcError, match="exists already"):
         rpc.call("save_waypoint", {"name": "Start"})
     with pytest.raises(RpcError, match="control characters"):
         rpc.call("save_waypoint", {"name": "bad\x00name"})
+    assert wait_until(lambda: "save_waypoint: waypoint name" in server.output(), 5.0), server.output()[-2000:]
     rpc.call("rename_waypoint", {"old_name": "Start", "new_name": "Begin"})
     names = [w["name"] for w in rpc.call("list_waypoints")["waypoints"]]
     assert "Begin" in names and "Start" not in names
