@@ -154,8 +154,11 @@ class SaveWaypoint(_ContextAction):
             state = self.context.current_joint_state()
         except LookupError as exc:
             return self.fail(str(exc))
-        self.context.waypoints.save(Waypoint(self.get_input("waypoint_name"), list(state.name), list(state.position),
-                                             self.get_input("description")))
+        try:
+            self.context.waypoints.save(Waypoint(self.get_input("waypoint_name"), list(state.name),
+                                                 list(state.position), self.get_input("description")), overwrite=True)
+        except WaypointError as exc:
+            return self.fail(str(exc))
         return SUCCESS
 
 

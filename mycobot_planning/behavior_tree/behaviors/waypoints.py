@@ -1,13 +1,23 @@
 """Saved waypoints: named joint states, kept in a YAML file in MoveIt Pro's waypoint format
-(a list of ``{name, description, favorite, joint_group_names, joint_state: {name, position}}``)."""
+(a list of ``{name, description, favorite, joint_group_names, joint_state: {name, position}}``).
+
+The one waypoint store of the package: the objectives' behaviors (MoveToWaypoint,
+RetrieveWaypoint, SaveWaypoint) and the planning_server's waypoint methods both use it. Names
+are checked (non-empty, no control characters or NUL), positions must be finite and, when the
+store knows the joint limits, inside them; every change is written atomically (a temporary file
+in the same directory, flushed and fsynced, then ``os.replace``): a crash mid-write leaves the
+old file whole."""
 from __future__ import annotations
 
+import math
 import threading
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Mapping
 
 import yaml
+
+from ...core.warehouse.names import atomic_write_text, name_problem
 
 
 class WaypointError(ValueError):
@@ -30,14 +40,39 @@ class Waypoint:
 
 
 class WaypointStore:
-    """Waypoints by name, loaded from (and saved to) a YAML file; thread-safe."""
+    """Waypoints by name, loaded from (and saved to) a YAML file; thread-safe.
 
-    def __init__(self, path: str | Path | None = None) -> None:
+    ``limits``: joint name → (lower, upper) bounds saved positions must lie in (joints it does
+    not name are only checked to be finite)."""
+
+    def __init__(self, path: str | Path | None = None,
+                 limits: Mapping[str, tuple[float, float]] | None = None) -> None:
         self.path = Path(path) if path else None
+        self.limits = dict(limits or {})
         self._lock = threading.Lock()
         self._waypoints: dict[str, Waypoint] = {}
+        self._signature: tuple[int, int, int] | None = None
         if self.path is not None:
+            self._signature = self._stat()
             self._waypoints = self._load(self.path)
+
+    def _stat(self) -> tuple[int, int, int] | None:
+        try:
+            st = self.path.stat()
+        except OSError:
+            return None
+        return st.st_ino, st.st_mtime_ns, st.st_size
+
+    def _current(self) -> dict[str, Waypoint]:
+        """The waypoints, re-read when the file changed since this store last read or wrote it
+        (another process saved one: the objective_server and the planning_server share the
+        file). Called with the lock held."""
+        if self.path is not None:
+            signature = self._stat()
+            if signature is not None and signature != self._signature:
+                self._waypoints = self._load(self.path)
+                self._signature = signature
+        return self._waypoints
 
     @staticmethod
     def _load(path: Path) -> dict[str, Waypoint]:
@@ -69,20 +104,87 @@ class WaypointStore:
 
     def names(self) -> list[str]:
         with self._lock:
-            return list(self._waypoints)
+            return list(self._current())
+
+    def list(self) -> list[Waypoint]:
+        """Every waypoint, in file order."""
+        with self._lock:
+            return list(self._current().values())
 
     def get(self, name: str) -> Waypoint:
         with self._lock:
-            waypoint = self._waypoints.get(name)
-            known = ", ".join(self._waypoints) or "none"
+            current = self._current()
+            waypoint = current.get(name)
+            known = ", ".join(current) or "none"
         if waypoint is None:
             raise WaypointError(f"no waypoint named '{name}' (waypoints: {known})")
         return waypoint
 
-    def save(self, waypoint: Waypoint) -> None:
-        """Add or replace a waypoint, and write the file when the store has one."""
+    def check(self, waypoint: Waypoint) -> None:
+        """Raise WaypointError when ``waypoint`` cannot be saved (its name, its joint state)."""
+        problem = name_problem(waypoint.name)
+        if problem:
+            raise WaypointError(problem)
+        names, positions = list(waypoint.joint_names), list(waypoint.positions)
+        if not names or len(names) != len(positions):
+            raise WaypointError(f"waypoint '{waypoint.name}': {len(names)} joint names but {len(positions)} positions")
+        if len(set(names)) != len(names):
+            raise WaypointError(f"waypoint '{waypoint.name}': a joint is named twice in {names}")
+        for joint, value in zip(names, positions):
+            try:
+                value = float(value)
+            except (TypeError, ValueError):
+                raise WaypointError(f"waypoint '{waypoint.name}': joint '{joint}' position {value!r} is not a number") \
+                    from None
+            if not math.isfinite(value):
+                raise WaypointError(f"waypoint '{waypoint.name}': joint '{joint}' position {value} is not finite")
+            bounds = self.limits.get(joint)
+            if bounds is not None and not bounds[0] <= value <= bounds[1]:
+                raise WaypointError(f"waypoint '{waypoint.name}': joint '{joint}' position {value:.6g} is outside "
+                                    f"its limits [{bounds[0]:.6g}, {bounds[1]:.6g}]")
+
+    def save(self, waypoint: Waypoint, overwrite: bool = False) -> None:
+        """Add a waypoint (replace the one of that name only when ``overwrite``), and write the
+        file when the store has one."""
+        self.check(waypoint)
+        waypoint.positions = [float(p) for p in waypoint.positions]
         with self._lock:
-            self._waypoints[waypoint.name] = waypoint
-            data = [w.to_yaml() for w in self._waypoints.values()]
-            if self.path is not None:
-                self.path.write_text(yaml.safe_dump(data, sort_keys=False))
+            current = self._current()
+            if waypoint.name in current and not overwrite:
+                raise WaypointError(f"a waypoint named '{waypoint.name}' exists already (save with overwrite to "
+                                    "replace it)")
+            updated = dict(current)
+            updated[waypoint.name] = waypoint
+            self._commit(updated)
+
+    def rename(self, old_name: str, new_name: str) -> None:
+        """Give waypoint ``old_name`` the name ``new_name`` (it keeps its place in the file)."""
+        problem = name_problem(new_name, "new waypoint name")
+        if problem:
+            raise WaypointError(problem)
+        with self._lock:
+            current = self._current()
+            if old_name not in current:
+                raise WaypointError(f"no waypoint named '{old_name}' (waypoints: {', '.join(current) or 'none'})")
+            if new_name != old_name and new_name in current:
+                raise WaypointError(f"a waypoint named '{new_name}' exists already")
+            updated = {(new_name if name == old_name else name): w for name, w in current.items()}
+            updated[new_name] = Waypoint(new_name, *(getattr(updated[new_name], f) for f in (
+                "joint_names", "positions", "description", "favorite", "joint_group_names")))
+            self._commit(updated)
+
+    def erase(self, name: str) -> None:
+        """Remove waypoint ``name``."""
+        with self._lock:
+            current = self._current()
+            if name not in current:
+                raise WaypointError(f"no waypoint named '{name}' (waypoints: {', '.join(current) or 'none'})")
+            self._commit({n: w for n, w in current.items() if n != name})
+
+    def _commit(self, updated: dict[str, Waypoint]) -> None:
+        """Write ``updated`` (atomically) and only then make it the store's content: a failed
+        write changes neither the file nor the store. Called with the lock held."""
+        if self.path is not None:
+            atomic_write_text(self.path, yaml.safe_dump([w.to_yaml() for w in updated.values()], sort_keys=False))
+            self._signature = self._stat()
+        self._waypoints = updated

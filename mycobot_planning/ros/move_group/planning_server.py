@@ -32,6 +32,7 @@ from mycobot_planning.capabilities.json_face import (
     RequestError,
     goal_from_parameters,
 )
+from mycobot_planning.behavior_tree.behaviors.waypoints import WaypointStore
 from mycobot_planning.core.planning_interface.planning_pipeline import PlanningPipeline
 from mycobot_planning.core.robot_model.robot_config import RobotConfig
 from mycobot_planning.core.robot_model.robot_model import RobotModel
@@ -39,9 +40,12 @@ from mycobot_planning.core.robot_trajectory.robot_trajectory import DEFAULT_MAX_
 from mycobot_planning.core.trajectory_execution import ExecutionSettings, load_controllers
 from mycobot_planning.core.trajectory_processing.trajectory_limits import DEFAULT_LIMIT_TOLERANCE
 from mycobot_planning.ros.move_group.controller_bus import ActionControllerBus
+from mycobot_planning.core.warehouse.robot_state_storage import RobotStateStorage
 from mycobot_planning.ros.move_group.move_group import MoveGroupFace
+from mycobot_planning.ros.move_group.warehouse_services import WarehouseServices
+from mycobot_planning.ros.move_group.waypoint_methods import WaypointMethods
 from mycobot_planning.ros.node_runtime import Parameters, ParameterSpec, load_yaml_file
-from mycobot_planning.paths import config_file, package_share_dirs
+from mycobot_planning.paths import config_dir, config_file, package_share_dirs
 
 NODE_NAME = "planning_server"
 LATCHED_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -117,6 +121,14 @@ class PlanningServer(Node):
             ParameterSpec("controllers_file", "",
                           "controllers YAML (ros2_control or MoveIt layout); empty: config/controllers.yaml",
                           read_only=True),
+            ParameterSpec("warehouse_host", ":memory:",
+                          "SQLite database file of the warehouse robot states (/save_robot_state, ...), as "
+                          "warehouse_ros_sqlite reads warehouse_host; '~' expands; ':memory:' (the default) keeps "
+                          "them only while the server runs", non_empty=True, read_only=True),
+            ParameterSpec("waypoints_file", "",
+                          "YAML file of saved waypoints (MoveIt Pro's format) the waypoint methods of "
+                          "/planning_server/rpc read and write; empty: the package's myCobot waypoints for the "
+                          "package's robot, none (kept in memory) for another", read_only=True),
         ])
         self._robot_config = RobotConfig.load(self._config.get("robot_config")) if self._config.get("robot_config") \
             else None
@@ -191,6 +203,7 @@ class PlanningServer(Node):
             "execute_task_solution": lambda p: self.core.execute_task_solution(p),
             "stop": self._rpc_stop,
             "get_state": self._rpc_get_state,
+            **WaypointMethods(self.core, self._waypoint_store(model), lambda: self._params.get("goal.group")).methods(),
         }.items():
             self._rpc.register(method, handler)
 
@@ -201,6 +214,9 @@ class PlanningServer(Node):
         self._publish_scene()
         self.move_group = MoveGroupFace(self.core, *self._model_sources(), self.context, self._log)
         self.extra_nodes = [self.move_group]
+        # MoveIt's warehouse services run beside move_group; ours on the move_group node
+        self.warehouse = WarehouseServices(self.move_group, RobotStateStorage(self._config.get("warehouse_host")),
+                                           self._log)
         self.move_group.publish_scene()
         self._monitor_spin = BackgroundSpin(self._monitor_executor, name="state monitor")
         log.info(
@@ -238,9 +254,23 @@ class PlanningServer(Node):
                 str(config_file("kinematics.yaml")), "kinematics")
         return urdf, srdf or '<robot name=""/>', limits, kinematics
 
+    def _waypoint_store(self, model: RobotModel) -> WaypointStore:
+        """The waypoints_file's store (the package's myCobot waypoints by default), positions
+        checked against the model's joint limits."""
+        path = self._config.get("waypoints_file")
+        if not path and self._is_package_robot():
+            path = str(config_dir() / "waypoints" / "mycobot_waypoints.yaml")
+        limits = {n: (float(lo), float(hi)) for n, lo, hi in zip(model.variable_names, model.lower_limits,
+                                                                 model.upper_limits)}
+        return WaypointStore(path or None, limits)
+
+    def _is_package_robot(self) -> bool:
+        """Whether the robot is the package's own myCobot 280 (no robot parameter given)."""
+        return self._robot_config is None and not any(self._config.get(name) for name in (
+            "robot_description", "robot_description_semantic", "joint_limits_file", "kinematics_file"))
+
     def _load_model(self) -> RobotModel:
-        if self._robot_config is None and not any(self._config.get(name) for name in (
-                "robot_description", "robot_description_semantic", "joint_limits_file", "kinematics_file")):
+        if self._is_package_robot():
             return RobotModel.mycobot()
         urdf, srdf, limits, kinematics = self._model_sources()
         dirs = [*(self._robot_config.package_dirs if self._robot_config else ()), *package_share_dirs()]
@@ -401,6 +431,7 @@ class PlanningServer(Node):
         self._monitor_spin.stop()
         self._monitor.destroy_node()
         self.move_group.close()
+        self.warehouse.storage.close()
         self.move_group.destroy_node()
 
     # ------------------------------------------------------------------ publishing
