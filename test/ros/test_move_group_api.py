@@ -687,9 +687,6 @@ def test_cancelling_the_controllers_own_goal_decelerates_within_the_limits(clien
     moveit_simple_controller_manager does to stop): the joints slow down along the goal's path
     within their acceleration limits (5 rad/s^2), the goal ends canceled once they are at rest."""
     from control_msgs.action import FollowJointTrajectory
-    from trajectory_msgs.msg import JointTrajectoryPoint
-
-    from interfaces_py.ros_conversions import seconds_to_duration
 
     move(client, SWEEP_START)
     controller = ActionClient(client.node, FollowJointTrajectory, "/arm_controller/follow_joint_trajectory")
