@@ -91,6 +91,7 @@ class ControllerActions:
         self.state_pub = manager.create_publisher(JointTrajectoryControllerState, f"/{name}/controller_state", 10)
         self._state_msg = JointTrajectoryControllerState()
         self._state_msg.joint_names = list(controller.config.joints)
+        self._state_points = (JointTrajectoryPoint(), JointTrajectoryPoint(), JointTrajectoryPoint())
         self._closing = False
 
     def destroy(self) -> None:
@@ -103,9 +104,24 @@ class ControllerActions:
 
     # ------------------------------------------------------------------ controller_state
     def publish_state(self, state: FollowerState, stamp: Any) -> None:
+        """controller_state at every update, as JTC does: the message's points are reused and
+        filled in place (this runs at the controller rate: building three new points with exact
+        Duration arithmetic each time was most of the idle node's cost)."""
         msg = self._state_msg
         msg.header.stamp = stamp
-        msg.reference, msg.feedback, msg.error = _state_points(state)
+        t = state.time_from_start
+        sec = math.floor(t) if math.isfinite(t) else 0
+        nanosec = min(999_999_999, max(0, int(round((t - sec) * 1e9)))) if math.isfinite(t) else 0
+        for point, (p, v, a) in zip(self._state_points, (
+                (state.desired_positions, state.desired_velocities, state.desired_accelerations),
+                (state.actual_positions, state.actual_velocities, state.actual_accelerations),
+                (state.desired_positions - state.actual_positions, state.desired_velocities - state.actual_velocities,
+                 state.desired_accelerations - state.actual_accelerations))):
+            point.positions = p.tolist()
+            point.velocities = v.tolist()
+            point.accelerations = a.tolist()
+            point.time_from_start.sec, point.time_from_start.nanosec = int(sec), nanosec
+        msg.reference, msg.feedback, msg.error = self._state_points
         msg.output = msg.reference
         self.state_pub.publish(msg)
 
