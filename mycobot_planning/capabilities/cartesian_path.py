@@ -75,7 +75,7 @@ def compute_cartesian_path(ctx: MoveGroupContext, request: CartesianPathRequest,
         poses = ctx.in_world(list(request.waypoints), request.frame or "world", scene)
         kwargs["path_constraints"] = ctx.resolve_path_constraints(request.path_constraints, scene)
     except RequestError as exc:
-        return CartesianPathResult(MoveItErrorCode(exc.code, exc.message, "planning_server"),
+        return CartesianPathResult(MoveItErrorCode(exc.moveit_code, exc.message, "planning_server"),
                                    stop_reason="invalid_request")
     result = follow_waypoints(scene, request.group, scene.current_state.copy(), poses, link=request.link or None,
                               ik_frame_offset=request.ik_frame_offset, avoid_collisions=request.avoid_collisions,

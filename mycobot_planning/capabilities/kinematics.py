@@ -36,7 +36,7 @@ def compute_ik(ctx: MoveGroupContext, group: str, pose: np.ndarray, frame: str =
         scene = ctx.start_scene(seed, model.group(group).joint_names)
         target = ctx.in_world([pose], frame or "world", scene)[0]
     except RequestError as exc:
-        return MoveItErrorCode(exc.code, exc.message, "compute_ik"), None
+        return MoveItErrorCode(exc.moveit_code, exc.message, "compute_ik"), None
     answer = ctx.queries.compute_ik(scene, group, target, link, avoid_collisions, timeout)
     if answer.state is None:
         return MoveItErrorCode(getattr(MoveItErrorCode, answer.error), answer.message, "compute_ik"), None
@@ -65,5 +65,5 @@ def compute_fk(ctx: MoveGroupContext, links: Sequence[str], frame: str = "world"
         except SceneError as exc:
             raise RequestError(MoveItErrorCode.FRAME_TRANSFORM_FAILURE, str(exc)) from None
     except RequestError as exc:
-        return MoveItErrorCode(exc.code, exc.message, "compute_fk"), {}
+        return MoveItErrorCode(exc.moveit_code, exc.message, "compute_fk"), {}
     return MoveItErrorCode(MoveItErrorCode.SUCCESS, "", "compute_fk"), poses

@@ -122,11 +122,13 @@ class MoveGroupContext(PlanningSceneMonitor):
         with self._lock:
             return list(self.planning)
 
-    def start_scene(self, start_state: Any, group_joints: Sequence[str]) -> PlanningScene:
+    def start_scene(self, start_state: Any, group_joints: Sequence[str], scene_diff: Any = None) -> PlanningScene:
         """A copy of the monitored scene whose current state is the request's start state.
 
         A start state naming every active joint needs no joint states; otherwise its joints (if
         any) are merged onto the current state, which must be fresh (RequestError otherwise).
+        ``scene_diff`` (a PlanningScene message, MoveIt's planning_options.planning_scene_diff)
+        is applied to the copy first: this request's scene only, the live one keeps nothing.
         """
         msg = None
         if start_state is not None:
@@ -150,7 +152,7 @@ class MoveGroupContext(PlanningSceneMonitor):
             problem = self.joint_state_problem([j for j in group_joints if j not in active])
             if problem is not None:
                 raise RequestError(*problem)
-        scene = self.scene_copy()
+        scene = self.scene_copy() if scene_diff is None else self.scene_with_diff(scene_diff)
         try:
             if active:
                 scene.set_current_state(active)

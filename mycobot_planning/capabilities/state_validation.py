@@ -27,5 +27,5 @@ def check_state_validity(ctx: MoveGroupContext, state: RobotStateMsg | None = No
                 return ok, ValidityAnswer(False, [], outside)
         scene = ctx.start_scene(state, ctx.model.variable_names if state is None else [])
     except RequestError as exc:
-        return MoveItErrorCode(exc.code, exc.message, "check_state_validity"), ValidityAnswer(False)
+        return MoveItErrorCode(exc.moveit_code, exc.message, "check_state_validity"), ValidityAnswer(False)
     return ok, ctx.queries.check_validity(scene)

@@ -122,6 +122,22 @@ def _typed_code(code: MoveItErrorCode) -> MoveItErrorCodes:
     return MoveItErrorCodes(val=val, message=code.message, source=code.source)
 
 
+def _empty_scene_diff(diff: Any) -> bool:
+    """A PlanningScene message that changes nothing (what a client leaves unset): no object,
+    joint, attached object, collision matrix entry, padding, scale, color or octomap."""
+    acm = diff.allowed_collision_matrix
+    return not any(len(x) for x in (
+        diff.world.collision_objects, diff.robot_state.joint_state.name, diff.robot_state.attached_collision_objects,
+        diff.robot_state.multi_dof_joint_state.joint_names, acm.entry_names, acm.default_entry_names,
+        diff.link_padding, diff.link_scale, diff.object_colors, diff.fixed_frame_transforms,
+        diff.world.octomap.octomap.data))
+
+
+def _code_of(exc: Exception) -> int:
+    """A refusal's MoveItErrorCodes value (a RequestError's BAD_REQUEST is no MoveIt code)."""
+    return exc.moveit_code if isinstance(exc, RequestError) else int(getattr(exc, "code", MoveItErrorCodes.FAILURE))
+
+
 def _failure(val: int, message: str, source: str = "move_group") -> MoveItErrorCodes:
     return MoveItErrorCodes(val=val if val in _MOVEIT_CODES else MoveItErrorCodes.FAILURE, message=message,
                             source=source)
@@ -200,7 +216,7 @@ class MoveGroupFace(Node):
             except (ConversionError, RequestError) as exc:
                 self._log("warning", f"{name}: refused: {exc.message}")
                 if hasattr(response, "error_code"):
-                    response.error_code = _failure(exc.code, exc.message, name.strip("/"))
+                    response.error_code = _failure(_code_of(exc), exc.message, name.strip("/"))
                 return response
             except Exception as exc:
                 self._log("error", f"{name} failed: {type(exc).__name__}: {exc}\n{traceback.format_exc()}")
@@ -263,7 +279,7 @@ class MoveGroupFace(Node):
         try:
             result = plan.plan_any(self.core, *self._plan_request(request.motion_plan_request))
         except ConversionError as exc:
-            response.motion_plan_response.error_code = _failure(exc.code, exc.message, "plan_kinematic_path")
+            response.motion_plan_response.error_code = _failure(_code_of(exc), exc.message, "plan_kinematic_path")
             response.motion_plan_response.group_name = request.motion_plan_request.group_name
             self._log("warning", f"plan_kinematic_path: refused: {exc.message}")
             return response
@@ -411,8 +427,13 @@ class MoveGroupFace(Node):
     def _srv_set_planner_params(self, request: SetPlannerParams.Request,
                                 response: SetPlannerParams.Response) -> SetPlannerParams.Response:
         p = request.params
-        problem = planner_query.set_planner_params(self.core, request.pipeline_id, request.planner_config,
-                                                   dict(zip(p.keys, p.values)), bool(request.replace))
+        if len(p.keys) != len(p.values):  # moveit_msgs/SetPlannerParams has no answer: the log says why
+            problem = f"params has {len(p.keys)} keys but {len(p.values)} values; nothing changed"
+        elif len(set(p.keys)) != len(p.keys):
+            problem = "params names a key twice; nothing changed"
+        else:
+            problem = planner_query.set_planner_params(self.core, request.pipeline_id, request.planner_config,
+                                                       dict(zip(p.keys, p.values)), bool(request.replace))
         if problem:
             self._log("warning", f"set_planner_params: refused: {problem}")
         return response
@@ -457,18 +478,19 @@ class MoveGroupFace(Node):
                                                             float(options.replan_delay), self._log)
             except RequestError as exc:
                 raise ConversionError(exc.code, exc.message) from None
-            diff = options.planning_scene_diff
-            if (len(diff.world.collision_objects) or len(diff.robot_state.joint_state.name)
-                    or len(diff.robot_state.attached_collision_objects)):
+            # The goal's scene diff is planned with, never applied to the live scene (MoveIt
+            # plans on a copy of the monitored scene with the diff): a goal changes nothing there.
+            scene_diff = None
+            if not _empty_scene_diff(options.planning_scene_diff):
                 try:
-                    planning_scene.apply_planning_scene(self.core, planning_scene_from_msg(diff))
+                    scene_diff = planning_scene_from_msg(options.planning_scene_diff)
+                    self.core.scene_with_diff(scene_diff)  # checked now: a refused diff plans nothing
                 except RequestError as exc:
-                    raise ConversionError(MoveItErrorCodes.FAILURE,
-                                          f"planning_scene_diff refused: {exc.message}") from None
+                    raise ConversionError(exc.moveit_code, f"planning_scene_diff refused: {exc.message}") from None
             requests, start, path = self._plan_request(goal.request)
         except ConversionError as exc:
             self._log("warning", f"move_action: refused: {exc.message}")
-            result.error_code = _failure(exc.code, exc.message, "move_action")
+            result.error_code = _failure(_code_of(exc), exc.message, "move_action")
             goal_handle.abort()
             return result
         feedback.state = "PLANNING"
@@ -499,7 +521,7 @@ class MoveGroupFace(Node):
         planned, executed = self._execute_with_cancel(goal_handle, lambda: move_action.plan_and_execute(
             self.core, requests, start, path, plan_only=options.plan_only, before_execution=planned_ok,
             replanning=replanning, cancelled=lambda: goal_handle.is_cancel_requested, on_replan=replanning_now,
-            on_replanned=replanned), executing)
+            on_replanned=replanned, scene_diff=scene_diff), executing)
         if planned is None:  # refused: another execution runs
             result.error_code = _typed_code(executed.error_code)
             goal_handle.abort()
@@ -536,7 +558,7 @@ class MoveGroupFace(Node):
             steps = parse_task_solution(task_solution_from_msg(goal_handle.request.solution))
         except (ConversionError, ExecutionError) as exc:
             self._log("warning", f"execute_task_solution: refused: {exc.message}")
-            result.error_code = _failure(exc.code, exc.message, "execute_task_solution")
+            result.error_code = _failure(_code_of(exc), exc.message, "execute_task_solution")
             goal_handle.abort()
             return result
         executed = self._execute_with_cancel(goal_handle,
@@ -552,7 +574,7 @@ class MoveGroupFace(Node):
             trajectory, _ = joint_trajectory_from_ros(goal.trajectory)
         except ConversionError as exc:
             self._log("warning", f"execute_trajectory: refused: {exc.message}")
-            result.error_code = _failure(exc.code, exc.message, "execute_trajectory")
+            result.error_code = _failure(_code_of(exc), exc.message, "execute_trajectory")
             goal_handle.abort()
             return result
         controllers = list(goal.controller_names) or None
