@@ -13,7 +13,7 @@ from interfaces_py.msgs import JointTrajectory, MoveItErrorCode, RobotState as R
 from ..core.planning_interface.planning_interface import MotionPlanRequest, PoseGoal
 from ..core.planning_scene.planning_scene import PlanningScene
 from ..core.robot_trajectory.robot_trajectory import timed_to_joint_trajectory
-from .move_group_context import SOURCE, MoveGroupContext, RequestError, check_number
+from .move_group_context import SOURCE, MoveGroupContext, RequestError, check_goal, check_number
 
 __all__ = ["MAX_PLANNING_ATTEMPTS", "MAX_PLANNING_TIME", "PlanResult", "complete_request", "plan", "plan_any"]
 
@@ -50,9 +50,11 @@ def complete_request(ctx: MoveGroupContext, request: MotionPlanRequest, start_st
     if not model.has_group(request.group):
         raise RequestError(MoveItErrorCode.INVALID_GROUP_NAME,
                            f"unknown planning group {request.group!r}; known: {', '.join(model.group_names)}")
+    check_goal(model, request.goal)
     d = ctx.defaults
     request.pipeline_id = request.pipeline_id or d.pipeline_id
-    request.planner_id = request.planner_id or d.planner_id
+    if not request.planner_id and request.pipeline_id == d.pipeline_id:  # another pipeline: its own default
+        request.planner_id = d.planner_id
     for key, default in (("allowed_planning_time", d.planning_time),
                          ("max_velocity_scaling_factor", d.max_velocity_scaling_factor),
                          ("max_acceleration_scaling_factor", d.max_acceleration_scaling_factor)):

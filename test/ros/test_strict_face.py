@@ -8,12 +8,21 @@ import math
 
 import pytest
 from action_msgs.msg import GoalStatus
+from geometry_msgs.msg import Pose
 from moveit_msgs.action import MoveGroup
-from moveit_msgs.msg import PlannerParams
-from moveit_msgs.srv import GetPlannerParams, SetPlannerParams
+from moveit_msgs.msg import Constraints, JointConstraint, LinkPadding, LinkScale, PlannerParams
+from moveit_msgs.srv import (
+    ApplyPlanningScene,
+    GetCartesianPath,
+    GetMotionPlan,
+    GetPlannerParams,
+    GetPositionIK,
+    GetStateValidity,
+    SetPlannerParams,
+)
 
 from ros_testing import robot_processes
-from test_move_group_api import FAR, READY, C, Client, box, joint_goal, world_ids
+from test_move_group_api import ARM, FAR, READY, C, Client, box, joint_goal, world_ids
 
 
 @pytest.fixture(scope="module")
@@ -81,3 +90,66 @@ def test_set_planner_params_is_all_or_nothing(client: Client, keys, values) -> N
 def test_the_server_still_plans(client: Client) -> None:
     response = _result(client, _move_goal(READY))
     assert response.result.error_code.val == C.SUCCESS
+
+
+# ----------------------------------------------------------------------------- refused, not rewritten
+def test_goals_are_refused_instead_of_rewritten(client: Client) -> None:
+    request = joint_goal(FAR)
+    request.motion_plan_request.goal_constraints[0].joint_constraints[0].tolerance_above = math.nan
+    response = client.call(GetMotionPlan, "/plan_kinematic_path", request).motion_plan_response
+    assert response.error_code.val == C.INVALID_GOAL_CONSTRAINTS and "tolerance_above" in response.error_code.message
+    request = joint_goal(FAR)
+    request.motion_plan_request.pipeline_id = "joint_interpolation"
+    request.motion_plan_request.planner_id = "PTP"
+    response = client.call(GetMotionPlan, "/plan_kinematic_path", request).motion_plan_response
+    assert response.error_code.val == C.INVALID_MOTION_PLAN and "PTP" in response.error_code.message
+    cartesian = GetCartesianPath.Request(group_name="arm", max_step=0.0)
+    cartesian.waypoints = [Pose()]
+    cartesian.waypoints[0].position.x, cartesian.waypoints[0].position.z = 0.15, 0.2
+    cartesian.waypoints[0].orientation.w = 1.0
+    answer = client.call(GetCartesianPath, "/compute_cartesian_path", cartesian)
+    assert answer.error_code.val == C.FAILURE and "max_step" in answer.error_code.message  # as MoveIt
+
+
+def test_state_validity_and_ik_honour_their_constraints(client: Client) -> None:
+    request = GetStateValidity.Request(group_name="arm")
+    request.robot_state.joint_state.name = list(ARM)
+    request.robot_state.joint_state.position = [0.0] * 6
+    request.constraints = Constraints(joint_constraints=[JointConstraint(
+        joint_name=ARM[0], position=1.0, tolerance_above=0.1, tolerance_below=0.1, weight=1.0)])
+    answer = client.call(GetStateValidity, "/check_state_validity", request)
+    assert not answer.valid and [r.result for r in answer.constraint_result] == [False]
+    assert answer.constraint_result[0].distance == pytest.approx(0.9)
+    ik = GetPositionIK.Request()
+    ik.ik_request.group_name = "arm"
+    ik.ik_request.pose_stamped.header.frame_id = "world"
+    ik.ik_request.pose_stamped.pose.position.x, ik.ik_request.pose_stamped.pose.position.z = 0.15, 0.2
+    ik.ik_request.pose_stamped.pose.orientation.w = 1.0
+    ik.ik_request.constraints = Constraints(joint_constraints=[JointConstraint(
+        joint_name=ARM[0], position=math.nan, tolerance_above=0.1, tolerance_below=0.1, weight=1.0)])
+    answer = client.call(GetPositionIK, "/compute_ik", ik)
+    assert answer.error_code.val not in (C.SUCCESS, C.FAILURE), answer.error_code.message
+
+
+def test_internal_errors_become_moveit_error_codes(client: Client) -> None:
+    ik = GetPositionIK.Request()
+    ik.ik_request.group_name = "arm"
+    ik.ik_request.pose_stamped.pose.orientation.w = 1.0
+    ik.ik_request.timeout.sec = 2 ** 31 - 1
+    answer = client.call(GetPositionIK, "/compute_ik", ik)
+    assert answer.error_code.val not in (C.SUCCESS, C.FAILURE) and "timeout" in answer.error_code.message
+    request = GetStateValidity.Request(group_name="arm")
+    request.robot_state.joint_state.name = ["nojoint"]
+    request.robot_state.joint_state.position = [0.0]
+    answer = client.call(GetStateValidity, "/check_state_validity", request)
+    assert not answer.valid
+    scene = ApplyPlanningScene.Request()
+    scene.scene.is_diff = True
+    scene.scene.robot_state.is_diff = True
+    scene.scene.link_padding = [LinkPadding(link_name="nolink", padding=math.nan)]
+    assert not client.call(ApplyPlanningScene, "/apply_planning_scene", scene).success
+    scene.scene.link_padding = []
+    scene.scene.link_scale = [LinkScale(link_name="link2", scale=-1.0)]
+    assert not client.call(ApplyPlanningScene, "/apply_planning_scene", scene).success
+    log = client.server.output()
+    assert "Traceback" not in log and "internal error" not in log

@@ -256,10 +256,14 @@ class PlanningSceneMonitor:
         self._scene_call(f"collision objects: {summary}", lambda: self.scene.apply_planning_scene_msg(diff))
         return {"applied": len(msgs), "ids": [m.id for m in msgs]}
 
-    def _unknown_acm_names(self, msg: PlanningSceneMsg) -> list[str]:
+    def unknown_acm_names(self, msg: PlanningSceneMsg, also_known: Any = ()) -> list[str]:
         """ACM names of ``msg`` that name nothing: not a link or group, not an object of the scene
-        or of the message, and not already in the scene's matrix (MoveIt keeps entries of removed
-        objects, so a scene read back and applied again must still be accepted)."""
+        or of the message (or in ``also_known``: objects earlier diffs of a task solution add),
+        and not already in the scene's matrix (MoveIt keeps entries of removed objects, so a
+        scene read back and applied again must still be accepted)."""
+        return [n for n in self._unknown_acm_names(msg) if n not in set(also_known)]
+
+    def _unknown_acm_names(self, msg: PlanningSceneMsg) -> list[str]:
         acm = msg.allowed_collision_matrix
         names = set(acm.entry_names) | set(acm.default_entry_names)
         if not names:
@@ -273,9 +277,17 @@ class PlanningSceneMonitor:
                       and not self.model.has_group(n))
 
     def _limit_problems(self, values: Mapping[str, float]) -> list[str]:
-        """'joint=value outside [low, high]' for each value beyond its joint's limits."""
+        """'joint=value outside [low, high]' for each value beyond its joint's limits; a joint the
+        robot does not have is a RequestError (INVALID_ROBOT_STATE), never a RobotModelError."""
+        mimic = set(self.model.mimic_joint_names)  # derived from their source joints: not checked here
+        unknown = [name for name in values if name not in self.model.variable_names and name not in mimic]
+        if unknown:
+            raise RequestError(MoveItErrorCode.INVALID_ROBOT_STATE,
+                               f"the state names joints {unknown[:5]} that robot '{self.model.name}' does not have")
         outside = []
         for name, value in values.items():
+            if name in mimic:
+                continue
             i = self.model.variable_index(name)
             low, high = float(self.model.lower_limits[i]), float(self.model.upper_limits[i])
             if not (low - START_STATE_LIMIT_TOLERANCE <= value <= high + START_STATE_LIMIT_TOLERANCE):

@@ -20,6 +20,7 @@ face makes too, so nothing is interpreted twice.
 """
 from __future__ import annotations
 
+import math
 import threading
 import traceback
 from typing import Any, Callable
@@ -30,6 +31,7 @@ from moveit_task_constructor_msgs.action import ExecuteTaskSolution
 from moveit_msgs.msg import (
     AttachedCollisionObject,
     CollisionObject,
+    ConstraintEvalResult,
     ContactInformation,
     DisplayTrajectory,
     MoveItErrorCodes,
@@ -60,6 +62,7 @@ from interfaces_py.moveit_conversions import (
     ConversionError,
     attached_object_from_msg,
     collision_object_from_msg,
+    path_constraints_from_msg,
     planning_scene_from_msg,
     planning_scene_to_msg,
     pose_to_msg,
@@ -313,7 +316,7 @@ class MoveGroupFace(Node):
         code, state = kinematics.compute_ik(self.core, ik.group_name, pose_from_ros(ik.pose_stamped.pose, "IK pose"),
                                             ik.pose_stamped.header.frame_id or "world", ik.ik_link_name,
                                             robot_state_from_ros(ik.robot_state), bool(ik.avoid_collisions),
-                                            max(timeout, 0.0))
+                                            max(timeout, 0.0), path_constraints_from_msg(ik.constraints))
         response.error_code = _typed_code(code)
         if state is not None:
             response.solution = robot_state_to_ros(state.to_joint_dict(include_mimic=False),
@@ -338,10 +341,13 @@ class MoveGroupFace(Node):
     def _srv_validity(self, request: GetStateValidity.Request,
                       response: GetStateValidity.Response) -> GetStateValidity.Response:
         code, answer = state_validation.check_state_validity(self.core, robot_state_from_ros(request.robot_state),
-                                                             request.group_name)
+                                                             request.group_name,
+                                                             path_constraints_from_msg(request.constraints))
         if code.val != MoveItErrorCodes.SUCCESS:
             raise ConversionError(code.val, code.message)
         response.valid = bool(answer.valid)
+        response.constraint_result = [ConstraintEvalResult(result=bool(ok), distance=float(distance))
+                                      for ok, distance in answer.constraint_results]
         for body_a, body_b, depth in answer.contacts:
             info = ContactInformation()
             info.header.frame_id = "world"
@@ -358,9 +364,30 @@ class MoveGroupFace(Node):
                                                self.get_clock().now().to_msg())
         return response
 
+    def _check_padding(self, scene: Any) -> None:
+        """A PlanningScene's link_padding and link_scale: links the robot has, padding finite and
+        >= 0, scale finite and > 0 (ConversionError, INVALID_LINK_NAME or INVALID_MOTION_PLAN,
+        otherwise). Valid entries are accepted and not applied: collision checking here uses the
+        links' own geometry (said in the log, never silently)."""
+        entries = [("link_padding", p.link_name, p.padding, 0.0) for p in scene.link_padding]
+        entries += [("link_scale", s.link_name, s.scale, 1.0) for s in scene.link_scale]
+        for what, link, value, neutral in entries:
+            if not self.core.model.has_link(link):
+                raise ConversionError(MoveItErrorCodes.INVALID_LINK_NAME,
+                                      f"{what} names link {link!r}, which robot '{self.core.model.name}' does not have")
+            ok = math.isfinite(value) and (value >= 0.0 if what == "link_padding" else value > 0.0)
+            if not ok:
+                raise ConversionError(MoveItErrorCodes.INVALID_MOTION_PLAN,
+                                      f"{what} of link {link!r} must be a finite number "
+                                      f"{'>= 0' if what == 'link_padding' else '> 0'}, got {value!r}")
+            if value != neutral:
+                self._log("warning", f"{what} {value:g} of link {link!r} accepted but not applied: collision "
+                                     "checking uses the links' own geometry")
+
     def _srv_apply_scene(self, request: ApplyPlanningScene.Request,
                          response: ApplyPlanningScene.Response) -> ApplyPlanningScene.Response:
         try:
+            self._check_padding(request.scene)
             planning_scene.apply_planning_scene(self.core, planning_scene_from_msg(request.scene))
         except (ConversionError, RequestError) as exc:
             self._log("warning", f"apply_planning_scene: refused: {exc.message}")
@@ -483,6 +510,7 @@ class MoveGroupFace(Node):
             scene_diff = None
             if not _empty_scene_diff(options.planning_scene_diff):
                 try:
+                    self._check_padding(options.planning_scene_diff)
                     scene_diff = planning_scene_from_msg(options.planning_scene_diff)
                     self.core.scene_with_diff(scene_diff)  # checked now: a refused diff plans nothing
                 except RequestError as exc:
