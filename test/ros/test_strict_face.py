@@ -153,3 +153,19 @@ def test_internal_errors_become_moveit_error_codes(client: Client) -> None:
     assert not client.call(ApplyPlanningScene, "/apply_planning_scene", scene).success
     log = client.server.output()
     assert "Traceback" not in log and "internal error" not in log
+
+
+def test_a_controller_refuses_tolerances_for_joints_it_does_not_drive(client: Client) -> None:
+    from control_msgs.action import FollowJointTrajectory
+    from control_msgs.msg import JointTolerance
+
+    from interfaces_py.action_client import ActionClient
+
+    response = client.call(GetMotionPlan, "/plan_kinematic_path", joint_goal(READY)).motion_plan_response
+    assert response.error_code.val == C.SUCCESS
+    controller = ActionClient(client.node, FollowJointTrajectory, "/arm_controller/follow_joint_trajectory")
+    assert controller.wait_for_server(10.0)
+    goal = FollowJointTrajectory.Goal(trajectory=response.trajectory.joint_trajectory)
+    goal.goal_tolerance = [JointTolerance(name="nojoint", position=0.01)]
+    handle = client.spin_until(controller.send_goal_async(goal))
+    assert not handle.accepted

@@ -61,6 +61,18 @@ def _state_points(state: FollowerState) -> tuple[JointTrajectoryPoint, JointTraj
     return desired, actual, error
 
 
+def _tolerance_problem(goal: Any, joints: tuple[str, ...]) -> str | None:
+    """Why a goal's path or goal tolerances cannot be read (a joint this controller does not
+    have, a NaN value), or None: JTC refuses such a goal, it never drops the entry silently."""
+    for what, entries in (("path_tolerance", goal.path_tolerance), ("goal_tolerance", goal.goal_tolerance)):
+        for entry in entries:
+            if entry.name not in joints:
+                return f"{what} names joint {entry.name!r}, which this controller does not drive ({list(joints)})"
+            if any(math.isnan(v) for v in (entry.position, entry.velocity, entry.acceleration)):
+                return f"{what} of joint {entry.name!r} holds NaN"
+    return None
+
+
 def _tolerances(entries: Any, joints: tuple[str, ...]) -> np.ndarray:
     """Per-joint position tolerances from control_msgs/JointTolerance[] (0 or absent: unchecked;
     JTC reads a negative value as "no limit" too)."""
@@ -219,7 +231,7 @@ class ControllerActions:
             self._log().warning(f"{self._c.config.name}: rejected a goal with a multi-DOF trajectory "
                                 "(this controller drives single-DOF joints only)")
             return GoalResponse.REJECT
-        problem = self._c.validate(self._command(goal.trajectory, ""))
+        problem = self._c.validate(self._command(goal.trajectory, "")) or _tolerance_problem(goal, self._c.config.joints)
         if problem is not None:
             self._log().warning(f"{self._c.config.name}: rejected a FollowJointTrajectory goal: {problem}")
             return GoalResponse.REJECT
