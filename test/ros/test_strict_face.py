@@ -9,8 +9,9 @@ import math
 import pytest
 from action_msgs.msg import GoalStatus
 from geometry_msgs.msg import Pose
+from shape_msgs.msg import SolidPrimitive
 from moveit_msgs.action import MoveGroup
-from moveit_msgs.msg import Constraints, JointConstraint, LinkPadding, LinkScale, PlannerParams
+from moveit_msgs.msg import Constraints, JointConstraint, LinkPadding, LinkScale, PlannerParams, PositionConstraint
 from moveit_msgs.srv import (
     ApplyPlanningScene,
     GetCartesianPath,
@@ -21,7 +22,9 @@ from moveit_msgs.srv import (
     SetPlannerParams,
 )
 
-from ros_testing import robot_processes
+from mycobot_planning.core.robot_model.robot_model import RobotModel
+from mycobot_planning.core.robot_state.robot_state import RobotState
+from ros_testing import robot_processes, wait_until
 from test_move_group_api import ARM, FAR, READY, C, Client, box, joint_goal, world_ids
 
 
@@ -169,3 +172,49 @@ def test_a_controller_refuses_tolerances_for_joints_it_does_not_drive(client: Cl
     goal.goal_tolerance = [JointTolerance(name="nojoint", position=0.01)]
     handle = client.spin_until(controller.send_goal_async(goal))
     assert not handle.accepted
+
+
+# ----------------------------------------------------------------------------- cancel and results
+def _long_plan_goal() -> MoveGroup.Goal:
+    """A plan that runs its whole allowed_planning_time, 60 s: from all zeros to FAR with the
+    flange kept inside one of two 1 cm spheres, one around each end (a path constraint both ends
+    satisfy and no path does), so the planner searches until its time is up."""
+    model = RobotModel.mycobot()
+    goal = _move_goal(FAR)
+    goal.request.start_state.joint_state.name = list(ARM)
+    goal.request.start_state.joint_state.position = [0.0] * len(ARM)
+    region = PositionConstraint(link_name="link6_flange")
+    region.header.frame_id = "world"
+    for values in ([0.0] * len(ARM), FAR):
+        state = RobotState(model)
+        state.set_joint_positions(dict(zip(ARM, values)))
+        centre = Pose()
+        centre.position.x, centre.position.y, centre.position.z = (float(v) for v in state.frame_pose("link6_flange")[:3, 3])
+        centre.orientation.w = 1.0
+        region.constraint_region.primitives.append(SolidPrimitive(type=SolidPrimitive.SPHERE, dimensions=[0.01]))
+        region.constraint_region.primitive_poses.append(centre)
+    goal.request.path_constraints = Constraints(position_constraints=[region])
+    goal.request.allowed_planning_time = 60.0
+    return goal
+
+
+def test_cancel_during_planning_stops_the_plan(client: Client) -> None:
+    states: list[str] = []
+    handle = client.send(client.move, _long_plan_goal(), feedback=lambda m: states.append(m.feedback.state))
+    assert wait_until(lambda: (client.executor.spin_once(timeout_sec=0.01), "PLANNING" in states)[1], 20.0,
+                      period=0.0)
+    client.spin_until(handle.cancel_goal_async())
+    response = client.spin_until(handle.get_result_async(), timeout=20.0)  # far less than the 60 s plan
+    assert response.status == GoalStatus.STATUS_CANCELED
+    assert response.result.error_code.val == C.PREEMPTED
+    assert "cancel" in response.result.error_code.message  # the planner was stopped, it did not fail
+
+
+def test_cancelling_one_goal_leaves_the_others_planning(client: Client) -> None:
+    """Three goals plan at once; the one cancelled ends PREEMPTED, the two others succeed."""
+    handles = [client.send(client.move, _move_goal(FAR)) for _ in range(2)]
+    cancelled = client.send(client.move, _long_plan_goal())
+    client.spin_until(cancelled.cancel_goal_async())
+    assert client.spin_until(cancelled.get_result_async(), timeout=20.0).status == GoalStatus.STATUS_CANCELED
+    for handle in handles:
+        assert client.spin_until(handle.get_result_async()).result.error_code.val == C.SUCCESS

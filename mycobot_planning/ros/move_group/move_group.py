@@ -467,16 +467,23 @@ class MoveGroupFace(Node):
 
     # ------------------------------------------------------------------ actions
     def _execute_with_cancel(self, goal_handle: Any, run: Callable[[], Any],
-                             armed: threading.Event | None = None) -> Any:
+                             armed: threading.Event | None = None,
+                             planning_cancel: threading.Event | None = None) -> Any:
         """Run an execution, stopping it when the goal's client cancels (once ``armed`` is set,
-        when given: a plan that is still running is not stopped, it ends and does not execute)."""
+        when given). Before that, a cancel sets ``planning_cancel`` (the goal's requests' cancel:
+        their planners stop within a poll, PREEMPTED) and the plan does not execute. Only this
+        goal's plans are cancelled, never another client's."""
         done = threading.Event()
 
         def watch() -> None:
             while not done.wait(CANCEL_POLL):
-                if goal_handle.is_cancel_requested and (armed is None or armed.is_set()):
+                if not goal_handle.is_cancel_requested:
+                    continue
+                if armed is None or armed.is_set():
                     stop.stop(self.core)
                     return
+                if planning_cancel is not None and not planning_cancel.is_set():
+                    planning_cancel.set()
 
         watcher = threading.Thread(target=watch, name="cancel watcher", daemon=True)
         watcher.start()
@@ -546,10 +553,13 @@ class MoveGroupFace(Node):
             goal_handle.publish_feedback(feedback)
 
         executing = threading.Event()
+        planning_cancel = threading.Event()  # set when the client cancels while the goal plans
+        for request, _ in requests:
+            request.cancel = planning_cancel
         planned, executed = self._execute_with_cancel(goal_handle, lambda: move_action.plan_and_execute(
             self.core, requests, start, path, plan_only=options.plan_only, before_execution=planned_ok,
             replanning=replanning, cancelled=lambda: goal_handle.is_cancel_requested, on_replan=replanning_now,
-            on_replanned=replanned, scene_diff=scene_diff), executing)
+            on_replanned=replanned, scene_diff=scene_diff), executing, planning_cancel)
         if planned is None:  # refused: another execution runs
             result.error_code = _typed_code(executed.error_code)
             goal_handle.abort()
