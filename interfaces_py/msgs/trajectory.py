@@ -119,6 +119,11 @@ class MoveItErrorCode(_Message):
         if self.val not in self._NAMES:
             raise MessageError("MoveItErrorCode.val", f"unknown MoveIt error code {self.val}")
 
+    @classmethod
+    def is_known(cls, val: int) -> bool:
+        """Whether ``val`` is one of moveit_msgs/MoveItErrorCodes' values."""
+        return val in cls._NAMES
+
     @property
     def name(self) -> str:
         """Symbolic name of ``val``, e.g. "NO_IK_SOLUTION"."""

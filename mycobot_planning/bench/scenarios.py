@@ -14,6 +14,7 @@ from mycobot_planning.core.transforms import make_pose
 
 from .common import emit, machine, spread, stats, timed
 from .driver_scenarios import bench_driver_tracking
+from .idle_scenarios import IDLE_SCENARIOS
 from .concurrency_scenarios import CONCURRENCY_SCENARIOS
 from .objectives_scenarios import OBJECTIVES_SCENARIOS
 from .peers.parts import bench_peers_parts
@@ -256,4 +257,5 @@ SCENARIOS: dict[str, Callable[..., None]] = {
     **CONCURRENCY_SCENARIOS,
     **REACT_SCENARIOS,
     **SERVO_SCENARIOS,
+    **IDLE_SCENARIOS,
 }

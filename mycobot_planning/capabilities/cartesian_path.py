@@ -13,6 +13,9 @@ from ..core.planners.cartesian.cartesian_path import compute_cartesian_path as f
 from ..core.robot_trajectory.robot_trajectory import timed_to_joint_trajectory
 from .move_group_context import MoveGroupContext, RequestError, check_number
 
+#: m: the smallest eef_step (max_step) taken; below it MoveIt answers FAILURE
+MIN_EEF_STEP = 2.220446049250313e-16
+
 __all__ = ["CartesianPathRequest", "CartesianPathResult", "MAX_WAYPOINTS", "compute_cartesian_path"]
 
 #: waypoints of one Cartesian request at most (each is one IK target).
@@ -65,6 +68,8 @@ def compute_cartesian_path(ctx: MoveGroupContext, request: CartesianPathRequest,
                                     f"{MAX_WAYPOINTS}")
         kwargs: dict[str, Any] = {key: check_number(getattr(request, key), key) for key in (
             "eef_step", "jump_threshold", "revolute_jump_threshold", "prismatic_jump_threshold")}
+        if not kwargs["eef_step"] > MIN_EEF_STEP:  # MoveIt: FAILURE for max_step < epsilon, never a default
+            raise RequestError(MoveItErrorCode.FAILURE, f"max_step (eef_step) must be > 0, got {kwargs['eef_step']:g}")
         for key in ("max_velocity_scaling_factor", "max_acceleration_scaling_factor"):
             value = getattr(request, key)
             kwargs[key.replace("max_", "").replace("_factor", "")] = (
@@ -75,7 +80,7 @@ def compute_cartesian_path(ctx: MoveGroupContext, request: CartesianPathRequest,
         poses = ctx.in_world(list(request.waypoints), request.frame or "world", scene)
         kwargs["path_constraints"] = ctx.resolve_path_constraints(request.path_constraints, scene)
     except RequestError as exc:
-        return CartesianPathResult(MoveItErrorCode(exc.code, exc.message, "planning_server"),
+        return CartesianPathResult(MoveItErrorCode(exc.moveit_code, exc.message, "planning_server"),
                                    stop_reason="invalid_request")
     result = follow_waypoints(scene, request.group, scene.current_state.copy(), poses, link=request.link or None,
                               ik_frame_offset=request.ik_frame_offset, avoid_collisions=request.avoid_collisions,

@@ -29,7 +29,7 @@ from ..core.planning_scene.planning_scene_monitor import BAD_REQUEST
 from ..core.trajectory_execution import ExecutionError, parse_task_solution, parse_trajectory
 from . import (cartesian_path, execute_trajectory, kinematics, move_action, plan, planner_query, planning_scene,
                state_validation, stop, task_solution)
-from .move_group_context import SOURCE, MoveGroupContext, PlanningDefaults, RequestError
+from .move_group_context import SOURCE, MoveGroupContext, PlanningDefaults, RequestError, check_tolerance
 from .state_queries import state_to_json
 
 __all__ = ["MoveGroupJsonFace", "PlanningDefaults", "RequestError", "goal_from_parameters", "pose_from_json"]
@@ -140,10 +140,7 @@ class MoveGroupJsonFace(MoveGroupContext):
 
     @classmethod
     def _tolerance(cls, value: Any, what: str) -> float:
-        number = cls._number(value, what, MoveItErrorCode.INVALID_GOAL_CONSTRAINTS)
-        if number < 0:
-            raise RequestError(MoveItErrorCode.INVALID_GOAL_CONSTRAINTS, f"{what} must not be negative, got {number:g}")
-        return number
+        return check_tolerance(value, what)
 
     @staticmethod
     def _number(value: Any, what: str, code: int = MoveItErrorCode.INVALID_MOTION_PLAN) -> float:

@@ -2,7 +2,7 @@
 /compute_fk) as typed calls; the IK solvers are cached per (group, link) in state_queries."""
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -19,10 +19,11 @@ __all__ = ["compute_fk", "compute_ik"]
 
 def compute_ik(ctx: MoveGroupContext, group: str, pose: np.ndarray, frame: str = "world", link: str = "",
                seed: RobotStateMsg | None = None, avoid_collisions: bool = False,
-               timeout: float = 0.0) -> tuple[MoveItErrorCode, RobotState | None]:
+               timeout: float = 0.0, constraints: Any = None) -> tuple[MoveItErrorCode, RobotState | None]:
     """The whole robot state placing ``link`` (default: the group's tip) at ``pose`` (4x4 in
     ``frame``), seeded from ``seed`` merged onto the current state; ``timeout`` 0:
-    DEFAULT_IK_TIMEOUT. Never raises for bad input."""
+    DEFAULT_IK_TIMEOUT; ``constraints`` (path constraints' JSON form, MoveIt's
+    ik_request.constraints): the solution satisfies them. Never raises for bad input."""
     model = ctx.model
     try:
         if not model.has_group(group):
@@ -35,9 +36,10 @@ def compute_ik(ctx: MoveGroupContext, group: str, pose: np.ndarray, frame: str =
             raise RequestError(BAD_REQUEST, f"timeout must be in (0, {MAX_IK_TIMEOUT:g}] s, got {timeout:g}")
         scene = ctx.start_scene(seed, model.group(group).joint_names)
         target = ctx.in_world([pose], frame or "world", scene)[0]
+        resolved = ctx.resolve_path_constraints(constraints, scene)
     except RequestError as exc:
-        return MoveItErrorCode(exc.code, exc.message, "compute_ik"), None
-    answer = ctx.queries.compute_ik(scene, group, target, link, avoid_collisions, timeout)
+        return MoveItErrorCode(exc.moveit_code, exc.message, "compute_ik"), None
+    answer = ctx.queries.compute_ik(scene, group, target, link, avoid_collisions, timeout, resolved)
     if answer.state is None:
         return MoveItErrorCode(getattr(MoveItErrorCode, answer.error), answer.message, "compute_ik"), None
     return MoveItErrorCode(MoveItErrorCode.SUCCESS, "", "compute_ik"), answer.state
@@ -65,5 +67,5 @@ def compute_fk(ctx: MoveGroupContext, links: Sequence[str], frame: str = "world"
         except SceneError as exc:
             raise RequestError(MoveItErrorCode.FRAME_TRANSFORM_FAILURE, str(exc)) from None
     except RequestError as exc:
-        return MoveItErrorCode(exc.code, exc.message, "compute_fk"), {}
+        return MoveItErrorCode(exc.moveit_code, exc.message, "compute_fk"), {}
     return MoveItErrorCode(MoveItErrorCode.SUCCESS, "", "compute_fk"), poses

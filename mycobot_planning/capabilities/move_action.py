@@ -59,6 +59,7 @@ def plan_and_execute(ctx: MoveGroupContext, requests: Sequence[tuple[MotionPlanR
                      replanning: Replanning | None = None, cancelled: Callable[[], bool] | None = None,
                      on_replan: Callable[[int], None] | None = None,
                      on_replanned: Callable[[PlanResult], None] | None = None,
+                     scene_diff: Any = None,
                      ) -> tuple[PlanResult | None, ExecutionResult | None]:
     """(plan, execution) of (request, goal frame) pairs as plan_any reads them. The plan is None
     when the request is refused because another execution runs (the execution result says so);
@@ -69,13 +70,20 @@ def plan_and_execute(ctx: MoveGroupContext, requests: Sequence[tuple[MotionPlanR
     is followed, after ``replanning.delay`` s, by a new plan from the current state (the
     request's start state no longer holds) and its execution, up to ``replanning.attempts``
     times; ``on_replan(n)`` is told of the n-th before it plans, ``on_replanned(plan)`` of its
-    plan before it executes. ``cancelled()`` ends the loop (PREEMPTED)."""
+    plan before it executes. ``cancelled()`` ends the loop (PREEMPTED).
+
+    ``scene_diff`` (MoveIt's planning_options.planning_scene_diff, a PlanningScene message) is
+    planned with (every plan and replan of this goal) and never applied to the monitored scene:
+    a goal changes nothing in it, whether it fails or succeeds, as in move_group. It is checked
+    before anything else (RequestError)."""
+    if scene_diff is not None:
+        ctx.scene_with_diff(scene_diff)  # refused before planning or execution starts
     if not plan_only and ctx.executor.executing_after_stop():
         status = ctx.executor.status()
         return None, ExecutionResult(MoveItErrorCode(
             MoveItErrorCode.FAILURE, f"refused: another execution ({status['description']}) is in progress; stop it "
                                      "first or wait for it to finish", SOURCE))
-    planned = plan_any(ctx, requests, start_state, path_constraints, display)
+    planned = plan_any(ctx, requests, start_state, path_constraints, display, scene_diff)
     if planned.trajectory is None or plan_only or (before_execution is not None and not before_execution(planned)):
         return planned, None
     executed = execute_trajectory(ctx, planned.trajectory, None, f"plan of '{planned.group}'")
@@ -95,7 +103,7 @@ def plan_and_execute(ctx: MoveGroupContext, requests: Sequence[tuple[MotionPlanR
         joints = list(ctx.model.group(group).joint_names) if group and ctx.model.has_group(group) else []
         if joints and not ctx.wait_for_rest(joints):
             ctx.log("warning", "replanning: the arm did not come to rest within 2 s; planning from where it is")
-        replanned = plan_any(ctx, requests, None, path_constraints, display)
+        replanned = plan_any(ctx, requests, None, path_constraints, display, scene_diff)
         if replanned.trajectory is None:
             code = replanned.error_code
             return replanned, ExecutionResult(MoveItErrorCode(

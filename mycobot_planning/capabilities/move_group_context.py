@@ -29,7 +29,7 @@ from interfaces_py.msgs import (
 from ..core.errors import SceneError, StateError
 from ..core.kinematic_constraints.kinematic_constraints import ConstraintError, PathConstraints, path_constraints_from_json
 from ..core.planning_interface.planning_context import PlanningContext
-from ..core.planning_interface.planning_interface import MotionPlanRequest
+from ..core.planning_interface.planning_interface import JointGoal, MotionPlanRequest, NamedGoal, PoseGoal
 from ..core.planning_scene.planning_scene import PlanningScene
 from ..core.planning_scene.planning_scene_monitor import PlanningSceneMonitor, RequestError
 from ..core.robot_model.robot_model import RobotModel
@@ -60,6 +60,41 @@ def check_number(value: Any, what: str, code: int = MoveItErrorCode.INVALID_MOTI
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
         raise RequestError(code, f"{what} must be a finite number, got {value!r}")
     return float(value)
+
+
+def check_tolerance(value: Any, what: str) -> float:
+    """A goal tolerance: a finite number >= 0, else RequestError(INVALID_GOAL_CONSTRAINTS) (both
+    faces read tolerances through this: a NaN or negative one is refused, never replaced)."""
+    number = check_number(value, what, MoveItErrorCode.INVALID_GOAL_CONSTRAINTS)
+    if number < 0:
+        raise RequestError(MoveItErrorCode.INVALID_GOAL_CONSTRAINTS, f"{what} must not be negative, got {number:g}")
+    return number
+
+
+def check_goal(model: Any, goal: Any) -> None:
+    """The typed goal a face built, checked where every face's request enters the capabilities
+    (plan.complete_request): finite joint values of joints the robot has, finite non-negative
+    tolerances, a finite pose. RequestError(INVALID_GOAL_CONSTRAINTS) otherwise."""
+    bad = MoveItErrorCode.INVALID_GOAL_CONSTRAINTS
+    if isinstance(goal, JointGoal):
+        check_tolerance(goal.tolerance, "goal tolerance")
+        if isinstance(goal.values, Mapping):
+            known = set(model.variable_names) | set(model.joint_names)
+            unknown = [name for name in goal.values if name not in known]
+            if unknown:
+                raise RequestError(bad, f"goal names joints {unknown} that robot '{model.name}' does not have")
+            values = list(goal.values.values())
+        else:
+            values = list(np.asarray(goal.values, dtype=float).ravel())
+        for value in values:
+            check_number(value, "goal joint value", bad)
+    elif isinstance(goal, NamedGoal):
+        check_tolerance(goal.tolerance, "goal tolerance")
+    elif isinstance(goal, PoseGoal):
+        check_tolerance(goal.position_tolerance, "position tolerance")
+        check_tolerance(goal.orientation_tolerance, "orientation tolerance")
+        if not np.all(np.isfinite(np.asarray(goal.pose, dtype=float))):
+            raise RequestError(bad, "goal pose must be finite")
 
 
 class MoveGroupContext(PlanningSceneMonitor):
@@ -122,11 +157,13 @@ class MoveGroupContext(PlanningSceneMonitor):
         with self._lock:
             return list(self.planning)
 
-    def start_scene(self, start_state: Any, group_joints: Sequence[str]) -> PlanningScene:
+    def start_scene(self, start_state: Any, group_joints: Sequence[str], scene_diff: Any = None) -> PlanningScene:
         """A copy of the monitored scene whose current state is the request's start state.
 
         A start state naming every active joint needs no joint states; otherwise its joints (if
         any) are merged onto the current state, which must be fresh (RequestError otherwise).
+        ``scene_diff`` (a PlanningScene message, MoveIt's planning_options.planning_scene_diff)
+        is applied to the copy first: this request's scene only, the live one keeps nothing.
         """
         msg = None
         if start_state is not None:
@@ -150,7 +187,7 @@ class MoveGroupContext(PlanningSceneMonitor):
             problem = self.joint_state_problem([j for j in group_joints if j not in active])
             if problem is not None:
                 raise RequestError(*problem)
-        scene = self.scene_copy()
+        scene = self.scene_copy() if scene_diff is None else self.scene_with_diff(scene_diff)
         try:
             if active:
                 scene.set_current_state(active)

@@ -13,7 +13,7 @@ from interfaces_py.msgs import JointTrajectory, MoveItErrorCode, RobotState as R
 from ..core.planning_interface.planning_interface import MotionPlanRequest, PoseGoal
 from ..core.planning_scene.planning_scene import PlanningScene
 from ..core.robot_trajectory.robot_trajectory import timed_to_joint_trajectory
-from .move_group_context import SOURCE, MoveGroupContext, RequestError, check_number
+from .move_group_context import SOURCE, MoveGroupContext, RequestError, check_goal, check_number
 
 __all__ = ["MAX_PLANNING_ATTEMPTS", "MAX_PLANNING_TIME", "PlanResult", "complete_request", "plan", "plan_any"]
 
@@ -39,19 +39,22 @@ class PlanResult:
 
 
 def complete_request(ctx: MoveGroupContext, request: MotionPlanRequest, start_state: RobotStateMsg | None = None,
-                     goal_frame: str = "world", path_constraints: Any = None) -> PlanningScene:
+                     goal_frame: str = "world", path_constraints: Any = None, scene_diff: Any = None) -> PlanningScene:
     """Fill what ``request`` leaves out (0, "", None) with the defaults, check it against the
     request budgets, and resolve its start state (merged onto the current one), goal frame and
-    path constraints: the scene to plan in (its current state is the start state). Raises
-    RequestError with MoveIt's code."""
+    path constraints: the scene to plan in (its current state is the start state; with
+    ``scene_diff``, a PlanningScene message, applied to it only). Raises RequestError with
+    MoveIt's code."""
     bad = MoveItErrorCode.INVALID_MOTION_PLAN
     model = ctx.model
     if not model.has_group(request.group):
         raise RequestError(MoveItErrorCode.INVALID_GROUP_NAME,
                            f"unknown planning group {request.group!r}; known: {', '.join(model.group_names)}")
+    check_goal(model, request.goal)
     d = ctx.defaults
     request.pipeline_id = request.pipeline_id or d.pipeline_id
-    request.planner_id = request.planner_id or d.planner_id
+    if not request.planner_id and request.pipeline_id == d.pipeline_id:  # another pipeline: its own default
+        request.planner_id = d.planner_id
     for key, default in (("allowed_planning_time", d.planning_time),
                          ("max_velocity_scaling_factor", d.max_velocity_scaling_factor),
                          ("max_acceleration_scaling_factor", d.max_acceleration_scaling_factor)):
@@ -68,7 +71,7 @@ def complete_request(ctx: MoveGroupContext, request: MotionPlanRequest, start_st
     if not 1 <= request.num_planning_attempts <= MAX_PLANNING_ATTEMPTS:
         raise RequestError(bad, f"num_planning_attempts must be in [1, {MAX_PLANNING_ATTEMPTS}], "
                                 f"got {request.num_planning_attempts}")
-    scene = ctx.start_scene(start_state, model.group(request.group).joint_names)
+    scene = ctx.start_scene(start_state, model.group(request.group).joint_names, scene_diff)
     if isinstance(request.goal, PoseGoal):
         request.goal.pose = ctx.in_world([request.goal.pose], goal_frame, scene)[0]
     request.start_state = scene.current_state.copy()
@@ -77,15 +80,16 @@ def complete_request(ctx: MoveGroupContext, request: MotionPlanRequest, start_st
 
 
 def plan(ctx: MoveGroupContext, request: MotionPlanRequest, start_state: RobotStateMsg | None = None,
-         goal_frame: str = "world", path_constraints: Any = None, display: bool = True) -> PlanResult:
+         goal_frame: str = "world", path_constraints: Any = None, display: bool = True,
+         scene_diff: Any = None) -> PlanResult:
     """Plan ``request`` (as complete_request reads it); never raises for bad input."""
     started = time.perf_counter()
     try:
-        scene = complete_request(ctx, request, start_state, goal_frame, path_constraints)
+        scene = complete_request(ctx, request, start_state, goal_frame, path_constraints, scene_diff)
     except RequestError as exc:
         ctx.last_plan, ctx.last_plan_problem = None, f"the last planning request failed: {exc.message}"
         ctx.log("warning", f"plan request refused: {exc.message}")
-        return PlanResult(MoveItErrorCode(exc.code, exc.message, SOURCE))
+        return PlanResult(MoveItErrorCode(exc.moveit_code, exc.message, SOURCE))
     try:
         response = ctx.plan_in_context(scene, request)
     except Exception as exc:  # planners promise not to raise; if one does, answer anyway
@@ -110,12 +114,13 @@ def plan(ctx: MoveGroupContext, request: MotionPlanRequest, start_state: RobotSt
 
 def plan_any(ctx: MoveGroupContext, requests: Sequence[tuple[MotionPlanRequest, str]],
              start_state: RobotStateMsg | None = None, path_constraints: Any = None,
-             display: bool = True) -> PlanResult:
+             display: bool = True, scene_diff: Any = None) -> PlanResult:
     """Plan (request, goal frame) pairs in turn until one succeeds, as MoveIt reads several
-    goal_constraints ("any of them"); the last failure when none does."""
+    goal_constraints ("any of them"); the last failure when none does. ``scene_diff``: see
+    complete_request."""
     result = PlanResult(MoveItErrorCode(MoveItErrorCode.INVALID_GOAL_CONSTRAINTS, "the request has no goal", SOURCE))
     for request, frame in requests:
-        result = plan(ctx, request, start_state, frame, path_constraints, display)
+        result = plan(ctx, request, start_state, frame, path_constraints, display, scene_diff)
         if result.error_code.val == MoveItErrorCode.SUCCESS:
             break
     return result

@@ -39,6 +39,9 @@ class ValidityAnswer:
     valid: bool
     contacts: list[tuple[str, str, float]] = field(default_factory=list)  # (body_a, body_b, depth)
     bounds: list[str] = field(default_factory=list)  # joints outside their limits
+    #: (satisfied, distance) of each constraint asked about (MoveIt's constraint_result), in the
+    #: order joints, orientations, positions
+    constraint_results: list[tuple[bool, float]] = field(default_factory=list)
 
 
 class StateQueries:
@@ -59,10 +62,13 @@ class StateQueries:
             return entry
 
     def compute_ik(self, scene: PlanningScene, group: str, target: np.ndarray, link: str = "",
-                   avoid_collisions: bool = False, timeout: float = DEFAULT_IK_TIMEOUT) -> IKAnswer:
+                   avoid_collisions: bool = False, timeout: float = DEFAULT_IK_TIMEOUT,
+                   constraints: Any = None) -> IKAnswer:
         """A state of the group placing ``link`` (default: the group's tip) at the world pose
         ``target``, seeded from the scene's current state; with ``avoid_collisions`` the state must
-        be collision-free in the scene."""
+        be collision-free in the scene, with ``constraints`` (core PathConstraints, MoveIt's
+        ik_request.constraints) satisfy them: both are the solver's validity callback, as
+        MoveIt's compute_ik checks its constraints on every candidate solution."""
         if not self.model.has_group(group):
             return IKAnswer(None, "INVALID_GROUP_NAME",
                             f"unknown planning group {group!r}; known: {', '.join(self.model.group_names)}")
@@ -72,11 +78,14 @@ class StateQueries:
             solver, lock = self._solver(group, link)
         except KinematicsError as exc:
             return IKAnswer(None, "INVALID_GROUP_NAME", str(exc))
-        validity = scene.is_state_valid if avoid_collisions else None
+        checks = [check for check in (scene.is_state_valid if avoid_collisions else None,
+                                      constraints.satisfied if constraints else None) if check is not None]
+        validity = None if not checks else checks[0] if len(checks) == 1 else (
+            lambda state: all(check(state) for check in checks))
         with lock:
             solutions = solver.solve(target, seed=scene.current_state, timeout=timeout, validity=validity)
         if not solutions:
-            what = "collision-free " if avoid_collisions else ""
+            what = ("collision-free " if avoid_collisions else "") + ("constraint-satisfying " if constraints else "")
             return IKAnswer(None, "NO_IK_SOLUTION",
                             f"no {what}IK solution for link '{link or self.model.group(group).tip_link}' of group "
                             f"'{group}' within {timeout:g} s")

@@ -5,11 +5,31 @@ from __future__ import annotations
 from typing import Sequence
 
 from ..core.trajectory_execution import SolutionResult, SolutionStep
-from .move_group_context import MoveGroupContext
+from interfaces_py.msgs import MoveItErrorCode
+
+from .move_group_context import SOURCE, MoveGroupContext
 
 __all__ = ["execute_task_solution"]
 
 
 def execute_task_solution(ctx: MoveGroupContext, steps: Sequence[SolutionStep]) -> SolutionResult:
-    """Execute parsed solution steps (core.trajectory_execution.parse_task_solution); blocks."""
+    """Execute parsed solution steps (core.trajectory_execution.parse_task_solution); blocks.
+    Refused (INVALID_OBJECT_NAME, nothing moved or changed) when a scene diff's collision
+    matrix names something that is neither a link, a group nor an object of the scene or of an
+    earlier diff: the diff's matrix would replace the live one (/apply_planning_scene refuses
+    the same)."""
+    added: set[str] = set()
+    for k, step in enumerate(steps):
+        for which, diff in (("scene_diff_before", step.scene_diff_before), ("scene_diff_after", step.scene_diff_after)):
+            if diff is None:
+                continue
+            unknown = ctx.unknown_acm_names(diff, added)
+            if unknown:
+                message = (f"step {k} ('{step.name}'): {which}'s allowed collision matrix names {unknown}, which are "
+                           f"neither links of robot '{ctx.model.name}' nor collision objects")
+                ctx.log("warning", f"task solution refused: {message}")
+                return SolutionResult(MoveItErrorCode(MoveItErrorCode.INVALID_OBJECT_NAME, message, SOURCE),
+                                      failed_step=k)
+            added |= {o.id for o in diff.world.collision_objects}
+            added |= {a.object.id for a in diff.robot_state.attached_collision_objects}
     return ctx.executor.execute_solution(steps, ctx.apply_diff_live, ctx.scene_copy())

@@ -17,7 +17,7 @@ from typing import Any, Callable, Sequence
 import rclpy
 import yaml
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
-from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+from rclpy.executors import Executor, ExternalShutdownException, MultiThreadedExecutor, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.exceptions import ParameterException, ParameterUninitializedException
 from rclpy.parameter import Parameter
@@ -194,7 +194,9 @@ def run_node(factory: Callable[[], Node], args: list[str] | None = None, threads
         except ValueError as exc:  # bad configuration: say what, do not print a traceback
             print(f"[ERROR] {exc}", file=sys.stderr)
             return 1
-        executor = MultiThreadedExecutor(num_threads=threads)
+        # one thread: the single-threaded executor (rclpy's multi-threaded one re-polls queued
+        # entities and warns when given one thread)
+        executor = SingleThreadedExecutor() if threads <= 1 else MultiThreadedExecutor(num_threads=threads)
         executor.add_node(node)
         for extra in getattr(node, "extra_nodes", ()):  # more nodes of the same process (planning_server: move_group)
             executor.add_node(extra)
@@ -216,7 +218,7 @@ def run_node(factory: Callable[[], Node], args: list[str] | None = None, threads
     return code
 
 
-def _spin_guarded(node: Node, executor: MultiThreadedExecutor) -> None:
+def _spin_guarded(node: Node, executor: Executor) -> None:
     """executor.spin(), resumed after a callback raised: the executor re-raises a callback's
     exception out of spin(), which would end the process."""
     while rclpy.ok():

@@ -104,9 +104,10 @@ class PlanningPipeline:
                 MoveItErrorCode.INVALID_MOTION_PLAN,
                 f"unknown planning pipeline '{request.pipeline_id}'; known: {', '.join(self.pipeline_ids)}",
             ).to_response(time.perf_counter(), request)
-        if not manager.can_service_request(request):  # MoveIt's canServiceRequest
-            problem = manager.planner_id_problem(request.planner_id, [request.group])
-            if problem is not None:  # otherwise the planner says in its own words what it cannot do
-                return failure(MoveItErrorCode.INVALID_MOTION_PLAN, problem).to_response(time.perf_counter(), request)
+        # a planner id the chosen pipeline does not offer is refused, never ignored (a pipeline
+        # with one planner, joint interpolation, would otherwise plan 'PTP' as a line in joints)
+        problem = manager.planner_id_problem(request.planner_id, [request.group])
+        if problem is not None:
+            return failure(MoveItErrorCode.INVALID_MOTION_PLAN, problem).to_response(time.perf_counter(), request)
         response = manager.plan(scene, request)
         return response if manager.enforces_path_constraints else self._within_path_constraints(request, response)

@@ -41,6 +41,13 @@ class RequestError(PlanningError, ValueError):
         self.code = code
         self.message = message
 
+    @property
+    def moveit_code(self) -> int:
+        """The code on MoveIt's face: ``code`` when it is a MoveItErrorCodes value, else (the JSON
+        face's BAD_REQUEST) INVALID_MOTION_PLAN, "the request is invalid": a refused input is
+        never FAILURE (99999, what an internal error answers)."""
+        return self.code if MoveItErrorCode.is_known(self.code) else MoveItErrorCode.INVALID_MOTION_PLAN
+
 
 class PlanningSceneMonitor:
     """The live scene and current state, guarded by one lock; ``scene_listeners`` are called after
@@ -204,6 +211,30 @@ class PlanningSceneMonitor:
 
     def apply_planning_scene(self, scene: Any) -> dict[str, Any]:
         """Apply a PlanningScene message (a diff when is_diff, else a full replacement)."""
+        msg = self._checked_scene_msg(scene)
+        self._scene_call(f"applied a planning scene {'diff' if msg.is_diff else '(full)'}",
+                         lambda: self.scene.apply_planning_scene_msg(msg))
+        return {"applied": True}
+
+    def scene_with_diff(self, scene: Any, base: PlanningScene | None = None) -> PlanningScene:
+        """A copy of the monitored scene (or of ``base``) with a PlanningScene message applied,
+        checked as apply_planning_scene checks it; the live scene is not touched (MoveIt's
+        planning_options.planning_scene_diff: that goal's scene only). RequestError when refused."""
+        msg = self._checked_scene_msg(scene)
+        copy = base.copy() if base is not None else self.scene_copy()
+        try:
+            copy.apply_planning_scene_msg(msg)
+        except SceneError as exc:
+            text = str(exc)
+            code = MoveItErrorCode.INVALID_OBJECT_NAME if "unknown collision object" in text else BAD_REQUEST
+            raise RequestError(code, text) from None
+        except (MessageError, StateError, RobotModelError, ValueError) as exc:
+            raise RequestError(BAD_REQUEST, f"planning scene: {exc}") from None
+        return copy
+
+    def _checked_scene_msg(self, scene: Any) -> PlanningSceneMsg:
+        """The PlanningScene message of ``scene``, its robot state within the joint limits and its
+        ACM naming only links, groups and objects (RequestError otherwise)."""
         msg = self._message(PlanningSceneMsg, scene, "planning scene")
         outside = self._limit_problems({n: v for n, v in msg.robot_state.joint_positions().items()
                                         if n in self.model.variable_names})
@@ -213,9 +244,7 @@ class PlanningSceneMonitor:
         if unknown:
             raise RequestError(BAD_REQUEST, f"allowed collision matrix names {unknown}, which are neither links of "
                                             f"robot '{self.model.name}' nor collision objects of the scene")
-        self._scene_call(f"applied a planning scene {'diff' if msg.is_diff else '(full)'}",
-                         lambda: self.scene.apply_planning_scene_msg(msg))
-        return {"applied": True}
+        return msg
 
     def apply_collision_objects(self, objects: Sequence[Any]) -> dict[str, Any]:
         """Apply CollisionObjects (ADD/REMOVE/APPEND/MOVE) all or nothing."""
@@ -227,10 +256,14 @@ class PlanningSceneMonitor:
         self._scene_call(f"collision objects: {summary}", lambda: self.scene.apply_planning_scene_msg(diff))
         return {"applied": len(msgs), "ids": [m.id for m in msgs]}
 
-    def _unknown_acm_names(self, msg: PlanningSceneMsg) -> list[str]:
+    def unknown_acm_names(self, msg: PlanningSceneMsg, also_known: Any = ()) -> list[str]:
         """ACM names of ``msg`` that name nothing: not a link or group, not an object of the scene
-        or of the message, and not already in the scene's matrix (MoveIt keeps entries of removed
-        objects, so a scene read back and applied again must still be accepted)."""
+        or of the message (or in ``also_known``: objects earlier diffs of a task solution add),
+        and not already in the scene's matrix (MoveIt keeps entries of removed objects, so a
+        scene read back and applied again must still be accepted)."""
+        return [n for n in self._unknown_acm_names(msg) if n not in set(also_known)]
+
+    def _unknown_acm_names(self, msg: PlanningSceneMsg) -> list[str]:
         acm = msg.allowed_collision_matrix
         names = set(acm.entry_names) | set(acm.default_entry_names)
         if not names:
@@ -244,9 +277,17 @@ class PlanningSceneMonitor:
                       and not self.model.has_group(n))
 
     def _limit_problems(self, values: Mapping[str, float]) -> list[str]:
-        """'joint=value outside [low, high]' for each value beyond its joint's limits."""
+        """'joint=value outside [low, high]' for each value beyond its joint's limits; a joint the
+        robot does not have is a RequestError (INVALID_ROBOT_STATE), never a RobotModelError."""
+        mimic = set(self.model.mimic_joint_names)  # derived from their source joints: not checked here
+        unknown = [name for name in values if name not in self.model.variable_names and name not in mimic]
+        if unknown:
+            raise RequestError(MoveItErrorCode.INVALID_ROBOT_STATE,
+                               f"the state names joints {unknown[:5]} that robot '{self.model.name}' does not have")
         outside = []
         for name, value in values.items():
+            if name in mimic:
+                continue
             i = self.model.variable_index(name)
             low, high = float(self.model.lower_limits[i]), float(self.model.upper_limits[i])
             if not (low - START_STATE_LIMIT_TOLERANCE <= value <= high + START_STATE_LIMIT_TOLERANCE):

@@ -53,8 +53,9 @@ def prepare_trajectory(model: RobotModel, trajectory: JointTrajectory, position_
     Mimic joints are dropped when their source joint is in the trajectory (the controller drives
     the source); a mimic joint alone is refused. Refuses (ExecutionError INVALID_MOTION_PLAN): no
     points, unknown joints, non-finite values (also caught by the message class), positions outside
-    the joint limits, times not strictly increasing, velocities or accelerations beyond the joint
-    limits by more than ``limit_tolerance`` (relative; see trajectory_limits.py).
+    the joint limits, times not strictly increasing, accelerations without velocities, velocities or
+    accelerations beyond the joint limits by more than ``limit_tolerance`` (relative; see
+    trajectory_limits.py).
     """
     bad = MoveItErrorCode.INVALID_MOTION_PLAN
     if not trajectory.joint_names:
@@ -97,6 +98,9 @@ def prepare_trajectory(model: RobotModel, trajectory: JointTrajectory, position_
         if t <= previous:
             raise ExecutionError(bad, f"trajectory point {k}: time_from_start {t} is not after the previous point's {previous}")
         previous = t
+        if len(point.accelerations) and not len(point.velocities):  # JTC refuses it: say so before anything moves
+            raise ExecutionError(bad, f"trajectory point {k} has accelerations but no velocities (a controller "
+                                      "interpolates accelerations only with velocities)")
     problem = motion_limit_problem(
         [names[i] for i in keep],
         np.array([p.time_from_start for p in trajectory.points], dtype=float),

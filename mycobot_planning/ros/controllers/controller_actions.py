@@ -61,6 +61,18 @@ def _state_points(state: FollowerState) -> tuple[JointTrajectoryPoint, JointTraj
     return desired, actual, error
 
 
+def _tolerance_problem(goal: Any, joints: tuple[str, ...]) -> str | None:
+    """Why a goal's path or goal tolerances cannot be read (a joint this controller does not
+    have, a NaN value), or None: JTC refuses such a goal, it never drops the entry silently."""
+    for what, entries in (("path_tolerance", goal.path_tolerance), ("goal_tolerance", goal.goal_tolerance)):
+        for entry in entries:
+            if entry.name not in joints:
+                return f"{what} names joint {entry.name!r}, which this controller does not drive ({list(joints)})"
+            if any(math.isnan(v) for v in (entry.position, entry.velocity, entry.acceleration)):
+                return f"{what} of joint {entry.name!r} holds NaN"
+    return None
+
+
 def _tolerances(entries: Any, joints: tuple[str, ...]) -> np.ndarray:
     """Per-joint position tolerances from control_msgs/JointTolerance[] (0 or absent: unchecked;
     JTC reads a negative value as "no limit" too)."""
@@ -91,6 +103,7 @@ class ControllerActions:
         self.state_pub = manager.create_publisher(JointTrajectoryControllerState, f"/{name}/controller_state", 10)
         self._state_msg = JointTrajectoryControllerState()
         self._state_msg.joint_names = list(controller.config.joints)
+        self._state_points = (JointTrajectoryPoint(), JointTrajectoryPoint(), JointTrajectoryPoint())
         self._closing = False
 
     def destroy(self) -> None:
@@ -103,9 +116,24 @@ class ControllerActions:
 
     # ------------------------------------------------------------------ controller_state
     def publish_state(self, state: FollowerState, stamp: Any) -> None:
+        """controller_state at every update, as JTC does: the message's points are reused and
+        filled in place (this runs at the controller rate: building three new points with exact
+        Duration arithmetic each time was most of the idle node's cost)."""
         msg = self._state_msg
         msg.header.stamp = stamp
-        msg.reference, msg.feedback, msg.error = _state_points(state)
+        t = state.time_from_start
+        sec = math.floor(t) if math.isfinite(t) else 0
+        nanosec = min(999_999_999, max(0, int(round((t - sec) * 1e9)))) if math.isfinite(t) else 0
+        for point, (p, v, a) in zip(self._state_points, (
+                (state.desired_positions, state.desired_velocities, state.desired_accelerations),
+                (state.actual_positions, state.actual_velocities, state.actual_accelerations),
+                (state.desired_positions - state.actual_positions, state.desired_velocities - state.actual_velocities,
+                 state.desired_accelerations - state.actual_accelerations))):
+            point.positions = p.tolist()
+            point.velocities = v.tolist()
+            point.accelerations = a.tolist()
+            point.time_from_start.sec, point.time_from_start.nanosec = int(sec), nanosec
+        msg.reference, msg.feedback, msg.error = self._state_points
         msg.output = msg.reference
         self.state_pub.publish(msg)
 
@@ -203,7 +231,7 @@ class ControllerActions:
             self._log().warning(f"{self._c.config.name}: rejected a goal with a multi-DOF trajectory "
                                 "(this controller drives single-DOF joints only)")
             return GoalResponse.REJECT
-        problem = self._c.validate(self._command(goal.trajectory, ""))
+        problem = self._c.validate(self._command(goal.trajectory, "")) or _tolerance_problem(goal, self._c.config.joints)
         if problem is not None:
             self._log().warning(f"{self._c.config.name}: rejected a FollowJointTrajectory goal: {problem}")
             return GoalResponse.REJECT

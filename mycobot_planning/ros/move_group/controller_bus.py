@@ -28,12 +28,13 @@ from rclpy.node import Node
 from interfaces_py.action_client import ActionClient
 from interfaces_py.msgs import JointTrajectory
 from interfaces_py.ros_conversions import joint_trajectory_to_msg
+from mycobot_planning.ros.topic_reader import TopicReader
 from mycobot_planning.core.trajectory_execution import GRIPPER_COMMAND, ControllerInfo, ControllerState
 
 #: N: GripperCommand max_effort when the trajectory gives none (the mock has no dynamics; a real
 #: gripper controller clamps it to its own limit)
 DEFAULT_MAX_EFFORT = 10.0
-HEARTBEAT_QOS = 10
+HEARTBEAT_QOS = 1  # the newest heartbeat is all that counts
 #: s to wait for a controller to confirm a cancel
 CANCEL_CONFIRM_TIMEOUT = 1.0
 FJT_ERRORS = {
@@ -63,15 +64,17 @@ class ActionControllerBus:
         self._by_goal: dict[str, OrderedDict[str, ControllerState]] = {}
         self._handles: dict[str, Any] = {}  # controller -> goal handle of the goal it runs for us
         self._alive: dict[str, float] = {}  # controller -> when its controller_state last arrived
+        self._heartbeats: dict[str, TopicReader] = {}
         for c in controllers:
             action = GripperCommand if c.action_type == GRIPPER_COMMAND else FollowJointTrajectory
             self._clients[c.name] = ActionClient(monitor, action, c.action_name)
             self._by_goal[c.name] = OrderedDict()
             # JTC publishes its state at every update: the heartbeat that tells a busy controller
-            # (a goal not yet answered, feedback delayed on a loaded machine) from a lost one
-            monitor.create_subscription(JointTrajectoryControllerState, f"/{c.name}/controller_state",
-                                        lambda msg, name=c.name: self._on_alive(name), HEARTBEAT_QOS,
-                                        raw=True)  # liveness only: skip deserializing the message
+            # (a goal not yet answered, feedback delayed on a loaded machine) from a lost one. It
+            # is read when asked for (controller_state), not at each of its 100 messages a second
+            # (liveness only: raw, never deserialized).
+            self._heartbeats[c.name] = TopicReader(monitor, JointTrajectoryControllerState,
+                                                   f"/{c.name}/controller_state", HEARTBEAT_QOS, raw=True)
 
     # ------------------------------------------------------------------ ControllerBus
     def is_available(self, controller: str) -> bool:
@@ -113,6 +116,8 @@ class ActionControllerBus:
     def controller_state(self, controller: str, goal_id: str | None = None) -> ControllerState | None:
         """The goal's state, or (no ``goal_id``) the latest one, heard as recently as the last
         controller_state heartbeat."""
+        if goal_id is None:
+            self._read_heartbeat(controller)
         with self._lock:
             if goal_id is not None:
                 return self._by_goal.get(controller, {}).get(goal_id)
@@ -122,9 +127,20 @@ class ActionControllerBus:
             return latest
         return dataclasses.replace(latest, received=alive)
 
-    def _on_alive(self, controller: str) -> None:
+    def _read_heartbeat(self, controller: str) -> None:
+        """Take the newest controller_state of ``controller`` (if one came since the last read)
+        and note when it arrived."""
+        reader = self._heartbeats.get(controller)
+        if reader is None or reader.take_latest() is None:
+            return
+        age = max(0.0, (time.time_ns() - reader.last_received_ns) * 1e-9) if reader.last_received_ns else 0.0
         with self._lock:
-            self._alive[controller] = time.monotonic()
+            self._alive[controller] = time.monotonic() - age
+
+    def close(self) -> None:
+        """Destroy the heartbeat subscriptions (before their node)."""
+        for reader in self._heartbeats.values():
+            reader.destroy()
 
     def summary(self) -> dict[str, Any]:
         now = time.monotonic()

@@ -20,6 +20,7 @@ face makes too, so nothing is interpreted twice.
 """
 from __future__ import annotations
 
+import math
 import threading
 import traceback
 from typing import Any, Callable
@@ -30,6 +31,7 @@ from moveit_task_constructor_msgs.action import ExecuteTaskSolution
 from moveit_msgs.msg import (
     AttachedCollisionObject,
     CollisionObject,
+    ConstraintEvalResult,
     ContactInformation,
     DisplayTrajectory,
     MoveItErrorCodes,
@@ -60,6 +62,7 @@ from interfaces_py.moveit_conversions import (
     ConversionError,
     attached_object_from_msg,
     collision_object_from_msg,
+    path_constraints_from_msg,
     planning_scene_from_msg,
     planning_scene_to_msg,
     pose_to_msg,
@@ -120,6 +123,22 @@ def flatten_parameters(tree: dict[str, Any], prefix: str) -> list[tuple[str, Any
 def _typed_code(code: MoveItErrorCode) -> MoveItErrorCodes:
     val = code.val if code.val in _MOVEIT_CODES else MoveItErrorCodes.FAILURE
     return MoveItErrorCodes(val=val, message=code.message, source=code.source)
+
+
+def _empty_scene_diff(diff: Any) -> bool:
+    """A PlanningScene message that changes nothing (what a client leaves unset): no object,
+    joint, attached object, collision matrix entry, padding, scale, color or octomap."""
+    acm = diff.allowed_collision_matrix
+    return not any(len(x) for x in (
+        diff.world.collision_objects, diff.robot_state.joint_state.name, diff.robot_state.attached_collision_objects,
+        diff.robot_state.multi_dof_joint_state.joint_names, acm.entry_names, acm.default_entry_names,
+        diff.link_padding, diff.link_scale, diff.object_colors, diff.fixed_frame_transforms,
+        diff.world.octomap.octomap.data))
+
+
+def _code_of(exc: Exception) -> int:
+    """A refusal's MoveItErrorCodes value (a RequestError's BAD_REQUEST is no MoveIt code)."""
+    return exc.moveit_code if isinstance(exc, RequestError) else int(getattr(exc, "code", MoveItErrorCodes.FAILURE))
 
 
 def _failure(val: int, message: str, source: str = "move_group") -> MoveItErrorCodes:
@@ -200,7 +219,7 @@ class MoveGroupFace(Node):
             except (ConversionError, RequestError) as exc:
                 self._log("warning", f"{name}: refused: {exc.message}")
                 if hasattr(response, "error_code"):
-                    response.error_code = _failure(exc.code, exc.message, name.strip("/"))
+                    response.error_code = _failure(_code_of(exc), exc.message, name.strip("/"))
                 return response
             except Exception as exc:
                 self._log("error", f"{name} failed: {type(exc).__name__}: {exc}\n{traceback.format_exc()}")
@@ -263,7 +282,7 @@ class MoveGroupFace(Node):
         try:
             result = plan.plan_any(self.core, *self._plan_request(request.motion_plan_request))
         except ConversionError as exc:
-            response.motion_plan_response.error_code = _failure(exc.code, exc.message, "plan_kinematic_path")
+            response.motion_plan_response.error_code = _failure(_code_of(exc), exc.message, "plan_kinematic_path")
             response.motion_plan_response.group_name = request.motion_plan_request.group_name
             self._log("warning", f"plan_kinematic_path: refused: {exc.message}")
             return response
@@ -297,7 +316,7 @@ class MoveGroupFace(Node):
         code, state = kinematics.compute_ik(self.core, ik.group_name, pose_from_ros(ik.pose_stamped.pose, "IK pose"),
                                             ik.pose_stamped.header.frame_id or "world", ik.ik_link_name,
                                             robot_state_from_ros(ik.robot_state), bool(ik.avoid_collisions),
-                                            max(timeout, 0.0))
+                                            max(timeout, 0.0), path_constraints_from_msg(ik.constraints))
         response.error_code = _typed_code(code)
         if state is not None:
             response.solution = robot_state_to_ros(state.to_joint_dict(include_mimic=False),
@@ -322,10 +341,13 @@ class MoveGroupFace(Node):
     def _srv_validity(self, request: GetStateValidity.Request,
                       response: GetStateValidity.Response) -> GetStateValidity.Response:
         code, answer = state_validation.check_state_validity(self.core, robot_state_from_ros(request.robot_state),
-                                                             request.group_name)
+                                                             request.group_name,
+                                                             path_constraints_from_msg(request.constraints))
         if code.val != MoveItErrorCodes.SUCCESS:
             raise ConversionError(code.val, code.message)
         response.valid = bool(answer.valid)
+        response.constraint_result = [ConstraintEvalResult(result=bool(ok), distance=float(distance))
+                                      for ok, distance in answer.constraint_results]
         for body_a, body_b, depth in answer.contacts:
             info = ContactInformation()
             info.header.frame_id = "world"
@@ -342,9 +364,30 @@ class MoveGroupFace(Node):
                                                self.get_clock().now().to_msg())
         return response
 
+    def _check_padding(self, scene: Any) -> None:
+        """A PlanningScene's link_padding and link_scale: links the robot has, padding finite and
+        >= 0, scale finite and > 0 (ConversionError, INVALID_LINK_NAME or INVALID_MOTION_PLAN,
+        otherwise). Valid entries are accepted and not applied: collision checking here uses the
+        links' own geometry (said in the log, never silently)."""
+        entries = [("link_padding", p.link_name, p.padding, 0.0) for p in scene.link_padding]
+        entries += [("link_scale", s.link_name, s.scale, 1.0) for s in scene.link_scale]
+        for what, link, value, neutral in entries:
+            if not self.core.model.has_link(link):
+                raise ConversionError(MoveItErrorCodes.INVALID_LINK_NAME,
+                                      f"{what} names link {link!r}, which robot '{self.core.model.name}' does not have")
+            ok = math.isfinite(value) and (value >= 0.0 if what == "link_padding" else value > 0.0)
+            if not ok:
+                raise ConversionError(MoveItErrorCodes.INVALID_MOTION_PLAN,
+                                      f"{what} of link {link!r} must be a finite number "
+                                      f"{'>= 0' if what == 'link_padding' else '> 0'}, got {value!r}")
+            if value != neutral:
+                self._log("warning", f"{what} {value:g} of link {link!r} accepted but not applied: collision "
+                                     "checking uses the links' own geometry")
+
     def _srv_apply_scene(self, request: ApplyPlanningScene.Request,
                          response: ApplyPlanningScene.Response) -> ApplyPlanningScene.Response:
         try:
+            self._check_padding(request.scene)
             planning_scene.apply_planning_scene(self.core, planning_scene_from_msg(request.scene))
         except (ConversionError, RequestError) as exc:
             self._log("warning", f"apply_planning_scene: refused: {exc.message}")
@@ -411,24 +454,36 @@ class MoveGroupFace(Node):
     def _srv_set_planner_params(self, request: SetPlannerParams.Request,
                                 response: SetPlannerParams.Response) -> SetPlannerParams.Response:
         p = request.params
-        problem = planner_query.set_planner_params(self.core, request.pipeline_id, request.planner_config,
-                                                   dict(zip(p.keys, p.values)), bool(request.replace))
+        if len(p.keys) != len(p.values):  # moveit_msgs/SetPlannerParams has no answer: the log says why
+            problem = f"params has {len(p.keys)} keys but {len(p.values)} values; nothing changed"
+        elif len(set(p.keys)) != len(p.keys):
+            problem = "params names a key twice; nothing changed"
+        else:
+            problem = planner_query.set_planner_params(self.core, request.pipeline_id, request.planner_config,
+                                                       dict(zip(p.keys, p.values)), bool(request.replace))
         if problem:
             self._log("warning", f"set_planner_params: refused: {problem}")
         return response
 
     # ------------------------------------------------------------------ actions
     def _execute_with_cancel(self, goal_handle: Any, run: Callable[[], Any],
-                             armed: threading.Event | None = None) -> Any:
+                             armed: threading.Event | None = None,
+                             planning_cancel: threading.Event | None = None) -> Any:
         """Run an execution, stopping it when the goal's client cancels (once ``armed`` is set,
-        when given: a plan that is still running is not stopped, it ends and does not execute)."""
+        when given). Before that, a cancel sets ``planning_cancel`` (the goal's requests' cancel:
+        their planners stop within a poll, PREEMPTED) and the plan does not execute. Only this
+        goal's plans are cancelled, never another client's."""
         done = threading.Event()
 
         def watch() -> None:
             while not done.wait(CANCEL_POLL):
-                if goal_handle.is_cancel_requested and (armed is None or armed.is_set()):
+                if not goal_handle.is_cancel_requested:
+                    continue
+                if armed is None or armed.is_set():
                     stop.stop(self.core)
                     return
+                if planning_cancel is not None and not planning_cancel.is_set():
+                    planning_cancel.set()
 
         watcher = threading.Thread(target=watch, name="cancel watcher", daemon=True)
         watcher.start()
@@ -457,18 +512,20 @@ class MoveGroupFace(Node):
                                                             float(options.replan_delay), self._log)
             except RequestError as exc:
                 raise ConversionError(exc.code, exc.message) from None
-            diff = options.planning_scene_diff
-            if (len(diff.world.collision_objects) or len(diff.robot_state.joint_state.name)
-                    or len(diff.robot_state.attached_collision_objects)):
+            # The goal's scene diff is planned with, never applied to the live scene (MoveIt
+            # plans on a copy of the monitored scene with the diff): a goal changes nothing there.
+            scene_diff = None
+            if not _empty_scene_diff(options.planning_scene_diff):
                 try:
-                    planning_scene.apply_planning_scene(self.core, planning_scene_from_msg(diff))
+                    self._check_padding(options.planning_scene_diff)
+                    scene_diff = planning_scene_from_msg(options.planning_scene_diff)
+                    self.core.scene_with_diff(scene_diff)  # checked now: a refused diff plans nothing
                 except RequestError as exc:
-                    raise ConversionError(MoveItErrorCodes.FAILURE,
-                                          f"planning_scene_diff refused: {exc.message}") from None
+                    raise ConversionError(exc.moveit_code, f"planning_scene_diff refused: {exc.message}") from None
             requests, start, path = self._plan_request(goal.request)
         except ConversionError as exc:
             self._log("warning", f"move_action: refused: {exc.message}")
-            result.error_code = _failure(exc.code, exc.message, "move_action")
+            result.error_code = _failure(_code_of(exc), exc.message, "move_action")
             goal_handle.abort()
             return result
         feedback.state = "PLANNING"
@@ -496,10 +553,13 @@ class MoveGroupFace(Node):
             goal_handle.publish_feedback(feedback)
 
         executing = threading.Event()
+        planning_cancel = threading.Event()  # set when the client cancels while the goal plans
+        for request, _ in requests:
+            request.cancel = planning_cancel
         planned, executed = self._execute_with_cancel(goal_handle, lambda: move_action.plan_and_execute(
             self.core, requests, start, path, plan_only=options.plan_only, before_execution=planned_ok,
             replanning=replanning, cancelled=lambda: goal_handle.is_cancel_requested, on_replan=replanning_now,
-            on_replanned=replanned), executing)
+            on_replanned=replanned, scene_diff=scene_diff), executing, planning_cancel)
         if planned is None:  # refused: another execution runs
             result.error_code = _typed_code(executed.error_code)
             goal_handle.abort()
@@ -536,7 +596,7 @@ class MoveGroupFace(Node):
             steps = parse_task_solution(task_solution_from_msg(goal_handle.request.solution))
         except (ConversionError, ExecutionError) as exc:
             self._log("warning", f"execute_task_solution: refused: {exc.message}")
-            result.error_code = _failure(exc.code, exc.message, "execute_task_solution")
+            result.error_code = _failure(_code_of(exc), exc.message, "execute_task_solution")
             goal_handle.abort()
             return result
         executed = self._execute_with_cancel(goal_handle,
@@ -552,7 +612,7 @@ class MoveGroupFace(Node):
             trajectory, _ = joint_trajectory_from_ros(goal.trajectory)
         except ConversionError as exc:
             self._log("warning", f"execute_trajectory: refused: {exc.message}")
-            result.error_code = _failure(exc.code, exc.message, "execute_trajectory")
+            result.error_code = _failure(_code_of(exc), exc.message, "execute_trajectory")
             goal_handle.abort()
             return result
         controllers = list(goal.controller_names) or None

@@ -27,10 +27,13 @@ from interfaces_py.msgs import (
 from interfaces_py.pose_conversion import PoseError, pose_matrix
 from interfaces_py.ros_message_reading import ConversionError
 from mycobot_planning.capabilities.cartesian_path import CartesianPathRequest
+from mycobot_planning.capabilities.move_group_context import RequestError, check_tolerance
 from mycobot_planning.core.planning_interface.planning_interface import Goal, JointGoal, MotionPlanRequest, PoseGoal
 
 #: rad: an orientation constraint this loose on every axis leaves the orientation free
 FREE_ORIENTATION = math.pi
+#: m: the position tolerance of a region made of meshes only (their extent is not read)
+MESH_REGION_TOLERANCE = 1e-3
 
 __all__ = ["cartesian_request_from_msg", "goal_from_constraints", "joint_trajectory_from_ros",
            "motion_plan_request_from_msg", "pose_from_ros", "robot_state_from_ros", "robot_state_to_ros",
@@ -76,18 +79,49 @@ def robot_trajectory_to_ros(trajectory: JointTrajectory, frame_id: str) -> Robot
     return msg
 
 
+#: how many dimensions each shape_msgs/SolidPrimitive type has (BOX 1, SPHERE 2, CYLINDER 3, CONE 4)
+_PRIMITIVE_DIMENSIONS = {1: 3, 2: 1, 3: 2, 4: 2}
+
+
+def _tolerance(value: Any, what: str) -> float:
+    """A goal tolerance through the capabilities' one check (finite, >= 0), as a ConversionError."""
+    try:
+        return check_tolerance(float(value), what)
+    except RequestError as exc:
+        raise ConversionError(exc.moveit_code, exc.message) from None
+
+
 def _region_tolerance(constraint: Any) -> float:
-    """A position constraint region's tolerance: a sphere's radius, a box's smallest half extent."""
+    """A position constraint region's tolerance: a sphere's radius, a box's smallest half extent
+    (the smallest over its primitives). A region must have volume: at least one primitive or
+    mesh, as many poses as primitives (and meshes), every primitive's dimensions complete,
+    finite and > 0 (ConversionError otherwise: never a point or a 1 mm ball in its place)."""
+    bad = MoveItErrorCodes.INVALID_GOAL_CONSTRAINTS
+    region = constraint.constraint_region
+    if len(region.primitives) != len(region.primitive_poses):
+        raise ConversionError(bad, f"position constraint: {len(region.primitives)} primitives but "
+                                   f"{len(region.primitive_poses)} primitive poses")
+    if len(region.meshes) != len(region.mesh_poses):
+        raise ConversionError(bad, f"position constraint: {len(region.meshes)} meshes but "
+                                   f"{len(region.mesh_poses)} mesh poses")
+    if not len(region.primitives) and not len(region.meshes):
+        raise ConversionError(bad, "position constraint: constraint_region has no primitive (a region needs a volume)")
     tolerances = []
-    for primitive in constraint.constraint_region.primitives:
-        dims = list(primitive.dimensions)
-        if primitive.type == primitive.SPHERE and dims:
+    for k, primitive in enumerate(region.primitives):
+        dims = [float(d) for d in primitive.dimensions]
+        expected = _PRIMITIVE_DIMENSIONS.get(int(primitive.type))
+        if expected is None:
+            raise ConversionError(bad, f"position constraint: primitive {k} has unknown type {primitive.type}")
+        if len(dims) != expected or not all(math.isfinite(d) and d > 0 for d in dims):
+            raise ConversionError(bad, f"position constraint: primitive {k} has no volume: {expected} finite "
+                                       f"dimensions > 0 expected, got {dims}")
+        if primitive.type == primitive.SPHERE:
             tolerances.append(dims[0])
-        elif primitive.type == primitive.BOX and len(dims) == 3:
+        elif primitive.type == primitive.BOX:
             tolerances.append(min(dims) / 2)
-        elif primitive.type in (primitive.CYLINDER, primitive.CONE) and len(dims) == 2:
+        else:  # CYLINDER, CONE: height, radius
             tolerances.append(min(dims[0] / 2, dims[1]))
-    return max(min(tolerances), 1e-6) if tolerances else 1e-3
+    return min(tolerances) if tolerances else MESH_REGION_TOLERANCE
 
 
 def goal_from_constraints(constraints: Constraints) -> tuple[Goal, str]:
@@ -104,8 +138,17 @@ def goal_from_constraints(constraints: Constraints) -> tuple[Goal, str]:
         raise ConversionError(bad, "a goal mixing joint constraints with position/orientation constraints is not "
                                    "supported; send them as separate goal_constraints")
     if joints:
-        values = {jc.joint_name: float(jc.position) for jc in joints}
-        tolerance = max(max(float(jc.tolerance_above), float(jc.tolerance_below)) for jc in joints)
+        values: dict[str, float] = {}
+        for jc in joints:
+            position = float(jc.position)
+            if jc.joint_name in values and values[jc.joint_name] != position:
+                raise ConversionError(bad, f"joint '{jc.joint_name}' is constrained twice, to {values[jc.joint_name]:g} "
+                                           f"and {position:g}")
+            values[jc.joint_name] = position
+        tolerance = max(max(_tolerance(jc.tolerance_above, f"tolerance_above of joint '{jc.joint_name}'"),
+                            _tolerance(jc.tolerance_below, f"tolerance_below of joint '{jc.joint_name}'"))
+                        for jc in joints)
+        # 0 (both tolerances left unset) reads as "exact": the planners' own 1e-4 rad
         return JointGoal(values, tolerance if tolerance > 0 else 1e-4), "world"
     if not positions and not orientations:
         raise ConversionError(bad, "goal constraints are empty")
@@ -119,15 +162,15 @@ def goal_from_constraints(constraints: Constraints) -> tuple[Goal, str]:
         raise ConversionError(bad, f"position constraint on '{pc.link_name}' and orientation constraint on "
                                    f"'{oc.link_name}': a goal constrains one link")
     region = pc.constraint_region
-    if not len(region.primitive_poses) and not len(region.mesh_poses):
-        raise ConversionError(bad, "position constraint: constraint_region has no primitive pose")
+    region_tolerance = _region_tolerance(pc)
     centre = region.primitive_poses[0] if len(region.primitive_poses) else region.mesh_poses[0]
     position = [centre.position.x, centre.position.y, centre.position.z]
     if oc is not None:
         q = oc.orientation
         quaternion = [q.x, q.y, q.z, q.w]
-        orientation_tolerance = max(float(oc.absolute_x_axis_tolerance), float(oc.absolute_y_axis_tolerance),
-                                    float(oc.absolute_z_axis_tolerance))
+        orientation_tolerance = max(_tolerance(getattr(oc, f"absolute_{axis}_axis_tolerance"),
+                                               f"orientation constraint absolute_{axis}_axis_tolerance")
+                                    for axis in "xyz")
         if oc.header.frame_id and pc.header.frame_id and oc.header.frame_id != pc.header.frame_id:
             raise ConversionError(bad, f"position constraint in '{pc.header.frame_id}' and orientation constraint "
                                        f"in '{oc.header.frame_id}': give both in one frame")
@@ -142,7 +185,7 @@ def goal_from_constraints(constraints: Constraints) -> tuple[Goal, str]:
             ik_offset = pose_matrix([offset.x, offset.y, offset.z, 0.0, 0.0, 0.0, 1.0], "ik_frame_offset")
     except PoseError as exc:
         raise ConversionError(bad, f"invalid {exc}") from None
-    goal = PoseGoal(pose, pc.link_name or None, ik_offset, _region_tolerance(pc),
+    goal = PoseGoal(pose, pc.link_name or None, ik_offset, region_tolerance,
                     orientation_tolerance if orientation_tolerance > 0 else 1e-3)
     return goal, pc.header.frame_id or "world"
 
@@ -200,7 +243,7 @@ def cartesian_request_from_msg(msg: Any) -> CartesianPathRequest:
                    for k, p in enumerate(msg.waypoints)],
         frame=msg.header.frame_id or "world",
         link=msg.link_name,
-        eef_step=float(msg.max_step) if msg.max_step > 0 else 0.01,
+        eef_step=float(msg.max_step),  # <= 0 or NaN: FAILURE, as MoveIt answers
         jump_threshold=float(msg.jump_threshold),
         revolute_jump_threshold=float(msg.revolute_jump_threshold),
         prismatic_jump_threshold=float(msg.prismatic_jump_threshold),

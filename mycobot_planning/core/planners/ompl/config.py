@@ -47,6 +47,10 @@ _CONTEXT_KEYS = frozenset(
         "plugin",
     }
 )
+#: MoveIt's planning context keys a planner configuration may hold (public: set_planner_params)
+CONTEXT_KEYS = _CONTEXT_KEYS
+#: the context keys whose values are checked here, so set_planner_params may change them
+SETTABLE_CONTEXT_KEYS = frozenset({"longest_valid_segment_fraction", "projection_evaluator"})
 _GROUP_KEYS = frozenset({"planner_configs", "default_planner_config"}) | _CONTEXT_KEYS
 DEFAULT_LVSF = 0.005  # MoveIt setup assistant's value for every group
 
@@ -129,7 +133,8 @@ def parse_projection_evaluator(spec: str) -> tuple[str, tuple[str, ...]]:
     return m.group(1), names
 
 
-def _check_context(where: str, ctx: Mapping[str, Any]) -> dict[str, Any]:
+def check_context(where: str, ctx: Mapping[str, Any]) -> dict[str, Any]:
+    """Context keys of a planner configuration, the checked ones (SETTABLE_CONTEXT_KEYS) checked."""
     out = dict(ctx)
     if "longest_valid_segment_fraction" in out:
         v = out["longest_valid_segment_fraction"]
@@ -197,7 +202,7 @@ def load_ompl_config(source: str | Path | Mapping[str, Any], *, skip_unavailable
             ptype = canonical_planner_type(raw_type)
         except OmplConfigError as e:
             raise OmplConfigError(f"{where}: {e}") from None
-        context = _check_context(where, {k: v for k, v in body.items() if k in _CONTEXT_KEYS})
+        context = check_context(where, {k: v for k, v in body.items() if k in _CONTEXT_KEYS})
         params = validate_params(
             ptype, {k: v for k, v in body.items() if k != "type" and k not in _CONTEXT_KEYS}, where
         )
@@ -236,7 +241,7 @@ def load_ompl_config(source: str | Path | Mapping[str, Any], *, skip_unavailable
                 raise OmplConfigError(
                     f"{where}: default_planner_config {default!r} is not defined in planner_configs"
                 )
-        context = _check_context(where, {k: v for k, v in body.items() if k in _CONTEXT_KEYS})
+        context = check_context(where, {k: v for k, v in body.items() if k in _CONTEXT_KEYS})
         groups[str(key)] = GroupConfig(
             name=str(key),
             planner_configs=tuple(listed),

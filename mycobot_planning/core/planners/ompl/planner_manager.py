@@ -17,13 +17,22 @@ from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 import numpy as np
-import yaml
 
 from interfaces_py.msgs import MoveItErrorCode
 
 from mycobot_planning.paths import config_file
-from .config import GroupConfig, OmplConfig, ResolvedPlanner, load_ompl_config, parse_projection_evaluator, resolve_planner_id
-from .planners import OmplConfigError
+from .config import (
+    CONTEXT_KEYS,
+    SETTABLE_CONTEXT_KEYS,
+    GroupConfig,
+    OmplConfig,
+    ResolvedPlanner,
+    check_context,
+    load_ompl_config,
+    parse_projection_evaluator,
+    resolve_planner_id,
+)
+from .planners import OmplConfigError, canonical_planner_type, validate_params
 from .solve import OmplResult, plan_joint_space
 from ...kinematic_constraints.kinematic_constraints import CONSTRAINT_CHECK_STEP, ConstraintManifold, dense_violation
 from ...robot_state.robot_state import RobotState
@@ -128,21 +137,44 @@ class OmplPlanner:
         return params
 
     def set_planner_params(self, planner_id: str, params: Mapping[str, str], replace: bool = False) -> str | None:
+        """All or nothing: every key must be a parameter the configuration's planner type declares
+        (planners.PLANNERS) or one of the context keys checked here (longest_valid_segment_fraction,
+        projection_evaluator), every value of its type and range and finite; "type" may only
+        repeat the configuration's type. None when applied, else why not (nothing changed)."""
         current = self.config
         config = current.planner_configs.get(planner_id)
         if config is None:
             return (f"unknown planner configuration {planner_id!r}; known: "
                     f"{', '.join(sorted(current.planner_configs))}")
-        values: dict[str, Any] = {} if replace else dict(config.params)
+        where = f"planner configuration {planner_id!r}"
+        plain: dict[str, Any] = {}
+        context: dict[str, Any] = {}
         for key, text in params.items():
             if key == "type":
-                continue
-            try:
-                values[key] = yaml.safe_load(text) if isinstance(text, str) else text
-            except yaml.YAMLError:
-                values[key] = text
-        self.config = dataclasses.replace(current, planner_configs={
-            **current.planner_configs, planner_id: dataclasses.replace(config, params=values)})
+                try:
+                    same = canonical_planner_type(str(text)) == config.type
+                except OmplConfigError:
+                    same = False
+                if not same:
+                    return f"{where}: its type is {config.type}; 'type' cannot change it (got {text!r})"
+            elif key in SETTABLE_CONTEXT_KEYS:
+                context[key] = text
+            elif key in CONTEXT_KEYS:
+                return (f"{where}: {key!r} is a planning context setting that set_planner_params cannot change "
+                        f"(settable: the planner's parameters, {', '.join(sorted(SETTABLE_CONTEXT_KEYS))})")
+            else:
+                plain[key] = text
+        try:
+            values = validate_params(config.type, plain, where)
+            settings = check_context(where, context)
+        except (OmplConfigError, ValueError) as exc:
+            return str(exc)
+        infinite = [k for k, v in values.items() if isinstance(v, float) and not math.isfinite(v)]
+        if infinite:
+            return f"{where}: parameter {infinite[0]!r} must be a finite number, got {params[infinite[0]]!r}"
+        new = dataclasses.replace(config, params=values if replace else {**config.params, **values},
+                                  context=settings if replace else {**config.context, **settings})
+        self.config = dataclasses.replace(current, planner_configs={**current.planner_configs, planner_id: new})
         return None
 
     def resolve(self, group: str, planner_id: str) -> ResolvedPlanner:
