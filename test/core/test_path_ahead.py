@@ -123,7 +123,8 @@ def test_no_stop_when_the_obstacle_is_nearer_than_the_braking_distance(mycobot):
 # ------------------------------------------------------------------------------- the execution
 class Intrusion:
     """Scene changes at set simulated times; each simulated step after a change waits (in real
-    time) until the path watch has checked it, so the outcome does not depend on thread timing."""
+    time) until the path watch has finished a check that began after it (a check of an older
+    scene finishing meanwhile does not count), so the outcome does not depend on thread timing."""
 
     def __init__(self, manager: TrajectoryExecutionManager, bus: SimBus, scene_box: list[PlanningScene]) -> None:
         self.manager, self.bus, self.scene = manager, bus, scene_box
@@ -133,14 +134,14 @@ class Intrusion:
     def at(self, delay: float, change) -> None:
         def act() -> None:
             change(self.scene[0])
-            self.pending = self.manager.watch_stats["checks"] + 1
             self.manager.scene_changed()
+            self.pending = self.manager.watch_stats["changes"]
         self.bus.hooks.append((self.bus.now + delay, act))
 
     def wait(self, dt: float) -> None:
         if self.pending:
             end = time.monotonic() + 10.0
-            while self.manager.watch_stats["checks"] < self.pending and time.monotonic() < end:
+            while self.manager.watch_stats["changes_checked"] < self.pending and time.monotonic() < end:
                 time.sleep(0.001)
             self.pending = 0
         self.bus.wait(dt)

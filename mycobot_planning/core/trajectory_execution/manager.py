@@ -99,7 +99,7 @@ class TrajectoryExecutionManager:
         self.invalidations = 0
         self.last_reaction_ms: float | None = None
         #: what the last path watch saw: checks made, and ms from a scene change to its verdict
-        self.watch_stats: dict[str, Any] = {"checks": 0, "reaction_ms": []}
+        self.watch_stats: dict[str, Any] = {"checks": 0, "reaction_ms": [], "changes": 0, "changes_checked": 0}
 
     # ------------------------------------------------------------------ status
     @property
@@ -460,6 +460,9 @@ class _PathWatch:
         self.hit_since: float | None = None
         stats["checks"] = 0
         stats["reaction_ms"] = []
+        #: scene changes announced, and how many of them the newest finished check covered
+        stats["changes"] = 0
+        stats["changes_checked"] = 0
         self._stats = stats
         self._thread = threading.Thread(target=self._run, name="path ahead watch", daemon=True)
 
@@ -469,6 +472,7 @@ class _PathWatch:
     def changed(self) -> None:
         if self._since is None:
             self._since = time.monotonic()
+        self._stats["changes"] += 1
         self._changed.set()
 
     def close(self) -> None:
@@ -483,6 +487,7 @@ class _PathWatch:
             if self._closed:
                 return
             self._changed.clear()
+            covered = self._stats["changes"]  # read after the clear: a later change sets the event again
             since, self._since = self._since, None
             t_from = self._clock() - self._started
             woke = time.monotonic()
@@ -493,6 +498,7 @@ class _PathWatch:
             except Exception as exc:  # a failed check must not end the watch: the next change checks again
                 self._log("error", f"checking the path ahead failed: {type(exc).__name__}: {exc}")
                 continue
+            self._stats["changes_checked"] = covered
             self._stats["checks"] += 1
             if since is not None:
                 self._stats["reaction_ms"].append((time.monotonic() - since) * 1e3)
