@@ -26,6 +26,7 @@ from interfaces_py.background_spin import BackgroundSpin
 from interfaces_py.json_rpc import BAD_REQUEST, JsonRpcServer, RpcError, decode_request, log_safe
 from interfaces_py.msgs import CollisionObject, JointTrajectory, MoveItErrorCode
 from interfaces_py.ros_conversions import collision_object_to_markers, joint_trajectory_to_msg
+from mycobot_planning.capabilities import stop
 from mycobot_planning.capabilities.json_face import (
     MoveGroupJsonFace,
     PlanningDefaults,
@@ -399,6 +400,16 @@ class PlanningServer(Node):
 
     def _on_feedback(self) -> None:
         self.core.executor.notify()
+
+    def begin_shutdown(self) -> None:
+        """SIGINT/SIGTERM (node_runtime.run_node, rclpy still up): cancel every running plan and
+        stop the running execution; their goals end PREEMPTED and answer their clients."""
+        self.get_logger().info("shutting down: stopping running plans and executions")
+        stop.stop(self.core)
+
+    def busy(self) -> bool:
+        """A plan, an execution or an action goal still running (its client not answered yet)."""
+        return bool(self.core.executor.executing or self.core.running_plans() or self.move_group.active_goals())
 
     def close(self) -> None:
         """On shutdown: stop a running execution so the controllers hold where they are, then
