@@ -214,7 +214,7 @@ def _ik_cases() -> list[tuple[str, Callable[[Any], None]]]:
             ("seed naming nojoint", robot_state(["nojoint"], [0.0])),
             ("seed 1e308", robot_state([ARM[0]], [1e308])),
             ("NaN constraint", constraint(NAN)),
-            ("constraint no solution can meet", constraint(2.5)),
+            ("constraint beyond the joint limits", constraint(4.0)),  # no state can meet it
             ("pose_stamped_vector", stamped_vector)]
 
 
