@@ -5,14 +5,21 @@ The cases are generated systematically from a few good requests: each field of a
 gets the values that are wrong for it (wrong types, missing and extra fields, non-finite and
 extreme numbers, odd strings: empty, NUL, control characters, lone surrogates, oversized), plus
 protocol-level garbage (not JSON, deep nesting, oversized payloads), bad trajectories on the
-controllers' topics and bad ``ros2 param set`` values on every node.
+controllers' topics and bad ``ros2 param set`` values on every node; and (issue 27) MoveIt's
+face: real moveit_msgs / control_msgs requests and goals to move_group's services and actions
+and to the controllers' FollowJointTrajectory actions (robustness_moveit.py).
+
+Summary keys: inputs, refused, accepted_bad, crashes, hangs, half_applied (a refused input left
+the scene or a planner's parameters changed), unsafe_motions (the robot moved); all but
+refused must be 0.
 
 For each case the runner checks what a user relies on:
 * the node answers it (a hang is a case that got no answer within its timeout),
 * the answer refuses it and names the problem (RPC ``ok: false`` with a message, a MoveIt error
   code other than SUCCESS with a message, a parameter refusal with a reason); an answer that
   leaks Python internals (``Traceback``, ``IndexError`` ...) counts as accepted_bad,
-* the planning scene and the robot are unchanged afterwards, and every node is still alive.
+* the planning scene and the robot are unchanged afterwards (else half_applied, unsafe_motion),
+  and every node is still alive.
 
 Inputs without an answer (topics) are refused when the node stays alive and nothing changed.
 """
@@ -43,7 +50,7 @@ HOME = [0.0] * 6
 class Case:
     """One bad input: where it goes and what it is."""
 
-    interface: str  # "rpc", "rpc_raw", "topic", "param", "controller"
+    interface: str  # "rpc", "rpc_raw", "topic", "param", "controller", "moveit"
     name: str
     payload: Any
     target: str = ""  # method, topic, node or controller
@@ -55,7 +62,7 @@ class Case:
 @dataclass
 class Outcome:
     case: Case
-    verdict: str  # refused, accepted_bad, crash, hang
+    verdict: str  # refused, accepted_bad, half_applied, unsafe_motion, crash, hang
     detail: str = ""
 
 
@@ -72,7 +79,8 @@ class Report:
     def summary(self) -> dict[str, Any]:
         return {"inputs": len(self.outcomes), "refused": self.count("refused"),
                 "accepted_bad": self.count("accepted_bad"), "crashes": self.count("crash"),
-                "hangs": self.count("hang"),
+                "hangs": self.count("hang"), "half_applied": self.count("half_applied"),
+                "unsafe_motions": self.count("unsafe_motion"),
                 "failing_cases": [f"{o.case.interface}:{o.case.name}: {o.verdict} ({o.detail[:160]})"
                                   for o in self.failures()[:20]]}
 
@@ -368,8 +376,15 @@ def param_cases() -> list[Case]:
     return cases
 
 
+def moveit_cases() -> list[Case]:
+    """MoveIt's face: real moveit_msgs requests and goals (see robustness_moveit)."""
+    from .robustness_moveit import moveit_inputs
+
+    return [Case("moveit", name, given, given.name, timeout=30.0) for name, given in moveit_inputs()]
+
+
 def all_cases() -> list[Case]:
-    return rpc_cases() + raw_cases() + topic_cases() + controller_cases() + param_cases()
+    return rpc_cases() + raw_cases() + topic_cases() + controller_cases() + param_cases() + moveit_cases()
 
 
 # ---------------------------------------------------------------------------- the runner
@@ -406,6 +421,7 @@ class Prober:
         self.controllers = {c: self.node.create_publisher(JointTrajectory, f"/{c}/joint_trajectory", 10)
                             for c in ("arm_controller", "grip_action_controller")}
         self._param_clients: dict[str, Any] = {}
+        self._moveit_clients: dict[str, Any] = {}
         self.spinner = BackgroundSpin(self.executor, name="robustness probe")
 
     def _on_answer(self, msg: Any) -> None:
@@ -470,6 +486,41 @@ class Prober:
             time.sleep(0.005)
         return future.result().results[0] if future.done() else None
 
+    def _wait(self, future: Any, timeout: float) -> Any:
+        deadline = time.monotonic() + timeout
+        while not future.done() and time.monotonic() < deadline:
+            time.sleep(0.005)
+        return future.result() if future.done() else None
+
+    def moveit_call(self, srv_type: Any, name: str, request: Any, timeout: float) -> Any:
+        """A move_group service's response (None: no answer within ``timeout``)."""
+        client = self._moveit_clients.get(name)
+        if client is None:
+            client = self._moveit_clients[name] = self.node.create_client(srv_type, name)
+        if not client.wait_for_service(timeout_sec=timeout):
+            return None
+        return self._wait(client.call_async(request), timeout)
+
+    def moveit_goal(self, action_type: Any, name: str, goal: Any, timeout: float) -> tuple[str, Any]:
+        """("rejected", None), ("done", get_result response) or ("hang", what did not come)."""
+        from rclpy.qos import QoSProfile
+
+        from interfaces_py.action_client import ActionClient
+
+        client = self._moveit_clients.get(name)
+        if client is None:
+            deep = {f"{k}_service_qos_profile": QoSProfile(depth=100) for k in ("goal", "result", "cancel")}
+            client = self._moveit_clients[name] = ActionClient(self.node, action_type, name, **deep)
+        if not client.wait_for_server(timeout_sec=timeout):
+            return "hang", "the action server is not there"
+        handle = self._wait(client.send_goal_async(goal), timeout)
+        if handle is None:
+            return "hang", "no goal response"
+        if not handle.accepted:
+            return "rejected", None
+        result = self._wait(handle.get_result_async(), timeout)
+        return ("done", result) if result is not None else ("hang", "no result")
+
     def publish_trajectory(self, controller: str, data: dict) -> None:
         from builtin_interfaces.msg import Duration
         from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
@@ -525,19 +576,21 @@ class Runner:
             joints = dict(self.prober.joints)
         return (world, attached, acm), joints
 
-    def _changed(self, before: tuple[Any, dict[str, float]]) -> str | None:
+    def _changed(self, before: tuple[Any, dict[str, float]]) -> tuple[str, str] | None:
+        """(verdict, what) when a refused input left something behind: the scene changed
+        (half_applied) or the robot moved (unsafe_motion)."""
         scene, joints = self.snapshot()
         if scene != before[0]:
-            return "the planning scene changed"
+            return "half_applied", "the planning scene changed"
         moved = [n for n in ARM_JOINTS + ["gripper_controller"]
                  if n in joints and abs(joints[n] - before[1].get(n, joints[n])) > 1e-4]
-        return f"the robot moved ({moved})" if moved else None
+        return ("unsafe_motion", f"the robot moved ({moved})") if moved else None
 
     def judge(self, case: Case) -> Outcome:
         before = self.snapshot()
         started = time.monotonic()
         verdict, detail = self._send(case)
-        if verdict == "refused" and case.interface in ("controller", "topic"):
+        if verdict == "refused" and case.interface in ("controller", "topic", "moveit"):
             time.sleep(0.3)  # let a wrongly accepted command show its effect
         dead = self._dead()
         if dead is not None:
@@ -549,7 +602,7 @@ class Runner:
         except (TimeoutError, KeyError, TypeError) as exc:
             return Outcome(case, "hang", f"the planning_server stopped answering: {exc}")
         if changed is not None:
-            return Outcome(case, "accepted_bad", f"{changed}; answer: {detail}")
+            return Outcome(case, changed[0], f"{changed[1]}; answer: {detail}")
         return Outcome(case, "refused", f"{detail} ({time.monotonic() - started:.2f} s)")
 
     def _send(self, case: Case) -> tuple[str, str]:
@@ -595,7 +648,67 @@ class Runner:
                 return "accepted_bad", "Set parameter successful"
             problem = _problem_text(result.reason)
             return ("accepted_bad", problem) if problem else ("refused", result.reason)
+        if case.interface == "moveit":
+            return self._send_moveit(case)
         raise ValueError(f"unknown interface {case.interface}")
+
+    def _send_moveit(self, case: Case) -> tuple[str, str]:
+        given, p = case.payload, self.prober
+        if given.kind == "planner_params":
+            from moveit_msgs.srv import GetPlannerParams
+
+            ask = GetPlannerParams.Request(pipeline_id="ompl", planner_config="RRTkConfigDefault")
+            before = p.moveit_call(GetPlannerParams, "/get_planner_params", ask, case.timeout)
+            if p.moveit_call(given.type, given.name, given.build(), case.timeout) is None:
+                return "hang", "set_planner_params did not answer"
+            after = p.moveit_call(GetPlannerParams, "/get_planner_params", ask, case.timeout)
+            if before is None or after is None:
+                return "hang", "get_planner_params did not answer"
+            unchanged = (list(before.params.keys), list(before.params.values)) == \
+                (list(after.params.keys), list(after.params.values))
+            return ("refused", "the parameters are unchanged") if unchanged else \
+                ("half_applied", f"the parameters changed: {dict(zip(after.params.keys, after.params.values))}")
+        if given.kind == "action":
+            from action_msgs.msg import GoalStatus
+
+            state, answer = p.moveit_goal(given.type, given.name, given.build(), case.timeout)
+            if state == "rejected":
+                return "refused", "goal rejected"
+            if state == "hang":
+                return "hang", answer
+            if hasattr(answer.result, "error_string"):  # control_msgs/FollowJointTrajectory
+                if answer.status == GoalStatus.STATUS_SUCCEEDED or answer.result.error_code == 0:
+                    return "accepted_bad", f"the controller's goal succeeded: {answer.result.error_string[:120]}"
+                problem = _problem_text(answer.result.error_string)
+                return ("accepted_bad", problem) if problem else \
+                    ("refused", f"{answer.result.error_code}: {answer.result.error_string}")
+            if answer.status == GoalStatus.STATUS_SUCCEEDED:
+                return "accepted_bad", f"the goal succeeded: {answer.result.error_code.message[:120]}"
+            return self._judge_code(answer.result.error_code)
+        response = p.moveit_call(given.type, given.name, given.build(), case.timeout)
+        if response is None:
+            return "hang", f"{given.name} did not answer"
+        if hasattr(response, "motion_plan_response"):
+            return self._judge_code(response.motion_plan_response.error_code)
+        if hasattr(response, "error_code"):
+            return self._judge_code(response.error_code)
+        if hasattr(response, "valid"):
+            return ("accepted_bad", "answered valid") if response.valid else ("refused", "valid: false")
+        if hasattr(response, "success"):
+            return ("accepted_bad", "answered success") if response.success else ("refused", "success: false")
+        return "accepted_bad", f"no way to tell a refusal from {type(response).__name__}"
+
+    @staticmethod
+    def _judge_code(code: Any) -> tuple[str, str]:
+        """A moveit_msgs/MoveItErrorCodes: a refusal is a value other than SUCCESS with a clear
+        message; an internal error (the face's catch-all) is no refusal."""
+        message = str(code.message)
+        if code.val == 1:
+            return "accepted_bad", f"answered SUCCESS: {message[:120]}"
+        problem = _problem_text(message)
+        if problem is None and "internal error" in message:
+            problem = f"an internal error, not a refusal: {message[:120]}"
+        return ("accepted_bad", problem) if problem else ("refused", f"{code.val}: {message}")
 
     @staticmethod
     def _judge_rpc(answer: dict) -> tuple[str, str]:
@@ -667,7 +780,7 @@ def bench_robustness(repeat: int, seed: int) -> None:
             summary = report.summary()
             emit({"scenario": "robustness", "repeat": index, "seconds": round(time.perf_counter() - started, 2),
                   **{k: v for k, v in summary.items() if k != "failing_cases"}})
-            for key in ("inputs", "refused", "accepted_bad", "crashes", "hangs"):
+            for key in ("inputs", "refused", "accepted_bad", "crashes", "hangs", "half_applied", "unsafe_motions"):
                 totals[key] = totals.get(key, 0) + summary[key]
             failing += [f for f in summary["failing_cases"] if f not in failing]
     emit({"scenario": "robustness", "summary": True, **totals, "failing_cases": failing[:20], **machine()})

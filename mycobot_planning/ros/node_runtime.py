@@ -8,7 +8,10 @@ cleanly. Each node declares its parameters through `ParameterSpec`s and starts t
 from __future__ import annotations
 
 import math
+import signal
 import sys
+import threading
+import time
 from pathlib import Path
 import traceback
 from dataclasses import dataclass
@@ -21,6 +24,7 @@ from rclpy.executors import Executor, ExternalShutdownException, MultiThreadedEx
 from rclpy.node import Node
 from rclpy.exceptions import ParameterException, ParameterUninitializedException
 from rclpy.parameter import Parameter
+from rclpy.signals import SignalHandlerOptions
 
 from mycobot_planning.paths import use_fast_discovery
 
@@ -177,15 +181,34 @@ def load_yaml_file(path: str, what: str) -> dict | None:
     return data
 
 
+#: s a node may take, after SIGINT/SIGTERM, to end what it is doing and answer its clients
+#: (begin_shutdown, then while busy()) before rclpy is shut down
+WIND_DOWN_TIMEOUT = 1.5
+#: s given to the executor after that, for the last results and responses to go out
+FLUSH_TIME = 0.1
+
+
 def run_node(factory: Callable[[], Node], args: list[str] | None = None, threads: int = 4) -> int:
     """rclpy.init, build the node, spin it on a multi-threaded executor until Ctrl-C or SIGTERM,
     then tear down. A node that cannot start logs why and exits 1 instead of a traceback; a
     callback that raises is logged and the node goes on serving (one bad message must never take
-    a node down)."""
+    a node down).
+
+    Shutdown answers clients: rclpy's own signal handlers would shut the context down at once
+    (a running goal could then neither finish nor answer, and its abort() raised an RCLError
+    traceback). Here SIGINT and SIGTERM only set a flag; the executor spins on a thread of its
+    own while the main thread waits for that flag, then the node's optional ``begin_shutdown()``
+    (the planning_server: stop plans and executions) runs and the node gets up to
+    WIND_DOWN_TIMEOUT s while its optional ``busy()`` is true, with the executor still
+    delivering results, before rclpy is shut down, ``close()`` called and the node destroyed."""
     use_fast_discovery()
-    rclpy.init(args=args if args is not None else sys.argv)
-    # rclpy.init installs SIGINT and SIGTERM handlers at C level (SignalHandlerOptions.ALL): they wake
-    # the executor, which a Python-level handler cannot do while spin() waits in C.
+    rclpy.init(args=args if args is not None else sys.argv, signal_handler_options=SignalHandlerOptions.NO)
+    stop_requested = threading.Event()
+
+    def on_signal(signum: int, frame: Any) -> None:
+        stop_requested.set()
+
+    previous = {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
     node = None
     code = 0
     try:
@@ -200,14 +223,20 @@ def run_node(factory: Callable[[], Node], args: list[str] | None = None, threads
         executor.add_node(node)
         for extra in getattr(node, "extra_nodes", ()):  # more nodes of the same process (planning_server: move_group)
             executor.add_node(extra)
-        _spin_guarded(node, executor)
+        failure: list[BaseException] = []
+        spinner = threading.Thread(target=_spin_thread, args=(node, executor, failure), name="executor", daemon=True)
+        spinner.start()
+        while not stop_requested.wait(1.0):  # interruptible: the signal handler runs here
+            if not spinner.is_alive():
+                break
+        if stop_requested.is_set() and spinner.is_alive():
+            _wind_down(node)
+        rclpy.try_shutdown()
+        spinner.join(2.0)
+        if failure:
+            raise failure[0]
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
-    except Exception:
-        # A signal can invalidate the context while the executor is waiting; that is a shutdown,
-        # not an error. Anything else while rclpy is still up is a real failure.
-        if rclpy.ok():
-            raise
     finally:
         if node is not None:
             close = getattr(node, "close", None)
@@ -215,7 +244,40 @@ def run_node(factory: Callable[[], Node], args: list[str] | None = None, threads
                 close()
             node.destroy_node()
         rclpy.try_shutdown()
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
     return code
+
+
+def _wind_down(node: Node) -> None:
+    """After SIGINT/SIGTERM, rclpy still up: let the node end its work and answer its clients."""
+    begin = getattr(node, "begin_shutdown", None)
+    if callable(begin):
+        try:
+            begin()
+        except Exception as exc:  # never let a shutdown step hide the shutdown
+            node.get_logger().error(f"begin_shutdown failed: {type(exc).__name__}: {exc}")
+    busy = getattr(node, "busy", None)
+    deadline = time.monotonic() + WIND_DOWN_TIMEOUT
+    while callable(busy) and time.monotonic() < deadline:
+        try:
+            if not busy():
+                break
+        except Exception:
+            break
+        time.sleep(0.02)
+    time.sleep(FLUSH_TIME)
+
+
+def _spin_thread(node: Node, executor: Executor, failure: list[BaseException]) -> None:
+    try:
+        _spin_guarded(node, executor)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except Exception as exc:
+        # the context can go away while the executor waits; that is a shutdown, not an error
+        if rclpy.ok():
+            failure.append(exc)
 
 
 def _spin_guarded(node: Node, executor: Executor) -> None:

@@ -194,3 +194,13 @@ def test_accelerations_without_velocities_are_refused_before_any_controller(myco
                                              JointTrajectoryPoint([0.1] + [0.0] * 5, [], [0.0] * 6, 1.0)])
     with pytest.raises(ExecutionError, match="accelerations but no velocities"):
         prepare_trajectory(mycobot, trajectory)
+
+
+def test_meshes_beyond_the_documented_budget_are_refused():
+    from interfaces_py.msgs import MAX_MESH_TRIANGLES, MAX_MESH_VERTICES, MessageError
+    from interfaces_py.msgs.geometry import Mesh
+
+    assert MAX_MESH_VERTICES == 100_000 and MAX_MESH_TRIANGLES == 200_000
+    Mesh(vertices=[[0.0, 0.0, 0.0]] * MAX_MESH_VERTICES, triangles=[[0, 1, 2]])
+    with pytest.raises(MessageError, match="at most"):
+        Mesh(vertices=[[0.0, 0.0, 0.0]] * (MAX_MESH_VERTICES + 1), triangles=[[0, 1, 2]])

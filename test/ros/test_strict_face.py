@@ -218,3 +218,54 @@ def test_cancelling_one_goal_leaves_the_others_planning(client: Client) -> None:
     assert client.spin_until(cancelled.get_result_async(), timeout=20.0).status == GoalStatus.STATUS_CANCELED
     for handle in handles:
         assert client.spin_until(handle.get_result_async()).result.error_code.val == C.SUCCESS
+
+
+def test_a_storm_of_goals_loses_no_result(client: Client) -> None:
+    """20 plan-only goals at once, their results asked for together once they are done: all 20
+    answer (rclpy's default depth of 10 for the result service lost half of them)."""
+    from rclpy.qos import QoSProfile
+
+    from interfaces_py.action_client import ActionClient
+
+    # the client keeps every response too (with rclpy's default depth of 10, its own queue drops some)
+    deep = {f"{kind}_service_qos_profile": QoSProfile(depth=100) for kind in ("goal", "result", "cancel")}
+    storm = ActionClient(client.node, MoveGroup, "/move_action", **deep)
+    handles = [client.send(storm, _move_goal(FAR if k % 2 else READY)) for k in range(20)]
+    assert wait_until(lambda: (client.executor.spin_once(timeout_sec=0.05),
+                               all(h.status == GoalStatus.STATUS_SUCCEEDED for h in handles))[1], 60.0, period=0.0)
+    futures = [handle.get_result_async() for handle in handles]  # all finished: asked at once
+    assert wait_until(lambda: (client.executor.spin_once(timeout_sec=0.05), all(f.done() for f in futures))[1], 30.0,
+                      period=0.0), f"{sum(not f.done() for f in futures)} of 20 results never came"
+    done = [f.result().result.error_code.val for f in futures]
+    assert done == [C.SUCCESS] * 20
+
+
+def test_sigterm_answers_the_running_goals_and_exits(client: Client) -> None:
+    """Last in the module: it ends the planning_server. A plan in progress and an execution in
+    progress both get their results (PREEMPTED), the process exits on its own, no traceback."""
+    import signal
+
+    from moveit_msgs.action import ExecuteTrajectory
+
+    trajectory = client.call(GetMotionPlan, "/plan_kinematic_path", joint_goal(FAR)).motion_plan_response.trajectory
+    slow = trajectory.joint_trajectory
+    for point in slow.points:  # the same path, ten times slower: still running when SIGTERM comes
+        ns = (point.time_from_start.sec * 1_000_000_000 + point.time_from_start.nanosec) * 10
+        point.time_from_start.sec, point.time_from_start.nanosec = ns // 1_000_000_000, ns % 1_000_000_000
+        point.velocities = [v / 10 for v in point.velocities]
+        point.accelerations = [a / 100 for a in point.accelerations]
+    states: list[str] = []
+    executing = client.send(client.execute, ExecuteTrajectory.Goal(trajectory=trajectory),
+                            feedback=lambda m: states.append(m.feedback.state))
+    planning = client.send(client.move, _long_plan_goal(), feedback=lambda m: states.append(m.feedback.state))
+    assert wait_until(lambda: (client.executor.spin_once(timeout_sec=0.01), "PLANNING" in states)[1], 20.0,
+                      period=0.0)
+    results = [executing.get_result_async(), planning.get_result_async()]
+    client.server.proc.send_signal(signal.SIGTERM)
+    assert wait_until(lambda: (client.executor.spin_once(timeout_sec=0.05), all(f.done() for f in results))[1], 10.0,
+                      period=0.0), "a client got no answer"
+    for future in results:
+        assert future.result().status in (GoalStatus.STATUS_ABORTED, GoalStatus.STATUS_CANCELED)
+        assert future.result().result.error_code.val == C.PREEMPTED, future.result().result.error_code.message
+    assert client.server.proc.wait(timeout=10.0) == 0
+    assert "Traceback" not in client.server.output()

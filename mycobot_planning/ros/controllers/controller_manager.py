@@ -95,6 +95,7 @@ class Controller:
         self._state_pub = state_pub
         self._on_accepted = on_accepted
         self._last_state_key: tuple = ()
+        self._last_active = True  # until a cycle shows it holding still
         self._last_state_time = -math.inf
 
     def owns(self, follower: JointTrajectoryFollower) -> bool:
@@ -107,9 +108,13 @@ class Controller:
         """The state of one control cycle on ``/<name>/state``: when it differs from the last one
         published, else once every STATE_KEEP_ALIVE s (a controller holding still says so once a
         second, not a hundred times: that was a tenth of the idle node's cost)."""
+        if not state.active and not self._last_active and now - self._last_state_time < STATE_KEEP_ALIVE \
+                and self._last_state_key[:3] == (state.status, state.goal_id, state.message):
+            return  # holding still, nothing new: the cheap test first (this runs at the controller rate)
         key = (state.status, state.goal_id, state.message, state.active,
                *(a.tobytes() for a in (state.desired_positions, state.desired_velocities, state.desired_accelerations,
                                        state.actual_positions, state.actual_velocities, state.actual_accelerations)))
+        self._last_active = state.active
         if key == self._last_state_key and now - self._last_state_time < STATE_KEEP_ALIVE:
             return
         self._last_state_key, self._last_state_time = key, now
@@ -376,7 +381,9 @@ class ControllerManager(Node):
                     self.get_logger().error(f"control loop: {type(exc).__name__}: {exc}")
 
     def _on_control_loop(self) -> None:
-        now = self.now()
+        clock = self.get_clock().now()  # one reading per cycle: the update's time and every stamp
+        now = clock.nanoseconds * 1e-9
+        stamp = clock.to_msg()
         due = [c for c in self.controllers.values() if self._loop_count % c.divisor == 0]
         self._loop_count += 1
         reports = []
@@ -387,8 +394,7 @@ class ControllerManager(Node):
                 reports.append((c, changed, state))
             self.plant.write(now)
         if self._js_in_loop:
-            self._publish_joint_states()
-        stamp = self.get_clock().now().to_msg()
+            self._publish_joint_states(stamp)
         for c, changed, state in reports:
             if changed is not None:
                 c.log_change(changed)
@@ -418,7 +424,7 @@ class ControllerManager(Node):
         response.success = True
         return response
 
-    def _publish_joint_states(self) -> None:
+    def _publish_joint_states(self, stamp: Any = None) -> None:
         with self._lock:
             state = self.plant.joint_state()
             if state is None:
@@ -426,7 +432,7 @@ class ControllerManager(Node):
             positions = self._js_select @ state[0] + self._js_offset
             velocities = self._js_select @ state[1]
         msg = self._js_msg
-        msg.header.stamp = self.get_clock().now().to_msg()
+        msg.header.stamp = stamp if stamp is not None else self.get_clock().now().to_msg()
         msg.position = positions.tolist()
         msg.velocity = velocities.tolist()
         self._js_pub.publish(msg)
