@@ -24,6 +24,7 @@ from .pick_place_scenarios import PICK_PLACE_SCENARIOS
 from .robots_scenarios import bench_robots
 from .robustness import bench_robustness
 from .sim_scenarios import SIM_SCENARIOS
+from .soak_scenarios import SOAK_SCENARIOS
 from .ros_scenarios import ROS_SCENARIOS
 from .task_scenarios import TASK_SCENARIOS
 from .time_parameterization_scenarios import TIME_PARAMETERIZATION_SCENARIOS
@@ -255,5 +256,6 @@ SCENARIOS: dict[str, Callable[..., None]] = {
     **SIM_SCENARIOS,
     **CONCURRENCY_SCENARIOS,
     **REACT_SCENARIOS,
+    **SOAK_SCENARIOS,
     **IDLE_SCENARIOS,
 }

@@ -23,10 +23,10 @@ from control_msgs.action import FollowJointTrajectory, GripperCommand
 from control_msgs.msg import JointTrajectoryControllerState
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import ReentrantCallbackGroup
-from rclpy.qos import QoSProfile, ReliabilityPolicy
 from trajectory_msgs.msg import JointTrajectoryPoint
 
 from interfaces_py.ros_conversions import duration_to_seconds, seconds_to_duration
+from mycobot_planning.ros.action_servers import ACTION_SERVER_OPTIONS
 from mycobot_planning.mock_control.joint_trajectory_follower import ControllerStatus, FollowerState, TrajectoryCommand
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -40,10 +40,6 @@ POLL_PERIOD = 0.02
 #: rad/s of a gripper move when the joint has no velocity limit
 DEFAULT_GRIPPER_SPEED = 0.5
 FJT = FollowJointTrajectory.Result
-#: the action servers' goal, cancel and result services keep this many requests (rclpy's default
-#: of 10 loses results when more clients ask at once)
-ACTION_SERVICES_QOS = {f"{kind}_service_qos_profile": QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
-                       for kind in ("goal", "result", "cancel")}
 
 
 def _point(positions: np.ndarray, velocities: np.ndarray, accelerations: np.ndarray,
@@ -100,12 +96,12 @@ class ControllerActions:
         if self.is_gripper:
             self.server = ActionServer(manager, GripperCommand, f"/{name}/gripper_cmd", self._execute_gripper,
                                        goal_callback=self._accept_gripper, cancel_callback=self._cancel,
-                                       callback_group=self._group, **ACTION_SERVICES_QOS)
+                                       callback_group=self._group, **ACTION_SERVER_OPTIONS)
         else:
             self.server = ActionServer(manager, FollowJointTrajectory, f"/{name}/follow_joint_trajectory",
                                        self._execute_trajectory, goal_callback=self._accept_trajectory,
                                        cancel_callback=self._cancel, callback_group=self._group,
-                                       **ACTION_SERVICES_QOS)
+                                       **ACTION_SERVER_OPTIONS)
         self.state_pub = manager.create_publisher(JointTrajectoryControllerState, f"/{name}/controller_state", 10)
         self._state_msg = JointTrajectoryControllerState()
         self._state_msg.joint_names = list(controller.config.joints)

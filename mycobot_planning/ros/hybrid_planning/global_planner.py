@@ -24,6 +24,7 @@ from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.node import Node
 
 from interfaces_py import names
+from mycobot_planning.ros.action_servers import ACTION_SERVER_OPTIONS
 from mycobot_planning.ros.hybrid_planning.goal_checks import GoalError, motion_plan_request
 from mycobot_planning.ros.node_runtime import ParameterSpec, Parameters
 
@@ -63,7 +64,8 @@ class GlobalPlannerComponent(Node):
         self._plan_client = self.create_client(GetMotionPlan, self._params.get("plan_service"), callback_group=group)
         self._server = ActionServer(self, GlobalPlanner, self._params.get("global_planning_action_name"),
                                     self._execute, goal_callback=lambda goal: GoalResponse.ACCEPT,
-                                    cancel_callback=lambda handle: CancelResponse.ACCEPT, callback_group=group)
+                                    cancel_callback=lambda handle: CancelResponse.ACCEPT, callback_group=group,
+                                    **ACTION_SERVER_OPTIONS)
         self.get_logger().info(f"global planner ready: {self._params.get('global_planning_action_name')} plans "
                                f"through {self._params.get('plan_service')}")
 

@@ -33,6 +33,7 @@ from interfaces_py.moveit_conversions import planning_scene_from_msg
 from interfaces_py.msgs import JointTrajectory
 from interfaces_py.ros_conversions import joint_trajectory_to_msg
 from interfaces_py.ros_message_reading import ConversionError
+from mycobot_planning.ros.action_servers import ACTION_SERVER_OPTIONS
 from mycobot_planning.core.hybrid_planning import ForwardTrajectory
 from mycobot_planning.core.planning_scene.planning_scene import PlanningScene
 from mycobot_planning.core.robot_model.robot_model import RobotModel
@@ -123,7 +124,7 @@ class LocalPlannerComponent(Node):
         self._server = ActionServer(self, LocalPlanner, self._params.get("local_planning_action_name"),
                                     self._execute, goal_callback=self._on_goal,
                                     cancel_callback=lambda handle: CancelResponse.ACCEPT,
-                                    callback_group=ReentrantCallbackGroup())
+                                    callback_group=ReentrantCallbackGroup(), **ACTION_SERVER_OPTIONS)
         self.get_logger().info(
             f"local planner ready: {self._params.get('local_planning_action_name')} follows "
             f"{self._params.get('global_solution_topic')} at {self._params.get('local_planning_frequency'):g} Hz "

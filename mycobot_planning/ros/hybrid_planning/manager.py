@@ -25,6 +25,7 @@ from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.node import Node
 
 from interfaces_py.action_client import ActionClient
+from mycobot_planning.ros.action_servers import ACTION_SERVER_OPTIONS
 from mycobot_planning.core.hybrid_planning import (
     PLANNER_LOGIC_PLUGINS,
     HybridPlanningAction,
@@ -108,7 +109,8 @@ class HybridPlanningManager(Node):
                                  self._on_global_solution, 1, callback_group=group)
         self._server = ActionServer(self, HybridPlanner, self._params.get("hybrid_planning_action_name"),
                                     self._execute, goal_callback=lambda goal: GoalResponse.ACCEPT,
-                                    cancel_callback=lambda handle: CancelResponse.ACCEPT, callback_group=group)
+                                    cancel_callback=lambda handle: CancelResponse.ACCEPT, callback_group=group,
+                                    **ACTION_SERVER_OPTIONS)
         self.get_logger().info(f"hybrid planning manager ready: {self._params.get('hybrid_planning_action_name')} "
                                f"with {self._params.get('planner_logic_plugin_name')}")
 

@@ -87,6 +87,7 @@ from mycobot_planning.capabilities.move_group_context import MoveGroupContext
 from mycobot_planning.capabilities.plan import PlanResult
 from mycobot_planning.core.planning_interface.planning_interface import JointGoal, MotionPlanRequest
 from mycobot_planning.core.trajectory_execution import ExecutionError, parse_task_solution
+from mycobot_planning.ros.action_servers import ACTION_SERVER_OPTIONS
 from mycobot_planning.ros.move_group.moveit_translation import (
     cartesian_request_from_msg,
     joint_trajectory_from_ros,
@@ -98,14 +99,6 @@ from mycobot_planning.ros.move_group.moveit_translation import (
 )
 
 LATCHED_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-#: The action servers' goal, cancel and result services keep this many requests (rclpy's default,
-#: 10, lost results under storms of goals: of 20 plan-only goals sent at once, 10 results were
-#: never delivered, though all 20 had finished).
-ACTION_SERVICE_DEPTH = 1000
-ACTION_SERVICES_QOS = {
-    f"{kind}_service_qos_profile": QoSProfile(depth=ACTION_SERVICE_DEPTH, reliability=ReliabilityPolicy.RELIABLE,
-                                              durability=DurabilityPolicy.VOLATILE)
-    for kind in ("goal", "result", "cancel")}
 INPUT_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
 #: s between two checks for a cancel request while a move_action / execute_trajectory goal runs
 CANCEL_POLL = 0.02
@@ -203,13 +196,13 @@ class MoveGroupFace(Node):
                                          goal_callback=lambda goal: GoalResponse.ACCEPT,
                                          cancel_callback=lambda handle: CancelResponse.ACCEPT,
                                          callback_group=self._request_group,
-                                         **ACTION_SERVICES_QOS)
+                                         **ACTION_SERVER_OPTIONS)
         self._execute_action = ActionServer(self, ExecuteTrajectory, names.EXECUTE_TRAJECTORY_ACTION,
                                             self._counted(self._execute_trajectory, ExecuteTrajectory),
                                             goal_callback=lambda goal: GoalResponse.ACCEPT,
                                             cancel_callback=lambda handle: CancelResponse.ACCEPT,
                                             callback_group=self._request_group,
-                                            **ACTION_SERVICES_QOS)
+                                            **ACTION_SERVER_OPTIONS)
 
         # MTC's move_group capability (ExecuteTaskSolutionCapability)
         self._task_action = ActionServer(self, ExecuteTaskSolution, names.EXECUTE_TASK_SOLUTION_ACTION,
@@ -217,7 +210,7 @@ class MoveGroupFace(Node):
                                          goal_callback=lambda goal: GoalResponse.ACCEPT,
                                          cancel_callback=lambda handle: CancelResponse.ACCEPT,
                                          callback_group=self._request_group,
-                                         **ACTION_SERVICES_QOS)
+                                         **ACTION_SERVER_OPTIONS)
 
     def close(self) -> None:
         self._move_action.destroy()

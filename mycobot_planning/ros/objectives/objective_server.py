@@ -45,6 +45,7 @@ from std_msgs.msg import String
 from std_srvs.srv import Trigger
 
 from interfaces_py.names import EXECUTE_TRAJECTORY_ACTION, MOVE_ACTION
+from mycobot_planning.ros.action_servers import ACTION_SERVER_OPTIONS
 from mycobot_planning.behavior_tree import (
     BehaviorTreeFactory,
     Blackboard,
@@ -196,7 +197,7 @@ class ObjectiveServer(Node):
         self._action = ActionServer(self, DoObjectiveSequence, "/do_objective", self._execute,
                                     goal_callback=lambda goal: GoalResponse.ACCEPT,
                                     handle_accepted_callback=self._accepted,
-                                    cancel_callback=self._cancel_goal, callback_group=group)
+                                    cancel_callback=self._cancel_goal, callback_group=group, **ACTION_SERVER_OPTIONS)
         self.create_service(CancelObjective, "/cancel_objective", self._srv_cancel, callback_group=group)
         self.create_service(AnswerOperatorPrompt, "~/answer_operator_prompt", self._srv_answer, callback_group=group)
         self.create_service(Trigger, "~/get_objectives", self._srv_objectives, callback_group=group)
