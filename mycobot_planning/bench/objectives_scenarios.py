@@ -154,6 +154,11 @@ def objectives_over_ros(repeat: int) -> tuple[list[float], list[float]]:
                 asked = time.perf_counter()
                 future = cancel.call_async(CancelObjective.Request())
                 runner.join(60.0)
+                # the objective answers once its tree has halted; the arm may still be finishing
+                # its smooth stop: keep recording until it rests (or 5 s)
+                settle = time.monotonic() + 5.0
+                while rest_time(list(history), asked, REST_THRESHOLD) is None and time.monotonic() < settle:
+                    time.sleep(0.02)
                 recording.clear()
                 if not future.done() or not future.result().status.success:
                     raise RuntimeError("/cancel_objective did not cancel the running objective")

@@ -17,6 +17,11 @@ Accepted on purpose, because MoveIt accepts them too (so they are no cases here)
   normalize it too, with a warning in the log (interfaces_py.pose_conversion);
 * a zero or negative IK timeout: MoveIt's RobotState::setFromIK uses the group's default
   timeout for a timeout below epsilon, and so do we;
+* in a task solution (ExecuteTaskSolution), a sub-trajectory without points (MTC's stages that
+  only change the scene send them) and a scene diff whose collision matrix names objects that
+  are gone (MTC's solutions carry the task's whole matrix): executed, the latter with a warning;
+  the joint values of a task solution's scene-diff robot state are not read at all (MTC's
+  capability clears them: the joints move only through the trajectories);
 * a NUL inside a string field: ROS strings end at the first NUL, so the server receives what
   comes before it ("a\x00b" arrives as "a", "0.5\x00" as "0.5") and judges that.
 """
@@ -167,9 +172,9 @@ def _plan_request(mutate: Callable[[Any], None]) -> Callable[[], Any]:
     return build
 
 
-def _move_goal(mutate: Callable[[Any], None]) -> Callable[[], Any]:
-    """A move_action goal (plan and execute) with a scene diff adding a box: the bad request must
-    leave the box out of the live scene and the robot where it is."""
+def _move_goal(mutate: Callable[[Any], None], plan_only: bool = False) -> Callable[[], Any]:
+    """A move_action goal (plan and execute, or plan only) with a scene diff adding a box: the bad
+    request must leave the box out of the live scene and the robot where it is."""
     def build() -> Any:
         from moveit_msgs.action import MoveGroup
         from moveit_msgs.msg import CollisionObject
@@ -185,8 +190,53 @@ def _move_goal(mutate: Callable[[Any], None]) -> Callable[[], Any]:
         box.primitives = [SolidPrimitive(type=SolidPrimitive.BOX, dimensions=[0.05, 0.05, 0.05])]
         box.primitive_poses = [_pose(0.3, 0.3, 0.3)]
         diff.world.collision_objects = [box]
+        goal.planning_options.plan_only = plan_only
         return goal
     return build
+
+
+class _SceneHolder:
+    """What a scene case mutates (``.scene``), over another message's PlanningScene field."""
+
+    def __init__(self, scene: Any) -> None:
+        self.scene = scene
+
+
+def _move_goal_with_diff(mutate: Callable[[Any], None]) -> Callable[[], Any]:
+    """A good move_action joint goal whose planning_scene_diff is a bad scene (a scene case):
+    refused, and neither the live scene nor the robot changes (MoveIt plans on a copy)."""
+    def build() -> Any:
+        from moveit_msgs.action import MoveGroup
+
+        goal = MoveGroup.Goal()
+        _joint_goal(goal.request)
+        diff = goal.planning_options.planning_scene_diff
+        diff.is_diff = diff.robot_state.is_diff = True
+        mutate(_SceneHolder(diff))
+        return goal
+    return build
+
+
+def _task_solution(build: Callable[[], Any] | None = None,
+                   scene_mutate: Callable[[Any], None] | None = None) -> Callable[[], Any]:
+    """An MTC solution (moveit_task_constructor_msgs) of one sub-trajectory: a bad trajectory
+    (an execute case's) or a good one with a bad scene diff (a scene case's), as mtc_node's
+    execute() sends it to move_group's execute_task_solution."""
+    def goal() -> Any:
+        from moveit_task_constructor_msgs.action import ExecuteTaskSolution
+        from moveit_task_constructor_msgs.msg import SubTrajectory
+
+        sub = SubTrajectory()
+        sub.info.id = 1
+        sub.trajectory.joint_trajectory = (build or _execute_goal(
+            [([0.0] * 6, [], [], 0.0), ([0.0] * 6, [], [], 1.0)]))().trajectory.joint_trajectory
+        sub.scene_diff.is_diff = sub.scene_diff.robot_state.is_diff = True
+        if scene_mutate is not None:
+            scene_mutate(_SceneHolder(sub.scene_diff))
+        out = ExecuteTaskSolution.Goal()
+        out.solution.sub_trajectory = [sub]
+        return out
+    return goal
 
 
 def _ik_cases() -> list[tuple[str, Callable[[Any], None]]]:
@@ -213,6 +263,10 @@ def _ik_cases() -> list[tuple[str, Callable[[Any], None]]]:
             ("frame mars", _set("ik_request.pose_stamped.header.frame_id", "mars")),
             ("seed naming nojoint", robot_state(["nojoint"], [0.0])),
             ("seed 1e308", robot_state([ARM[0]], [1e308])),
+            ("seed NaN", robot_state(list(ARM), [NAN] + [0.0] * 5)),
+            ("seed infinite", robot_state(list(ARM), [0.0] * 5 + [INF])),
+            ("seed 5 positions for 6 names", robot_state(list(ARM), [0.0] * 5)),
+            ("seed beyond limits", robot_state(list(ARM), [9.0] * 6)),
             ("NaN constraint", constraint(NAN)),
             ("constraint beyond the joint limits", constraint(4.0)),  # no state can meet it
             ("pose_stamped_vector", stamped_vector)]
@@ -249,7 +303,9 @@ def _validity_cases() -> list[tuple[str, Callable[[Any], None]]]:
             ("5 positions", state(list(ARM), [0.0] * 5)), ("beyond limits", state(list(ARM), [9.0] * 6)),
             ("group legs", lambda r: (state(list(ARM), [0.0] * 6)(r), setattr(r, "group_name", "legs"))),
             ("violated constraint", constraint(ARM[0], 1.0)), ("NaN constraint", constraint(ARM[0], NAN)),
-            ("constraint on nojoint", constraint("nojoint", 0.0))]
+            ("constraint on nojoint", constraint("nojoint", 0.0)),
+            *[(f"group {n[:12]!r}", lambda r, n=n: (state(list(ARM), [0.0] * 6)(r), setattr(r, "group_name", n)))
+              for n in ODD_NAMES if n]]
 
 
 def _cartesian_cases() -> list[tuple[str, Callable[[Any], None]]]:
@@ -261,8 +317,13 @@ def _cartesian_cases() -> list[tuple[str, Callable[[Any], None]]]:
             ("jump_threshold NaN", _set("jump_threshold", NAN)), ("jump_threshold -1", _set("jump_threshold", -1.0)),
             ("frame mars", _set("header.frame_id", "mars")),
             ("velocity scaling NaN", _set("max_velocity_scaling_factor", NAN)),
-            ("start_state nojoint", lambda r: (setattr(r.start_state.joint_state, "name", ["nojoint"]),
-                                               setattr(r.start_state.joint_state, "position", [0.0])))]
+            *[(f"start_state {label}", lambda r, names=names, positions=positions: (
+                setattr(r.start_state.joint_state, "name", names),
+                setattr(r.start_state.joint_state, "position", positions)))
+              for label, names, positions in (("nojoint", ["nojoint"], [0.0]), ("NaN", list(ARM), [NAN] + [0.0] * 5),
+                                              ("5 positions", list(ARM), [0.0] * 5),
+                                              ("beyond limits", list(ARM), [9.0] * 6))],
+            *[(f"group {n[:12]!r}", _set("group_name", n)) for n in ODD_NAMES if n and n != "legs"]]
 
 
 def _cartesian_request(mutate: Callable[[Any], None]) -> Callable[[], Any]:
@@ -339,12 +400,12 @@ def _scene_request(mutate: Callable[[Any], None]) -> Callable[[], Any]:
     return build
 
 
-def _planner_params(keys: list[str], values: list[str]) -> Callable[[], Any]:
+def _planner_params(keys: list[str], values: list[str], pipeline_id: str = "ompl") -> Callable[[], Any]:
     def build() -> Any:
         from moveit_msgs.msg import PlannerParams
         from moveit_msgs.srv import SetPlannerParams
 
-        return SetPlannerParams.Request(pipeline_id="ompl", planner_config="RRTkConfigDefault",
+        return SetPlannerParams.Request(pipeline_id=pipeline_id, planner_config="RRTkConfigDefault",
                                         params=PlannerParams(keys=keys, values=values))
     return build
 
@@ -412,6 +473,7 @@ def _controller_goal(build: Callable[[], Any], tolerance_joint: str = "") -> Cal
 def moveit_inputs() -> list[tuple[str, MoveItInput]]:
     """Every moveit_msgs case: (name, input)."""
     from moveit_msgs.action import ExecuteTrajectory, MoveGroup
+    from moveit_task_constructor_msgs.action import ExecuteTaskSolution
     from moveit_msgs.srv import (
         ApplyPlanningScene,
         GetCartesianPath,
@@ -427,13 +489,23 @@ def moveit_inputs() -> list[tuple[str, MoveItInput]]:
         out.append((f"plan_kinematic_path {label}", MoveItInput("service", GetMotionPlan, "/plan_kinematic_path",
                                                                 _plan_request(mutate))))
         out.append((f"move_action {label}", MoveItInput("action", MoveGroup, "/move_action", _move_goal(mutate))))
+        out.append((f"move_action plan_only {label}", MoveItInput("action", MoveGroup, "/move_action",
+                                                                  _move_goal(mutate, plan_only=True))))
     for label, mutate in _ik_cases():
         out.append((f"compute_ik {label}", MoveItInput("service", GetPositionIK, "/compute_ik", _ik_request(mutate))))
-    for label, links, frame in (("no links", [], "world"), ("nolink", ["nolink"], "world"),
-                                ("NUL link", ["a\x00b"], "world"), ("frame mars", ["link2"], "mars")):
-        def fk(links: list[str] = links, frame: str = frame) -> Any:
+    fk_cases = [("no links", [], "world", None), ("nolink", ["nolink"], "world", None),
+                ("NUL link", ["a\x00b"], "world", None), ("frame mars", ["link2"], "mars", None),
+                *[(f"link {n[:12]!r}", [n], "world", None) for n in ODD_NAMES if n not in ("", "bad\x00name")],
+                *[(f"robot_state {label}", ["link2"], "world", (names, positions))
+                  for label, names, positions in (("nojoint", ["nojoint"], [0.0]), ("NaN", list(ARM), [NAN] + [0.0] * 5),
+                                                  ("5 positions", list(ARM), [0.0] * 5),
+                                                  ("beyond limits", list(ARM), [9.0] * 6))]]
+    for label, links, frame, state in fk_cases:
+        def fk(links: list[str] = links, frame: str = frame, state: Any = state) -> Any:
             request = GetPositionFK.Request(fk_link_names=links)
             request.header.frame_id = frame
+            if state is not None:
+                request.robot_state.joint_state.name, request.robot_state.joint_state.position = state
             return request
         out.append((f"compute_fk {label}", MoveItInput("service", GetPositionFK, "/compute_fk", fk)))
     for label, mutate in _validity_cases():
@@ -450,6 +522,12 @@ def moveit_inputs() -> list[tuple[str, MoveItInput]]:
     for label, mutate in _scene_cases():
         out.append((f"apply_planning_scene {label}", MoveItInput("service", ApplyPlanningScene,
                                                                  "/apply_planning_scene", _scene_request(mutate))))
+        out.append((f"move_action planning_scene_diff {label}", MoveItInput("action", MoveGroup, "/move_action",
+                                                                            _move_goal_with_diff(mutate))))
+        if label in ("ACM naming a ghost", "robot_state nojoint", "robot_state beyond limits"):
+            continue  # accepted in task solutions on purpose (see the module docstring)
+        out.append((f"execute_task_solution action scene_diff {label}", MoveItInput(
+            "action", ExecuteTaskSolution, "/execute_task_solution", _task_solution(scene_mutate=mutate))))
     for label, keys, values in (("range,goal_bias,foo", ["range", "goal_bias", "foo"], ["0.5", "0.1", "1"]),
                                 ("range NaN", ["range"], ["NaN"]), ("range -1", ["range"], ["-1"]),
                                 ("goal_bias banana", ["goal_bias"], ["banana"]),
@@ -459,12 +537,22 @@ def moveit_inputs() -> list[tuple[str, MoveItInput]]:
                                 ("type PRM", ["type"], ["geometric::PRM"])):
         out.append((f"set_planner_params {label}", MoveItInput("planner_params", SetPlannerParams,
                                                                "/set_planner_params", _planner_params(keys, values))))
+    # a good key beside a bad one (all or nothing), and a good key for a pipeline that is not there
+    for name in ODD_NAMES:
+        out.append((f"set_planner_params range and key {name[:12]!r}", MoveItInput(
+            "planner_params", SetPlannerParams, "/set_planner_params", _planner_params(["range", name], ["0.7", "1"]))))
+    for pipeline in (" ompl", "magic", "bad\x00", "\x1b[2J"):  # "" is the default pipeline, as for plans
+        out.append((f"set_planner_params range on pipeline {pipeline!r}", MoveItInput(
+            "planner_params", SetPlannerParams, "/set_planner_params", _planner_params(["range"], ["0.7"], pipeline))))
     from control_msgs.action import FollowJointTrajectory
 
     controller = "/arm_controller/follow_joint_trajectory"
     for label, build in _execute_cases():
         out.append((f"execute_trajectory {label}", MoveItInput("action", ExecuteTrajectory, "/execute_trajectory",
                                                                build)))
+        if label not in ("multi-DOF", "no points"):  # MTC's scene-only stages send no points
+            out.append((f"execute_task_solution action {label}", MoveItInput("action", ExecuteTaskSolution,
+                                                                      "/execute_task_solution", _task_solution(build))))
         if label not in ("multi-DOF",):
             out.append((f"follow_joint_trajectory {label}", MoveItInput("action", FollowJointTrajectory, controller,
                                                                         _controller_goal(build))))

@@ -81,10 +81,16 @@ def at_waypoint(probe, name: str, tolerance: float = 0.03) -> bool:
     return all(abs(a - b) < tolerance for a, b in zip(arm(probe), WAYPOINTS.get(name).positions))
 
 
-def assert_at_rest(probe) -> None:
-    before = arm(probe)
-    time.sleep(0.5)
-    assert max(abs(a - b) for a, b in zip(arm(probe), before)) < 1e-3, "the arm still moves"
+def assert_at_rest(probe, within: float = 5.0) -> None:
+    """The arm comes to rest (a halted motion decelerates along its path first) within
+    ``within`` s and stays there for 0.5 s."""
+    deadline = time.monotonic() + within
+    while True:
+        before = arm(probe)
+        time.sleep(0.5)
+        if max(abs(a - b) for a, b in zip(arm(probe), before)) < 1e-3:
+            return
+        assert time.monotonic() < deadline, "the arm still moves"
 
 
 def last_status(system) -> ObjectiveServerStatus:

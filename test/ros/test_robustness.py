@@ -24,7 +24,9 @@ def test_there_are_hundreds_of_systematic_cases_over_every_interface():
     kinds = Counter(case.interface for case in CASES)
     assert len(CASES) >= 300, kinds
     assert set(kinds) == {"rpc", "rpc_raw", "topic", "controller", "param", "moveit"}
-    assert kinds["moveit"] >= 200  # issue 27: MoveIt's face through the real moveit_msgs/control_msgs types
+    # issue 27: at least 400 inputs through the real ROS types: moveit_msgs/control_msgs/MTC requests
+    # and goals, trajectory_msgs on the controllers' topics, rcl_interfaces parameters
+    assert kinds["moveit"] >= 340 and kinds["moveit"] + kinds["controller"] + kinds["param"] >= 400, kinds
     names = {case.name for case in CASES}
     for required in ("objects: 11 MB batch with one bad box", "nested 5000 deep", "execute whip 1.5 rad in 1 ms",
                      "mtc_node arm_group_name='legs'", "planning_server planner_id='Magic'",
@@ -33,7 +35,10 @@ def test_there_are_hundreds_of_systematic_cases_over_every_interface():
                      "move_action pose goal box region with a negative side", "compute_ik timeout 2^31-1 s",
                      "check_state_validity violated constraint", "compute_cartesian_path max_step=0.0",
                      "set_planner_params range,goal_bias,foo", "execute_trajectory accelerations without velocities",
-                     "follow_joint_trajectory goal_tolerance for nojoint", "apply_planning_scene ACM naming a ghost"):
+                     "follow_joint_trajectory goal_tolerance for nojoint", "apply_planning_scene ACM naming a ghost",
+                     "move_action plan_only group_name='legs'", "move_action planning_scene_diff padding NaN",
+                     "execute_task_solution action scene_diff scale -1", "execute_task_solution action NaN position",
+                     "set_planner_params range and key 'legs'", "compute_ik seed beyond limits"):
         assert required in names, required
 
 

@@ -216,11 +216,13 @@ class PlanningSceneMonitor:
                          lambda: self.scene.apply_planning_scene_msg(msg))
         return {"applied": True}
 
-    def scene_with_diff(self, scene: Any, base: PlanningScene | None = None) -> PlanningScene:
+    def scene_with_diff(self, scene: Any, base: PlanningScene | None = None, check_acm: bool = True) -> PlanningScene:
         """A copy of the monitored scene (or of ``base``) with a PlanningScene message applied,
-        checked as apply_planning_scene checks it; the live scene is not touched (MoveIt's
-        planning_options.planning_scene_diff: that goal's scene only). RequestError when refused."""
-        msg = self._checked_scene_msg(scene)
+        checked as apply_planning_scene checks it (``check_acm`` False: ACM names that name
+        nothing are let through, as task solutions carry them); the live scene is not touched
+        (MoveIt's planning_options.planning_scene_diff: that goal's scene only). RequestError
+        when refused."""
+        msg = self._checked_scene_msg(scene, check_acm)
         copy = base.copy() if base is not None else self.scene_copy()
         try:
             copy.apply_planning_scene_msg(msg)
@@ -232,7 +234,7 @@ class PlanningSceneMonitor:
             raise RequestError(BAD_REQUEST, f"planning scene: {exc}") from None
         return copy
 
-    def _checked_scene_msg(self, scene: Any) -> PlanningSceneMsg:
+    def _checked_scene_msg(self, scene: Any, check_acm: bool = True) -> PlanningSceneMsg:
         """The PlanningScene message of ``scene``, its robot state within the joint limits and its
         ACM naming only links, groups and objects (RequestError otherwise)."""
         msg = self._message(PlanningSceneMsg, scene, "planning scene")
@@ -240,7 +242,7 @@ class PlanningSceneMonitor:
                                         if n in self.model.variable_names})
         if outside:
             raise RequestError(BAD_REQUEST, "planning scene robot_state is outside the joint limits: " + "; ".join(outside))
-        unknown = self._unknown_acm_names(msg)
+        unknown = self._unknown_acm_names(msg) if check_acm else []
         if unknown:
             raise RequestError(BAD_REQUEST, f"allowed collision matrix names {unknown}, which are neither links of "
                                             f"robot '{self.model.name}' nor collision objects of the scene")

@@ -625,6 +625,8 @@ class MoveGroupFace(Node):
         MTC's execute_task_solution capability does; cancel stops it (PREEMPTED)."""
         result = ExecuteTaskSolution.Result()
         try:
+            for sub in goal_handle.request.solution.sub_trajectory:
+                self._check_padding(sub.scene_diff)
             steps = parse_task_solution(task_solution_from_msg(goal_handle.request.solution))
         except (ConversionError, ExecutionError) as exc:
             self._log("warning", f"execute_task_solution: refused: {exc.message}")
