@@ -85,3 +85,67 @@ def judge_place(final_pose: np.ndarray, place_pose: np.ndarray, slip: float) -> 
         f"placed {error * 1000:.1f} mm from the place pose, {tilt:.1f} degrees from upright, "
         f"{slip * 1000:.1f} mm slip in the hand")
     return PlaceOutcome(not problems, error, tilt, slip, final, message)
+
+
+#: m: a held object this far from where it was held has left the hand (the hold ends "lost")
+LOST_DISTANCE = 0.02
+
+
+@dataclass
+class Hold:
+    """One object held by the gripper: from ``start`` (s, the simulator's time) until ``end``
+    (None while held); ``slip`` (m) the most it moved in the hand; ``ended``: "opened" (the
+    gripper got a new command: let go on purpose) or "lost" (it left the hand, LOST_DISTANCE)."""
+
+    object: str
+    start: float
+    end: float | None = None
+    slip: float = 0.0
+    ended: str = ""
+
+    def as_dict(self) -> dict:
+        return {"object": self.object, "start": round(self.start, 4),
+                "end": None if self.end is None else round(self.end, 4), "slip_mm": round(self.slip * 1000, 3),
+                "ended": self.ended}
+
+
+class GraspWatch:
+    """Which object the gripper holds and how much it slips, from samples of the simulated state
+    (the ROS twin's counterpart of the ROS-free demo's SlipMonitor window). A hold starts once
+    the gripper's command has finished (reached or stalled) with its pads touching the object,
+    and ends when the gripper gets its next command (the open) or the object left the hand."""
+
+    def __init__(self) -> None:
+        self.holds: list[Hold] = []
+        self._monitor: SlipMonitor | None = None
+        self._command = None
+
+    @property
+    def current(self) -> Hold | None:
+        return self.holds[-1] if self.holds and self.holds[-1].end is None else None
+
+    def sample(self, now: float, gripper, hand_pose: np.ndarray, object_poses: dict[str, np.ndarray]) -> None:
+        """One instant: ``gripper`` a GripperState, the hand link's pose and every object's pose."""
+        hold = self.current
+        new_command = gripper.command is not None and gripper.command is not self._command
+        self._command = gripper.command
+        if hold is not None:
+            if new_command or gripper.active:
+                hold.end, hold.ended = now, "opened"
+            elif hold.object in object_poses:
+                hold.slip = self._monitor.sample(hand_pose, object_poses[hold.object])
+                if hold.slip > LOST_DISTANCE:
+                    hold.end, hold.ended = now, "lost"
+            if hold.end is None:
+                return
+        if gripper.active or gripper.command is None:
+            return
+        touched = [name for name in gripper.contacts if name in object_poses]
+        if touched:
+            self._monitor = SlipMonitor()
+            self._monitor.sample(hand_pose, object_poses[touched[0]])
+            self.holds.append(Hold(touched[0], now))
+
+    def last_hold(self, name: str) -> Hold | None:
+        """The latest hold of object ``name`` (None: never held)."""
+        return next((h for h in reversed(self.holds) if h.object == name), None)

@@ -16,6 +16,7 @@ import numpy as np
 from ..core.trajectory_execution.controllers_config import ControllerConfig
 from ..hardware.follower import MeasuredTrajectoryFollower
 from ..hardware_interface.plant import ControllerSpec, Plant, PlantHost
+from .grasp_monitor import GraspWatch
 from .simulator import MujocoSimulator
 
 
@@ -32,13 +33,22 @@ class SimTracking:
 class MujocoPlant(Plant):
     """``simulator``'s arm joints are driven by the one controller that names them, its gripper
     joint by a gripper controller (ValueError when the controllers do not match the model).
-    ``own_simulator``: close the simulator with the plant."""
+    ``own_simulator``: close the simulator with the plant. ``hand_link``: watch which object
+    the gripper holds and how much it slips in this link's frame (``grasp``, sampled at every
+    ``read``); empty: not watched."""
 
     def __init__(self, variable_names: Sequence[str], default_positions: np.ndarray, simulator: MujocoSimulator,
                  controllers: Sequence[ControllerConfig], tracking: SimTracking = SimTracking(),
-                 own_simulator: bool = False) -> None:
+                 own_simulator: bool = False, hand_link: str = "") -> None:
         super().__init__(variable_names, default_positions)
         self.sim = simulator
+        self.hand_link = hand_link
+        self.grasp = GraspWatch()
+        if hand_link:
+            try:
+                simulator.link_pose(hand_link)  # an unknown link is refused here, before anything starts
+            except KeyError as exc:
+                raise ValueError(f"hand_link: {exc.args[0]}") from None
         self.tracking = tracking
         self.own_simulator = own_simulator
         arm = [c for c in controllers if set(c.joints) == set(simulator.arm_joints)]
@@ -79,6 +89,9 @@ class MujocoPlant(Plant):
         for follower, _ in self.followers.values():
             follower.measure([position[j] for j in follower.joint_names],
                              [velocity[j] for j in follower.joint_names], now)
+        if self.hand_link:
+            sim = self.sim
+            self.grasp.sample(sim.time, sim.gripper_state(), sim.link_pose(self.hand_link), sim.object_poses())
 
     def write(self, now: float) -> None:
         arm = self.followers[self.arm_controller][0]
