@@ -35,15 +35,19 @@ class MujocoPlant(Plant):
     joint by a gripper controller (ValueError when the controllers do not match the model).
     ``own_simulator``: close the simulator with the plant. ``hand_link``: watch which object
     the gripper holds and how much it slips in this link's frame (``grasp``, sampled at every
-    ``read``); empty: not watched."""
+    ``read``); empty: not watched. ``stop_on_lost_grasp``: a held object leaving the hand aborts
+    the arm's goal (the arm holds where it is), as a grasp check on a real cell would."""
 
     def __init__(self, variable_names: Sequence[str], default_positions: np.ndarray, simulator: MujocoSimulator,
                  controllers: Sequence[ControllerConfig], tracking: SimTracking = SimTracking(),
-                 own_simulator: bool = False, hand_link: str = "") -> None:
+                 own_simulator: bool = False, hand_link: str = "", stop_on_lost_grasp: bool = False) -> None:
         super().__init__(variable_names, default_positions)
         self.sim = simulator
         self.hand_link = hand_link
-        self.grasp = GraspWatch()
+        self.stop_on_lost_grasp = stop_on_lost_grasp
+        # open: where the gripper starts (the model's initial positions hold it open)
+        self.grasp = GraspWatch(open_position=simulator.joint_states().as_dict()[simulator.gripper_joint])
+        self._host: PlantHost | None = None
         if hand_link:
             try:
                 simulator.link_pose(hand_link)  # an unknown link is refused here, before anything starts
@@ -80,6 +84,7 @@ class MujocoPlant(Plant):
 
     def start(self, host: PlantHost) -> None:
         super().start(host)
+        self._host = host
         self.sim.start()
 
     def read(self, now: float) -> None:
@@ -91,7 +96,20 @@ class MujocoPlant(Plant):
                              [velocity[j] for j in follower.joint_names], now)
         if self.hand_link:
             sim = self.sim
-            self.grasp.sample(sim.time, sim.gripper_state(), sim.link_pose(self.hand_link), sim.object_poses())
+            ended = self.grasp.sample(sim.time, sim.gripper_state(), sim.link_pose(self.hand_link), sim.object_poses(),
+                                      sim.objects_between_pads)
+            if ended is not None and ended.ended == "lost":
+                self._lost(ended, now)
+
+    def _lost(self, hold, now: float) -> None:
+        text = (f"the held object '{hold.object}' left the hand ({hold.slip * 1000:.0f} mm from where it was "
+                "held)")
+        arm = self.followers[self.arm_controller][0]
+        if self.stop_on_lost_grasp and arm.active and self._host is not None:
+            for state in arm.abort(now, text):
+                self._host.report(arm, state)
+        elif self._host is not None:
+            self._host.log("warning", text)
 
     def write(self, now: float) -> None:
         arm = self.followers[self.arm_controller][0]

@@ -80,6 +80,10 @@ def load_mujoco_plant(node: ControllerManager, model: RobotModel, config: Contro
                       dynamic_typing=True),
         ParameterSpec("hand_link", "", "link whose frame the grasp watch measures a held object's slip in; "
                       "empty: the parent link of the SRDF's first end effector", read_only=True),
+        ParameterSpec("stop_on_lost_grasp", True, "a held object leaving the hand (2 cm from where it was held, "
+                      "the gripper not opened) aborts the arm's goal and the arm holds where it is, as a grasp check "
+                      "would: a grasp that did not hold stops the pick and place instead of sweeping the arm "
+                      "through the object it left behind", read_only=True),
         ParameterSpec("path_tolerance", 0.2, "rad: a goal is aborted when a simulated joint is farther than "
                       "this from the trajectory's desired position; a goal's own path_tolerance applies too",
                       range=(0.001, 10.0), read_only=True, dynamic_typing=True),
@@ -104,7 +108,7 @@ def load_mujoco_plant(node: ControllerManager, model: RobotModel, config: Contro
     tracking = SimTracking(float(p.get("path_tolerance")), float(p.get("goal_time")),
                            float(p.get("gripper_goal_time")))
     return MujocoPlant(model.variable_names, model.default_positions(), sim, config.controllers, tracking,
-                       own_simulator=True, hand_link=hand)
+                       own_simulator=True, hand_link=hand, stop_on_lost_grasp=bool(p.get("stop_on_lost_grasp")))
 
 
 class _RosLogHandler(logging.Handler):

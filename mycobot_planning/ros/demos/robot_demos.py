@@ -1,7 +1,7 @@
 """scripts/demo.sh and scripts/perception_demo.sh: the seeds' pick and place on a robot brought
 up for the run (mycobot_planning.ros.bringup), planned and executed by mtc_node, then judged.
 
-    python -m mycobot_planning.ros.demos.robot_demos demo [--hardware PORT|emulated] [MTC_NODE_ROS_ARGS...]
+    python -m mycobot_planning.ros.demos.robot_demos demo [--hardware PORT|emulated | --sim mujoco] [MTC_NODE_ROS_ARGS...]
     python -m mycobot_planning.ros.demos.robot_demos perception [MTC_NODE_ROS_ARGS...]
 
 The scripts' headers say what each run does and prints; the robot, the optional task viewer
@@ -50,9 +50,10 @@ def _interrupt(*_: object) -> None:
 class Demo:
     """One demo run: its folder, its ROS domain, its bring-up."""
 
-    def __init__(self, tag: str, folder_prefix: str, hardware: str = "") -> None:
+    def __init__(self, tag: str, folder_prefix: str, hardware: str = "", sim: str = "") -> None:
         self.tag = tag
         self.hardware = hardware
+        self.sim = sim
         self.dir = Path(os.environ.get("MYCOBOT_DEMO_DIR") or f"/tmp/mycobot_planning/{folder_prefix}-{os.getpid()}")
         self.dir.mkdir(parents=True, exist_ok=True)
         os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
@@ -74,7 +75,7 @@ class Demo:
     # ------------------------------------------------------------------ the robot
     def start_robot(self) -> None:
         run_dir = self.dir / "run"
-        nodes = bringup.robot_nodes(self.hardware, run_dir)
+        nodes = bringup.robot_nodes(self.hardware, run_dir, sim=self.sim)
         out = lambda text: print(text, flush=True)  # noqa: E731 - robot.sh's lines, as it prints them
         err = lambda text: print(text, file=sys.stderr, flush=True)  # noqa: E731
         self.robot = bringup.Robot(nodes, self.dir, run_dir, say=out, warn=err)
@@ -91,6 +92,8 @@ class Demo:
             if port == "emulated":
                 port = f"{run_dir / 'mycobot_port'} (emulated arm; faults: {run_dir / 'mycobot_emulator.sock'})"
             print(f"hardware: mycobot_driver drives the myCobot 280 on {port}", flush=True)
+        if self.sim:
+            print("simulation: mujoco_sim simulates the arm, the gripper and the objects (MuJoCo)", flush=True)
 
     def start_extras(self, nodes: list[bringup.NodeSpec]) -> None:
         """The optional nodes (camera, perception, viewer) as one more bring-up in the same folder."""
@@ -230,7 +233,63 @@ def run_demo(demo: Demo, body: Callable[[], int]) -> int:
     return code
 
 
+def _option(argv: list[str], name: str) -> tuple[str | None, list[str]]:
+    """``--name VALUE`` or ``--name=VALUE`` at the front of argv: (value, the rest); value None
+    when absent, "" when given empty."""
+    if argv and argv[0] == name:
+        return (argv[1] if len(argv) > 1 else ""), argv[2:]
+    if argv and argv[0].startswith(name + "="):
+        return argv[0].split("=", 1)[1], argv[1:]
+    return None, argv
+
+
+def sim_mtc_args(params_path: str, argv: list[str]) -> list[str]:
+    """mtc_node's arguments in the twin: the object's planning radius padded by
+    PLANNING_CLEARANCE (docs/simulation.md: the planner keeps no distance, and a path that grazes
+    the cylinder at half a millimetre knocks it over in physics); the user's arguments after."""
+    from mycobot_planning.demos.sim_pick_place import padded_dimensions
+
+    params = pick_place_report.parameters_with_overrides(params_path, argv)
+    return ["-p", f"object_dimensions:={padded_dimensions(params)}", *argv]
+
+
+def add_sim_floor(tag: str, params_path: str, argv: list[str]) -> None:
+    """The twin's floor into the planning_server's scene (the seed's scene has none, and a path may
+    swing the carried 35 cm cylinder through it; docs/simulation.md)."""
+    from interfaces_py.clients import PlanningSceneInterface
+    from mycobot_planning.demos.sim_pick_place import floor_object
+    from mycobot_planning.simulation.scene import load_scene
+
+    scene = load_scene(config_file("mujoco_scene.yaml"))
+    if scene.floor is None:
+        return
+    params = pick_place_report.parameters_with_overrides(params_path, argv)
+    with PlanningSceneInterface(timeout=30.0) as psi:
+        psi.apply_collision_object(floor_object(scene.floor.z, params.world_frame))
+    print(f"[{tag}] added the simulated floor (z = {scene.floor.z:g} m) to the planning scene", flush=True)
+
+
+def sim_verdict(tag: str, params_path: str, argv: list[str]) -> int:
+    """Print the twin's verdict on the object (sim_verdict.py); 0 only when it holds."""
+    from mycobot_planning.ros.demos.sim_verdict import TwinObserver, twin_verdict, verdict_lines
+
+    params = pick_place_report.parameters_with_overrides(params_path, argv)
+    print(f"[{tag}] the simulator's verdict (object at rest, against the place pose):", flush=True)
+    with TwinObserver(f"demo_sim_verdict_{os.getpid()}") as observer:
+        outcome, reason = twin_verdict(observer, params)
+    ok, lines = verdict_lines(outcome, reason)
+    for line in lines:
+        print(line, flush=True)
+    return 0 if ok else 1
+
+
 def pick_place_demo(argv: list[str]) -> int:
+    sim, argv = _option(argv, "--sim")
+    if sim is not None and sim not in bringup.SIMULATORS:
+        print(f"demo.sh: --sim needs a simulator ({', '.join(bringup.SIMULATORS)}), got '{sim}'", file=sys.stderr)
+        return 2
+    if sim:
+        return sim_pick_place_demo(sim, argv)
     hardware = ""
     if argv and argv[0] == "--hardware":
         if len(argv) < 2 or not argv[1]:
@@ -265,6 +324,31 @@ def pick_place_demo(argv: list[str]) -> int:
                 demo.warn("FAILED: the arm's readback did not end at home")
                 check = check or 1
         return check
+
+    return run_demo(demo, body)
+
+
+def sim_pick_place_demo(sim: str, argv: list[str]) -> int:
+    """demo.sh --sim mujoco: mtc_node plans and executes as on the mock, through the twin; the
+    verdict is the simulator's."""
+    demo = Demo("demo", "demo", sim=sim)
+
+    def body() -> int:
+        demo.say(f"ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}; logs in {demo.dir}")
+        demo.say("starting mujoco_sim (the MuJoCo twin) and the planning_server")
+        demo.start_robot()
+        demo.start_extras(demo.viewer_node())
+        demo.report_viewer()
+        add_sim_floor("demo", demo.params, argv)
+        demo.say("running mtc_node (plan, then execute in the simulation)")
+        node_code = demo.run_mtc_node(sim_mtc_args(demo.params, argv))
+        print(f"\n[demo] mtc_node exited with code {node_code}", flush=True)
+        demo.say("what the planning scene says (mtc_node's view; the simulator's verdict follows):")
+        pick_place_report.main([str(demo.dir / "mtc_node.log"), demo.params, str(node_code), *argv])
+        verdict = sim_verdict("demo", demo.params, argv)
+        if node_code != 0:
+            demo.warn(f"FAILED: mtc_node exited with code {node_code}")
+        return verdict or (1 if node_code != 0 else 0)
 
     return run_demo(demo, body)
 
