@@ -95,9 +95,11 @@ def mycobot_driver(port: str, params: Sequence[str] = ()) -> NodeSpec:
 SIMULATORS = ("mujoco",)
 
 
-def mujoco_sim(args: Sequence[str] = ()) -> NodeSpec:
-    """The MuJoCo twin (node mujoco_sim): the mock's controllers over a physics simulation."""
-    return NodeSpec("mujoco_sim", list(args), Readiness(nodes=("/mujoco_sim",), topics=("/joint_states",),
+def mujoco_sim(params: Sequence[str] = ()) -> NodeSpec:
+    """The MuJoCo twin (node mujoco_sim): the mock's controllers over a physics simulation;
+    ``params``: NAME:=VALUE parameters."""
+    args = ["--ros-args", *(a for p in params for a in ("-p", p))] if params else []
+    return NodeSpec("mujoco_sim", args, Readiness(nodes=("/mujoco_sim",), topics=("/joint_states",),
                                                         actions=DEFAULT_CONTROLLER_ACTIONS))
 
 
@@ -135,10 +137,10 @@ def hybrid_planning(args: Sequence[str] = ()) -> NodeSpec:
 
 
 def robot_nodes(hardware: str = "", run_dir: Path | None = None, server_args: Sequence[str] = (),
-                driver_params: Sequence[str] = (), sim: str = "", sim_args: Sequence[str] = ()) -> list[NodeSpec]:
+                driver_params: Sequence[str] = (), sim: str = "", sim_params: Sequence[str] = ()) -> list[NodeSpec]:
     """The processes of a robot in start order: the mock controllers, or with ``hardware`` (a
     serial port, or "emulated": the emulated arm, its port in ``run_dir``) mycobot_driver, or
-    with ``sim`` ("mujoco") the simulator (with ``sim_args``, ROS arguments);
+    with ``sim`` ("mujoco") the simulator (with ``sim_params``, NAME:=VALUE);
     robot_state_publisher; the planning_server with ``server_args`` (ROS arguments)."""
     nodes: list[NodeSpec] = []
     if sim:
@@ -146,7 +148,7 @@ def robot_nodes(hardware: str = "", run_dir: Path | None = None, server_args: Se
             raise ValueError("a robot is either simulated (sim) or hardware, not both")
         if sim not in SIMULATORS:
             raise ValueError(f"unknown simulator '{sim}' (known: {', '.join(SIMULATORS)})")
-        nodes.append(mujoco_sim(ros_args(sim_args) if sim_args else ()))
+        nodes.append(mujoco_sim(sim_params))
     elif not hardware:
         nodes.append(mock_controllers())
     else:
