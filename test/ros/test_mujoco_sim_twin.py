@@ -135,3 +135,17 @@ def test_mujoco_sim_refuses_a_bad_scene_before_anything_starts(tmp_path, problem
         assert "Traceback" not in out and "ready" not in out
     finally:
         node.stop()
+
+
+def test_sim_usage_errors_of_robot_sh_and_demo_sh():
+    base = [PYTHON, "-m", "mycobot_planning.ros.bringup"]
+    for args, message in ((["start", "--sim", "gazebo"], "--sim needs a simulator (mujoco), got 'gazebo'"),
+                          (["start", "--sim", "mujoco", "--hardware", "emulated"], "--sim and --hardware exclude"),
+                          (["start", "--sim-param", "speed_factor:=0.5"], "--sim-param needs --sim"),
+                          (["status", "--sim", "mujoco"], "--sim and --sim-param are for start/restart only")):
+        result = subprocess.run([*base, *args], cwd=REPO, capture_output=True, text=True, timeout=60)
+        assert result.returncode == 1 and message in result.stderr, (args, result.stderr)
+    result = subprocess.run([*base, "--help"], cwd=REPO, capture_output=True, text=True, timeout=60)
+    assert result.returncode == 0 and "--sim mujoco" in result.stdout
+    demo = subprocess.run([*DEMO[:-1], "gazebo"], cwd=REPO, capture_output=True, text=True, timeout=60)
+    assert demo.returncode == 2 and "--sim needs a simulator (mujoco), got 'gazebo'" in demo.stderr

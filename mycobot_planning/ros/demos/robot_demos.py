@@ -23,14 +23,18 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
+from interfaces_py.clients import PlanningSceneInterface
 from interfaces_py.perception_client import PerceptionClient, RpcError
 from mycobot_planning.demos import pick_place_report
 from mycobot_planning.demos.pick_place import load_parameters
+from mycobot_planning.demos.sim_pick_place import floor_object, padded_dimensions
 from mycobot_planning.paths import config_file, use_fast_discovery
 from mycobot_planning.ros.bringup import robot as bringup
 from mycobot_planning.ros.bringup.process import ManagedProcess
 from mycobot_planning.ros.bringup.readiness import Readiness
+from mycobot_planning.ros.demos.sim_verdict import TwinObserver, twin_verdict, verdict_lines
 from mycobot_planning.ros.perception.perception_setup import detection_lines
+from mycobot_planning.simulation.scene import load_scene
 
 #: The myCobot's arm group (home: every joint 0); the readback must end within HOME_TOLERANCE.
 ARM = ["link1_to_link2", "link2_to_link3", "link3_to_link4", "link4_to_link5", "link5_to_link6",
@@ -247,8 +251,6 @@ def sim_mtc_args(params_path: str, argv: list[str]) -> list[str]:
     """mtc_node's arguments in the twin: the object's planning radius padded by
     PLANNING_CLEARANCE (docs/simulation.md: the planner keeps no distance, and a path that grazes
     the cylinder at half a millimetre knocks it over in physics); the user's arguments after."""
-    from mycobot_planning.demos.sim_pick_place import padded_dimensions
-
     params = pick_place_report.parameters_with_overrides(params_path, argv)
     return ["-p", f"object_dimensions:={padded_dimensions(params)}", *argv]
 
@@ -256,10 +258,6 @@ def sim_mtc_args(params_path: str, argv: list[str]) -> list[str]:
 def add_sim_floor(tag: str, params_path: str, argv: list[str]) -> None:
     """The twin's floor into the planning_server's scene (the seed's scene has none, and a path may
     swing the carried 35 cm cylinder through it; docs/simulation.md)."""
-    from interfaces_py.clients import PlanningSceneInterface
-    from mycobot_planning.demos.sim_pick_place import floor_object
-    from mycobot_planning.simulation.scene import load_scene
-
     scene = load_scene(config_file("mujoco_scene.yaml"))
     if scene.floor is None:
         return
@@ -271,8 +269,6 @@ def add_sim_floor(tag: str, params_path: str, argv: list[str]) -> None:
 
 def sim_verdict(tag: str, params_path: str, argv: list[str]) -> int:
     """Print the twin's verdict on the object (sim_verdict.py); 0 only when it holds."""
-    from mycobot_planning.ros.demos.sim_verdict import TwinObserver, twin_verdict, verdict_lines
-
     params = pick_place_report.parameters_with_overrides(params_path, argv)
     print(f"[{tag}] the simulator's verdict (object at rest, against the place pose):", flush=True)
     with TwinObserver(f"demo_sim_verdict_{os.getpid()}") as observer:
