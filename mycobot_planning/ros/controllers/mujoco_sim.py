@@ -7,6 +7,8 @@ simulation knows:
 * ``/mujoco_sim/object_poses`` (tf2_msgs/TFMessage): every scene object's true pose, one
   transform per object (child_frame_id = the object's id, in the scene's frame), at
   ``object_pose_rate``;
+* with ``camera_rate`` > 0, the scene's depth camera rendered headless as sensor_msgs/PointCloud2
+  on ``cloud_topic`` (the seeds' /camera_head/depth/color/points), in the scene's frame;
 * ``/mujoco_sim/status`` (std_msgs/String, JSON): simulated time, real-time factor, whether it
   falls behind real time (and by how much), and the gripper's holds (which object it held, how
   much it slipped in the hand, how the hold ended), at ``status_rate`` and at once when falling
@@ -26,6 +28,7 @@ from dataclasses import replace
 from typing import Any
 
 from geometry_msgs.msg import TransformStamped
+from sensor_msgs.msg import PointCloud2, PointField
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import String
@@ -37,11 +40,15 @@ from mycobot_planning.core.transforms import pose_to_xyz_quat
 from mycobot_planning.paths import config_file
 from mycobot_planning.ros.controllers.controller_manager import ControllerManager
 from mycobot_planning.ros.node_runtime import Parameters, ParameterSpec
-from mycobot_planning.simulation import MujocoSimulator, SimulationError, load_settings
+from mycobot_planning.perception.pointcloud_layout import pack_xyzrgb
+from mycobot_planning.simulation import DepthFrame, MujocoSimulator, SimulationError, load_settings
 from mycobot_planning.simulation.mujoco_plant import MujocoPlant, SimTracking
 
 NODE_NAME = "mujoco_sim"
 OBJECT_POSES_TOPIC = f"/{NODE_NAME}/object_poses"
+#: the seeds' camera_head topic, where perception_server listens by default
+CLOUD_TOPIC = "/camera_head/depth/color/points"
+CLOUD_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
 STATUS_TOPIC = f"/{NODE_NAME}/status"
 STATUS_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 POSES_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
@@ -78,6 +85,11 @@ def load_mujoco_plant(node: ControllerManager, model: RobotModel, config: Contro
         ParameterSpec("status_rate", 1.0, f"Hz of {STATUS_TOPIC} (also published at once when the simulation "
                       "starts or stops falling behind real time)", range=(0.1, 50.0), read_only=True,
                       dynamic_typing=True),
+        ParameterSpec("camera_rate", 0.0, "Hz of simulated time of the scene's depth camera, rendered headless "
+                      "and published as sensor_msgs/PointCloud2 on cloud_topic; 0: no camera (no CPU spent on it)",
+                      range=(0.0, 30.0), read_only=True, dynamic_typing=True),
+        ParameterSpec("cloud_topic", CLOUD_TOPIC, "topic of the rendered clouds (camera_rate > 0)", non_empty=True,
+                      read_only=True),
         ParameterSpec("hand_link", "", "link whose frame the grasp watch measures a held object's slip in; "
                       "empty: the parent link of the SRDF's first end effector", read_only=True),
         ParameterSpec("stop_on_lost_grasp", True, "a held object leaving the hand (2 cm from where it was held, "
@@ -102,7 +114,13 @@ def load_mujoco_plant(node: ControllerManager, model: RobotModel, config: Contro
         settings = load_settings(p.get("settings_file") or config_file("mujoco_sim.yaml"))
         if speed > 0:
             settings = replace(settings, speed_factor=speed)
-        sim = MujocoSimulator(model, p.get("scene_file") or config_file("mujoco_scene.yaml"), settings, camera=False)
+        camera_rate = float(p.get("camera_rate"))
+        settings = replace(settings, camera_rate=camera_rate)
+        sim = MujocoSimulator(model, p.get("scene_file") or config_file("mujoco_scene.yaml"), settings,
+                              camera=camera_rate > 0)
+        if camera_rate > 0 and sim.scene.camera is None:
+            raise SimulationError(f"camera_rate is {camera_rate:g} Hz but the scene has no camera (give camera or "
+                                  "camera_file in the scene file)")
     except (SimulationError, OSError) as exc:
         raise ValueError(f"mujoco_sim: {exc}") from None
     tracking = SimTracking(float(p.get("path_tolerance")), float(p.get("goal_time")),
@@ -148,6 +166,11 @@ class MujocoSimNode(ControllerManager):
         self.create_timer(1.0 / float(self.get_parameter("object_pose_rate").value), self._publish_poses,
                           callback_group=group)
         self.create_timer(min(BEHIND_CHECK_PERIOD, self._status_period), self._status_tick, callback_group=group)
+        self._cloud_pub = None
+        self._frames = 0
+        if float(self.get_parameter("camera_rate").value) > 0:
+            self._cloud_pub = self.create_publisher(PointCloud2, self.get_parameter("cloud_topic").value, CLOUD_QOS)
+            self.sim.on_frame(self._publish_cloud)
         self.get_logger().info(
             f"simulating {', '.join(self.sim.scene.object_ids) or 'no objects'} in '{self._frame}' at speed factor "
             f"{self.sim.speed_factor:g}; object poses on {OBJECT_POSES_TOPIC}, status on {STATUS_TOPIC}")
@@ -167,6 +190,27 @@ class MujocoSimNode(ControllerManager):
             msg.transforms.append(t)
         self._poses_pub.publish(msg)
 
+    def _publish_cloud(self, frame: DepthFrame) -> None:
+        """A rendered depth frame as an organised XYZRGB cloud (called in the camera's thread)."""
+        if self._closing:
+            return
+        packed = pack_xyzrgb(frame.points)
+        msg = PointCloud2()
+        msg.header.stamp = self.get_clock().now().to_msg()
+        msg.header.frame_id = frame.frame_id
+        msg.height, msg.width = packed.height, packed.width
+        msg.fields = [PointField(name=f.name, offset=f.offset, datatype=f.datatype, count=f.count)
+                      for f in packed.fields]
+        msg.is_bigendian = packed.is_bigendian
+        msg.point_step, msg.row_step = packed.point_step, packed.row_step
+        msg.data = packed.data
+        msg.is_dense = packed.is_dense
+        self._cloud_pub.publish(msg)
+        self._frames += 1
+        if self._frames == 1:
+            self.get_logger().info(f"published the first rendered cloud ({msg.width}x{msg.height}, frame "
+                                   f"'{msg.header.frame_id}') on {self.get_parameter('cloud_topic').value}")
+
     def status_dict(self) -> dict[str, Any]:
         s = self.sim.status()
         with self._lock:  # the grasp watch is sampled in the control loop, under this lock
@@ -174,6 +218,7 @@ class MujocoSimNode(ControllerManager):
         return {"time": round(s.time, 4), "steps": s.steps, "running": s.running, "paused": s.paused,
                 "speed_factor": s.speed_factor, "real_time_factor": round(s.real_time_factor, 3),
                 "behind_real_time": s.behind_real_time, "lag": round(s.lag, 4), "message": s.message,
+                "camera_frames": s.camera_frames, "camera_frame_time": round(s.camera_frame_time, 4),
                 "holds": holds}
 
     def _status_tick(self) -> None:
