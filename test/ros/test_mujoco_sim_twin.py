@@ -149,6 +149,9 @@ def test_sim_usage_errors_of_robot_sh_and_demo_sh():
     assert result.returncode == 0 and "--sim mujoco" in result.stdout
     demo = subprocess.run([*DEMO[:-1], "gazebo"], cwd=REPO, capture_output=True, text=True, timeout=60)
     assert demo.returncode == 2 and "--sim needs a simulator (mujoco), got 'gazebo'" in demo.stderr
+    perception = subprocess.run([*DEMO[:3], "perception", "--sim=gazebo"], cwd=REPO, capture_output=True, text=True,
+                                timeout=60)
+    assert perception.returncode == 2 and "perception_demo.sh: --sim needs a simulator" in perception.stderr
 
 
 def test_the_twins_rendered_cloud_shows_perception_the_cylinder_where_the_physics_has_it():
@@ -180,6 +183,7 @@ def test_the_twins_rendered_cloud_shows_perception_the_cylinder_where_the_physic
             target = next(s for s in result.summaries if s["id"] == result.target_object_id)
             assert target["shape"] == "cylinder"
             error = float(np.linalg.norm(np.asarray(target["position"]) - truth[:3, 3]))
+            print(f"perception error against the simulated cylinder: {error * 1000:.2f} mm")
             assert error < 0.005, (target, truth[:3, 3])
             assert target["dimensions"][0] == pytest.approx(0.35, abs=0.01)
     finally:
