@@ -87,13 +87,22 @@ class MujocoPlant(Plant):
         self._host = host
         self.sim.start()
 
+    def _sim_now(self, now: float) -> float:
+        """The controllers' clock reading that the simulation's present corresponds to: ``now``
+        less the time the physics is behind real time. A physics thread that falls behind (a
+        loaded machine) then delays the whole motion, as a simulation with use_sim_time would,
+        instead of leaving the arm behind its trajectory (the servos get the trajectory where
+        the simulation is, and the path tolerance compares the joints with it there)."""
+        return now - self.sim.status().lag
+
     def read(self, now: float) -> None:
         state = self.sim.joint_states()
         position = dict(zip(state.names, state.positions))
         velocity = dict(zip(state.names, state.velocities))
+        at = self._sim_now(now)
         for follower, _ in self.followers.values():
             follower.measure([position[j] for j in follower.joint_names],
-                             [velocity[j] for j in follower.joint_names], now)
+                             [velocity[j] for j in follower.joint_names], at)
         if self.hand_link:
             sim = self.sim
             ended = self.grasp.sample(sim.time, sim.gripper_state(), sim.link_pose(self.hand_link), sim.object_poses(),
@@ -114,9 +123,11 @@ class MujocoPlant(Plant):
     def write(self, now: float) -> None:
         arm = self.followers[self.arm_controller][0]
         if arm.active:
-            desired = arm.state()
-            self.sim.set_arm_command(dict(zip(arm.joint_names, desired.desired_positions)),
-                                     dict(zip(arm.joint_names, desired.desired_velocities)))
+            desired = arm.desired_state_at(self._sim_now(now))
+            if desired is None:
+                state = arm.state()
+                desired = state.desired_positions, state.desired_velocities
+            self.sim.set_arm_command(dict(zip(arm.joint_names, desired[0])), dict(zip(arm.joint_names, desired[1])))
         elif self._arm_was_active:
             self.sim.stop_arm()  # the goal ended (succeeded, stopped, aborted): hold where the arm is
         self._arm_was_active = arm.active
