@@ -43,6 +43,7 @@ setup(
             f"ik_over_table = {PACKAGE}.demos.ik_over_table:main",
             f"mock_controllers = {PACKAGE}.nodes.mock_controllers:main",
             f"mycobot_driver = {PACKAGE}.nodes.mycobot_driver:main",
+            f"mujoco_sim = {PACKAGE}.nodes.mujoco_sim:main",
             f"mycobot_emulator = {PACKAGE}.hardware.emulator:main",
             f"planning_server = {PACKAGE}.nodes.planning_server:main",
             f"robot_state_publisher = {PACKAGE}.nodes.robot_state_publisher:main",

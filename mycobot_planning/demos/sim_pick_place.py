@@ -85,10 +85,22 @@ def planning_scene_for(robot: RobotModel, params: PickPlaceParameters, floor_z: 
     ``floor_z`` is given: a 2 m square slab whose top is FLOOR_CLEARANCE below it."""
     scene = pick_place_scene(robot, params)
     if floor_z is not None:
-        pose = np.eye(4)
-        pose[2, 3] = floor_z - FLOOR_CLEARANCE - 0.005
-        scene.apply_collision_object(CollisionObject.box(FLOOR_ID, [2.0, 2.0, 0.01], pose, frame_id=params.world_frame))
+        scene.apply_collision_object(floor_object(floor_z, params.world_frame))
     return scene
+
+
+def floor_object(floor_z: float, frame_id: str) -> CollisionObject:
+    """The simulated world's floor as a planning obstacle: a 2 m square slab whose top is
+    FLOOR_CLEARANCE below ``floor_z`` (see plan_pick_place)."""
+    pose = np.eye(4)
+    pose[2, 3] = floor_z - FLOOR_CLEARANCE - 0.005
+    return CollisionObject.box(FLOOR_ID, [2.0, 2.0, 0.01], pose, frame_id=frame_id)
+
+
+def padded_dimensions(params: PickPlaceParameters, clearance: float = PLANNING_CLEARANCE) -> list[float]:
+    """The object's [height, radius] with ``clearance`` added to the radius (see plan_pick_place)."""
+    height, radius = params.object_dimensions
+    return [height, radius + clearance]
 
 
 def plan_pick_place(robot: RobotModel, params: PickPlaceParameters | None = None, seed: int = 0,
@@ -106,8 +118,7 @@ def plan_pick_place(robot: RobotModel, params: PickPlaceParameters | None = None
     collision). The grasp and place poses depend on neither."""
     params = params or PickPlaceParameters()
     if clearance:
-        height, radius = params.object_dimensions
-        params = params.with_changes(object_dimensions=[height, radius + clearance])
+        params = params.with_changes(object_dimensions=padded_dimensions(params, clearance))
     task = build_pick_place_task(robot, params, planning_scene_for(robot, params, floor_z), seed=seed)
     task.plan(params.max_solutions)
     if not task.numSolutions():

@@ -70,6 +70,13 @@ class MeasuredTrajectoryFollower(JointTrajectoryFollower):
             return None
         return self._spline.sample(t)[0]
 
+    def desired_state_at(self, t: float) -> tuple[np.ndarray, np.ndarray] | None:
+        """The trajectory's position and velocity at time t (None without a goal)."""
+        if self._spline is None:
+            return None
+        q, qd, _ = self._spline.sample(t)
+        return q, qd
+
     @property
     def final_positions(self) -> np.ndarray | None:
         return None if self._spline is None else self._spline.final.copy()

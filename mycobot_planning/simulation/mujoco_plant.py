@@ -16,6 +16,7 @@ import numpy as np
 from ..core.trajectory_execution.controllers_config import ControllerConfig
 from ..hardware.follower import MeasuredTrajectoryFollower
 from ..hardware_interface.plant import ControllerSpec, Plant, PlantHost
+from .grasp_monitor import GraspWatch
 from .simulator import MujocoSimulator
 
 
@@ -32,13 +33,26 @@ class SimTracking:
 class MujocoPlant(Plant):
     """``simulator``'s arm joints are driven by the one controller that names them, its gripper
     joint by a gripper controller (ValueError when the controllers do not match the model).
-    ``own_simulator``: close the simulator with the plant."""
+    ``own_simulator``: close the simulator with the plant. ``hand_link``: watch which object
+    the gripper holds and how much it slips in this link's frame (``grasp``, sampled at every
+    ``read``); empty: not watched. ``stop_on_lost_grasp``: a held object leaving the hand aborts
+    the arm's goal (the arm holds where it is), as a grasp check on a real cell would."""
 
     def __init__(self, variable_names: Sequence[str], default_positions: np.ndarray, simulator: MujocoSimulator,
                  controllers: Sequence[ControllerConfig], tracking: SimTracking = SimTracking(),
-                 own_simulator: bool = False) -> None:
+                 own_simulator: bool = False, hand_link: str = "", stop_on_lost_grasp: bool = False) -> None:
         super().__init__(variable_names, default_positions)
         self.sim = simulator
+        self.hand_link = hand_link
+        self.stop_on_lost_grasp = stop_on_lost_grasp
+        # open: where the gripper starts (the model's initial positions hold it open)
+        self.grasp = GraspWatch(open_position=simulator.joint_states().as_dict()[simulator.gripper_joint])
+        self._host: PlantHost | None = None
+        if hand_link:
+            try:
+                simulator.link_pose(hand_link)  # an unknown link is refused here, before anything starts
+            except KeyError as exc:
+                raise ValueError(f"hand_link: {exc.args[0]}") from None
         self.tracking = tracking
         self.own_simulator = own_simulator
         arm = [c for c in controllers if set(c.joints) == set(simulator.arm_joints)]
@@ -70,22 +84,50 @@ class MujocoPlant(Plant):
 
     def start(self, host: PlantHost) -> None:
         super().start(host)
+        self._host = host
         self.sim.start()
+
+    def _sim_now(self, now: float) -> float:
+        """The controllers' clock reading that the simulation's present corresponds to: ``now``
+        less the time the physics is behind real time. A physics thread that falls behind (a
+        loaded machine) then delays the whole motion, as a simulation with use_sim_time would,
+        instead of leaving the arm behind its trajectory (the servos get the trajectory where
+        the simulation is, and the path tolerance compares the joints with it there)."""
+        return now - self.sim.status().lag
 
     def read(self, now: float) -> None:
         state = self.sim.joint_states()
         position = dict(zip(state.names, state.positions))
         velocity = dict(zip(state.names, state.velocities))
+        at = self._sim_now(now)
         for follower, _ in self.followers.values():
             follower.measure([position[j] for j in follower.joint_names],
-                             [velocity[j] for j in follower.joint_names], now)
+                             [velocity[j] for j in follower.joint_names], at)
+        if self.hand_link:
+            sim = self.sim
+            ended = self.grasp.sample(sim.time, sim.gripper_state(), sim.link_pose(self.hand_link), sim.object_poses(),
+                                      sim.objects_between_pads)
+            if ended is not None and ended.ended == "lost":
+                self._lost(ended, now)
+
+    def _lost(self, hold, now: float) -> None:
+        text = (f"the held object '{hold.object}' left the hand ({hold.slip * 1000:.0f} mm from where it was "
+                "held)")
+        arm = self.followers[self.arm_controller][0]
+        if self.stop_on_lost_grasp and arm.active and self._host is not None:
+            for state in arm.abort(now, text):
+                self._host.report(arm, state)
+        elif self._host is not None:
+            self._host.log("warning", text)
 
     def write(self, now: float) -> None:
         arm = self.followers[self.arm_controller][0]
         if arm.active:
-            desired = arm.state()
-            self.sim.set_arm_command(dict(zip(arm.joint_names, desired.desired_positions)),
-                                     dict(zip(arm.joint_names, desired.desired_velocities)))
+            desired = arm.desired_state_at(self._sim_now(now))
+            if desired is None:
+                state = arm.state()
+                desired = state.desired_positions, state.desired_velocities
+            self.sim.set_arm_command(dict(zip(arm.joint_names, desired[0])), dict(zip(arm.joint_names, desired[1])))
         elif self._arm_was_active:
             self.sim.stop_arm()  # the goal ended (succeeded, stopped, aborted): hold where the arm is
         self._arm_was_active = arm.active

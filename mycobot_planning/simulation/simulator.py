@@ -412,6 +412,25 @@ class MujocoSimulator:
                     found.append(owners[other])
         return found
 
+    def objects_between_pads(self, max_distance: float = 0.01) -> list[str]:
+        """The free objects within ``max_distance`` (m) of every finger pad now, nearest first:
+        what a gripper closing now would close on (touching or not)."""
+        with self._lock:
+            index = self._built.index
+            free = {o.id for o in self._built.scene.objects if not o.fixed}
+            pads: dict[int, list[int]] = {}
+            for g in index.fingertip_geoms.tolist():
+                pads.setdefault(int(self.model.geom_bodyid[g]), []).append(g)
+            found = []
+            for name, geom in index.object_geoms.items():
+                if name not in free:
+                    continue
+                worst = max(min(mujoco.mj_geomDistance(self.model, self.data, g, geom, max_distance, None)
+                                for g in geoms) for geoms in pads.values())
+                if worst <= max_distance:
+                    found.append((worst, name))
+            return [name for _, name in sorted(found)]
+
     def contacts_of(self, name: str) -> list[str]:
         """What object or robot link ``name`` (an object) touches now."""
         with self._lock:

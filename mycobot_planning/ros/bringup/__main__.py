@@ -11,12 +11,13 @@ import re
 import sys
 from pathlib import Path
 
-from mycobot_planning.ros.bringup.robot import BringupError, Robot, robot_nodes
+from mycobot_planning.ros.bringup.robot import SIMULATORS, BringupError, Robot, robot_nodes
 
 PROG = "robot.sh"
 USAGE = """\
 Usage: scripts/robot.sh start|stop|restart|status [--log-dir DIR] [--run-dir DIR] [--timeout S]
                         [--hardware PORT|emulated [--driver-param NAME:=VALUE]...]
+                        [--sim mujoco [--sim-param NAME:=VALUE]...]
                         [-- PLANNING_SERVER_ROS_ARGS...]
 
   start    start mock_controllers, robot_state_publisher and planning_server in the background (each
@@ -45,6 +46,12 @@ Options:
   --driver-param NAME:=VALUE
                  a parameter for mycobot_driver (repeatable), e.g. --driver-param model:=Pi
                  --driver-param command_rate:=20.0
+  --sim mujoco   start/restart: the MuJoCo physics twin (node mujoco_sim) instead of the mock
+                 controllers: same controllers and actions over a simulated arm, gripper and
+                 world (config/mujoco_scene.yaml); /joint_states from the simulated joints, the
+                 objects' true poses on /mujoco_sim/object_poses, its status on /mujoco_sim/status
+  --sim-param NAME:=VALUE
+                 a parameter for mujoco_sim (repeatable), e.g. --sim-param speed_factor:=0.5
 
 Everything after "--" is handed to the planning_server as ROS arguments, after "--ros-args"
 (added unless you start with it), e.g.:
@@ -80,6 +87,8 @@ class Options:
         self.timeout = os.environ.get("MYCOBOT_START_TIMEOUT") or "60"
         self.hardware = ""
         self.driver_params: list[str] = []
+        self.sim = ""
+        self.sim_params: list[str] = []
         self.server_args: list[str] = []
         self.help = False
         self._parse(list(argv))
@@ -100,9 +109,11 @@ class Options:
                 self.server_args = args[i + 1:]
                 break
             key, eq, inline = a.partition("=")
-            if key in ("--log-dir", "--run-dir", "--timeout", "--hardware", "--driver-param") and (eq or key == a):
+            if key in ("--log-dir", "--run-dir", "--timeout", "--hardware", "--driver-param", "--sim",
+                       "--sim-param") and (eq or key == a):
                 what = {"--log-dir": "a folder", "--run-dir": "a folder", "--timeout": "seconds",
-                        "--hardware": "a serial port or 'emulated'", "--driver-param": "NAME:=VALUE"}[key]
+                        "--hardware": "a serial port or 'emulated'", "--driver-param": "NAME:=VALUE",
+                        "--sim": "a simulator (mujoco)", "--sim-param": "NAME:=VALUE"}[key]
                 value = inline if eq else self._value(args, i, what)
                 i += 1 if eq else 2
                 if key == "--log-dir":
@@ -111,6 +122,14 @@ class Options:
                     self.run_dir = value
                 elif key == "--timeout":
                     self.timeout = value
+                elif key == "--sim":
+                    if value not in SIMULATORS:
+                        raise UsageError(f"--sim needs a simulator ({', '.join(SIMULATORS)}), got '{value}'")
+                    self.sim = value
+                elif key == "--sim-param":
+                    if ":=" not in value:
+                        raise UsageError("--sim-param needs NAME:=VALUE")
+                    self.sim_params.append(value)
                 elif key == "--hardware":
                     if not value:
                         raise UsageError("--hardware needs a serial port or 'emulated'")
@@ -140,11 +159,18 @@ class Options:
             raise UsageError("--hardware and --driver-param are for start/restart only")
         if self.driver_params and not self.hardware:
             raise UsageError("--driver-param needs --hardware")
+        if (self.sim or self.sim_params) and not starting:
+            raise UsageError("--sim and --sim-param are for start/restart only")
+        if self.sim_params and not self.sim:
+            raise UsageError("--sim-param needs --sim")
+        if self.sim and self.hardware:
+            raise UsageError("--sim and --hardware exclude each other: a robot is simulated or real")
 
 
 class RobotScript:
     """robot.sh's commands over :class:`Robot`, with the run folder's records: the domain the
-    robot runs on (``ros_domain_id``), its nodes (``nodes``) and its hardware (``hardware``)."""
+    robot runs on (``ros_domain_id``), its nodes (``nodes``), its hardware (``hardware``) or
+    simulator (``sim``)."""
 
     def __init__(self, options: Options) -> None:
         self.o = options
@@ -159,17 +185,19 @@ class RobotScript:
         path = self.run_dir / name
         return path.read_text().strip() if path.exists() else ""
 
-    def _robot(self, hardware: str, server_args: list[str] | None = None) -> Robot:
-        return Robot(robot_nodes(hardware, self.run_dir, server_args or [], self.o.driver_params), self.log_dir,
-                     self.run_dir, say=out, warn=err)
+    def _robot(self, hardware: str, server_args: list[str] | None = None, sim: str = "") -> Robot:
+        return Robot(robot_nodes(hardware, self.run_dir, server_args or [], self.o.driver_params, sim,
+                                 self.o.sim_params), self.log_dir, self.run_dir, say=out, warn=err)
 
     def recorded(self) -> Robot:
         """The robot the run folder recorded (the mock's when nothing is recorded)."""
-        return self._robot(self._record("hardware") if self._record("nodes") else "")
+        if not self._record("nodes"):
+            return self._robot("")
+        return self._robot(self._record("hardware"), sim=self._record("sim"))
 
     def stop(self) -> int:
         self.recorded().stop()
-        for name in ("ros_domain_id", "nodes", "hardware"):
+        for name in ("ros_domain_id", "nodes", "hardware", "sim"):
             (self.run_dir / name).unlink(missing_ok=True)
         return 0
 
@@ -180,7 +208,7 @@ class RobotScript:
         return code
 
     def start(self) -> int:
-        wanted = self._robot(self.o.hardware, self.o.server_args)
+        wanted = self._robot(self.o.hardware, self.o.server_args, self.o.sim)
         current = self.recorded() if self._record("nodes") else wanted
         if self._record("ros_domain_id") and current.any_alive() and self._record("ros_domain_id") != self.domain:
             raise UsageError(f"the robot of {self.run_dir} already runs on ROS_DOMAIN_ID="
@@ -198,6 +226,10 @@ class RobotScript:
             (self.run_dir / "hardware").write_text(self.o.hardware + "\n")
         else:
             (self.run_dir / "hardware").unlink(missing_ok=True)
+        if self.o.sim:
+            (self.run_dir / "sim").write_text(self.o.sim + "\n")
+        else:
+            (self.run_dir / "sim").unlink(missing_ok=True)
         out(f"ROS_DOMAIN_ID={self.domain} ROS_AUTOMATIC_DISCOVERY_RANGE="
             f"{os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE']}; logs: {self.log_dir}")
         if self.o.server_args and wanted.alive("planning_server"):
@@ -210,7 +242,7 @@ class RobotScript:
                 err(f"{PROG}: no joint states from the arm; last lines of {wanted['mycobot_driver'].log_path}:")
                 err(wanted["mycobot_driver"].tail(5))
             if not wanted.any_alive():
-                for name in ("ros_domain_id", "nodes", "hardware"):
+                for name in ("ros_domain_id", "nodes", "hardware", "sim"):
                     (self.run_dir / name).unlink(missing_ok=True)
             return 1
         out(f"robot up: {wanted.summary()}; logs in {self.log_dir}")
@@ -220,6 +252,9 @@ class RobotScript:
                 port = (f"{self.run_dir / 'mycobot_port'} (emulated arm; faults: "
                         f"{self.run_dir / 'mycobot_emulator.sock'})")
             out(f"hardware: mycobot_driver drives the myCobot 280 on {port}")
+        if self.o.sim:
+            out("simulation: mujoco_sim simulates the arm, the gripper and the objects (MuJoCo); object poses on "
+                "/mujoco_sim/object_poses, status on /mujoco_sim/status")
         return 0
 
 

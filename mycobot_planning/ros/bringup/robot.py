@@ -1,7 +1,7 @@
 """Bring-up without a launch system: start, check and stop a robot's nodes.
 
-A robot is the controllers (the mock's, or mycobot_driver on a serial port or on the emulated
-arm, mycobot_emulator), robot_state_publisher and the planning_server, plus optional nodes (task
+A robot is the controllers (the mock's, the MuJoCo twin mujoco_sim, or mycobot_driver on a serial
+port or on the emulated arm, mycobot_emulator), robot_state_publisher and the planning_server, plus optional nodes (task
 nodes, the task viewer, the camera and perception). Each runs as ``python -m
 mycobot_planning.nodes.<name>`` in a process group of its own with its log in one folder; it
 counts as up when ROS discovery shows its node, services and actions (and, for the
@@ -91,6 +91,18 @@ def mycobot_driver(port: str, params: Sequence[str] = ()) -> NodeSpec:
     return NodeSpec("mycobot_driver", args, Readiness(nodes=("/mycobot_driver",), actions=DEFAULT_CONTROLLER_ACTIONS))
 
 
+#: The simulators ``--sim`` offers: the node that stands in for the controllers.
+SIMULATORS = ("mujoco",)
+
+
+def mujoco_sim(params: Sequence[str] = ()) -> NodeSpec:
+    """The MuJoCo twin (node mujoco_sim): the mock's controllers over a physics simulation;
+    ``params``: NAME:=VALUE parameters."""
+    args = ["--ros-args", *(a for p in params for a in ("-p", p))] if params else []
+    return NodeSpec("mujoco_sim", args, Readiness(nodes=("/mujoco_sim",), topics=("/joint_states",),
+                                                        actions=DEFAULT_CONTROLLER_ACTIONS))
+
+
 def mycobot_emulator(link: Path, control: Path) -> NodeSpec:
     """The emulated arm on a pseudo-terminal (no ROS node): up when its port and control socket exist."""
     return NodeSpec("mycobot_emulator", ["--link", str(link), "--control", str(control)],
@@ -125,12 +137,19 @@ def hybrid_planning(args: Sequence[str] = ()) -> NodeSpec:
 
 
 def robot_nodes(hardware: str = "", run_dir: Path | None = None, server_args: Sequence[str] = (),
-                driver_params: Sequence[str] = ()) -> list[NodeSpec]:
+                driver_params: Sequence[str] = (), sim: str = "", sim_params: Sequence[str] = ()) -> list[NodeSpec]:
     """The processes of a robot in start order: the mock controllers, or with ``hardware`` (a
-    serial port, or "emulated": the emulated arm, its port in ``run_dir``) mycobot_driver;
+    serial port, or "emulated": the emulated arm, its port in ``run_dir``) mycobot_driver, or
+    with ``sim`` ("mujoco") the simulator (with ``sim_params``, NAME:=VALUE);
     robot_state_publisher; the planning_server with ``server_args`` (ROS arguments)."""
     nodes: list[NodeSpec] = []
-    if not hardware:
+    if sim:
+        if hardware:
+            raise ValueError("a robot is either simulated (sim) or hardware, not both")
+        if sim not in SIMULATORS:
+            raise ValueError(f"unknown simulator '{sim}' (known: {', '.join(SIMULATORS)})")
+        nodes.append(mujoco_sim(sim_params))
+    elif not hardware:
         nodes.append(mock_controllers())
     else:
         port = hardware

@@ -1,8 +1,8 @@
 """scripts/demo.sh and scripts/perception_demo.sh: the seeds' pick and place on a robot brought
 up for the run (mycobot_planning.ros.bringup), planned and executed by mtc_node, then judged.
 
-    python -m mycobot_planning.ros.demos.robot_demos demo [--hardware PORT|emulated] [MTC_NODE_ROS_ARGS...]
-    python -m mycobot_planning.ros.demos.robot_demos perception [MTC_NODE_ROS_ARGS...]
+    python -m mycobot_planning.ros.demos.robot_demos demo [--hardware PORT|emulated | --sim mujoco] [MTC_NODE_ROS_ARGS...]
+    python -m mycobot_planning.ros.demos.robot_demos perception [--sim mujoco] [MTC_NODE_ROS_ARGS...]
 
 The scripts' headers say what each run does and prints; the robot, the optional task viewer
 (MYCOBOT_DEMO_VIEWER=1), the camera and the perception_server are one bring-up, stopped at the
@@ -15,7 +15,9 @@ import signal
 import sys
 import time
 from pathlib import Path
-from typing import Callable
+from typing import Any, Callable
+
+import numpy as np
 
 import rclpy
 from rclpy.context import Context
@@ -23,14 +25,18 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
+from interfaces_py.clients import PlanningSceneInterface
 from interfaces_py.perception_client import PerceptionClient, RpcError
 from mycobot_planning.demos import pick_place_report
 from mycobot_planning.demos.pick_place import load_parameters
+from mycobot_planning.demos.sim_pick_place import floor_object, padded_dimensions
 from mycobot_planning.paths import config_file, use_fast_discovery
 from mycobot_planning.ros.bringup import robot as bringup
 from mycobot_planning.ros.bringup.process import ManagedProcess
 from mycobot_planning.ros.bringup.readiness import Readiness
+from mycobot_planning.ros.demos.sim_verdict import TwinObserver, twin_verdict, verdict_lines
 from mycobot_planning.ros.perception.perception_setup import detection_lines
+from mycobot_planning.simulation.scene import load_scene
 
 #: The myCobot's arm group (home: every joint 0); the readback must end within HOME_TOLERANCE.
 ARM = ["link1_to_link2", "link2_to_link3", "link3_to_link4", "link4_to_link5", "link5_to_link6",
@@ -50,9 +56,12 @@ def _interrupt(*_: object) -> None:
 class Demo:
     """One demo run: its folder, its ROS domain, its bring-up."""
 
-    def __init__(self, tag: str, folder_prefix: str, hardware: str = "") -> None:
+    def __init__(self, tag: str, folder_prefix: str, hardware: str = "", sim: str = "",
+                 sim_params: tuple[str, ...] = ()) -> None:
         self.tag = tag
         self.hardware = hardware
+        self.sim = sim
+        self.sim_params = list(sim_params)
         self.dir = Path(os.environ.get("MYCOBOT_DEMO_DIR") or f"/tmp/mycobot_planning/{folder_prefix}-{os.getpid()}")
         self.dir.mkdir(parents=True, exist_ok=True)
         os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
@@ -74,7 +83,7 @@ class Demo:
     # ------------------------------------------------------------------ the robot
     def start_robot(self) -> None:
         run_dir = self.dir / "run"
-        nodes = bringup.robot_nodes(self.hardware, run_dir)
+        nodes = bringup.robot_nodes(self.hardware, run_dir, sim=self.sim, sim_params=self.sim_params)
         out = lambda text: print(text, flush=True)  # noqa: E731 - robot.sh's lines, as it prints them
         err = lambda text: print(text, file=sys.stderr, flush=True)  # noqa: E731
         self.robot = bringup.Robot(nodes, self.dir, run_dir, say=out, warn=err)
@@ -91,6 +100,8 @@ class Demo:
             if port == "emulated":
                 port = f"{run_dir / 'mycobot_port'} (emulated arm; faults: {run_dir / 'mycobot_emulator.sock'})"
             print(f"hardware: mycobot_driver drives the myCobot 280 on {port}", flush=True)
+        if self.sim:
+            print("simulation: mujoco_sim simulates the arm, the gripper and the objects (MuJoCo)", flush=True)
 
     def start_extras(self, nodes: list[bringup.NodeSpec]) -> None:
         """The optional nodes (camera, perception, viewer) as one more bring-up in the same folder."""
@@ -188,8 +199,9 @@ def arm_ends_at_home(tag: str) -> bool:
     return error <= HOME_TOLERANCE
 
 
-def show_detections(params_path: str, timeout: float) -> bool:
-    """Ask the perception_server for the parameters' cylinder until it answers; print what it sees."""
+def show_detections(params_path: str, timeout: float, truth: Callable[[str], Any] | None = None) -> bool:
+    """Ask the perception_server for the parameters' cylinder until it answers; print what it sees
+    (and with ``truth`` (object name -> its true 4x4 pose or None), the perception error against it)."""
     params = load_parameters(params_path)
     deadline = time.monotonic() + timeout
     reason = ""
@@ -207,6 +219,15 @@ def show_detections(params_path: str, timeout: float) -> bool:
         print(f"  perception failed: {reason}")
         return False
     print("\n".join("  " + line for line in detection_lines(result.response)))
+    if truth is not None:
+        target = next((o for o in result.summaries if o.get("id") == result.target_object_id), None)
+        true_pose = truth(params.object_name)
+        if target is None or true_pose is None:
+            print("  perception error: cannot tell (no target, or no true pose from the simulator)")
+            return False
+        error = float(np.linalg.norm(np.asarray(target["position"], dtype=float) - true_pose[:3, 3]))
+        print(f"  perception error: the perceived cylinder's centre is {error * 1000:.1f} mm from the simulated "
+              f"one at ({true_pose[0, 3]:.4f}, {true_pose[1, 3]:.4f}, {true_pose[2, 3]:.4f})")
     return True
 
 
@@ -230,7 +251,55 @@ def run_demo(demo: Demo, body: Callable[[], int]) -> int:
     return code
 
 
+def _option(argv: list[str], name: str) -> tuple[str | None, list[str]]:
+    """``--name VALUE`` or ``--name=VALUE`` at the front of argv: (value, the rest); value None
+    when absent, "" when given empty."""
+    if argv and argv[0] == name:
+        return (argv[1] if len(argv) > 1 else ""), argv[2:]
+    if argv and argv[0].startswith(name + "="):
+        return argv[0].split("=", 1)[1], argv[1:]
+    return None, argv
+
+
+def sim_mtc_args(params_path: str, argv: list[str]) -> list[str]:
+    """mtc_node's arguments in the twin: the object's planning radius padded by
+    PLANNING_CLEARANCE (docs/simulation.md: the planner keeps no distance, and a path that grazes
+    the cylinder at half a millimetre knocks it over in physics); the user's arguments after."""
+    params = pick_place_report.parameters_with_overrides(params_path, argv)
+    return ["-p", f"object_dimensions:={padded_dimensions(params)}", *argv]
+
+
+def add_sim_floor(tag: str, params_path: str, argv: list[str]) -> None:
+    """The twin's floor into the planning_server's scene (the seed's scene has none, and a path may
+    swing the carried 35 cm cylinder through it; docs/simulation.md)."""
+    scene = load_scene(config_file("mujoco_scene.yaml"))
+    if scene.floor is None:
+        return
+    params = pick_place_report.parameters_with_overrides(params_path, argv)
+    with PlanningSceneInterface(timeout=30.0) as psi:
+        psi.apply_collision_object(floor_object(scene.floor.z, params.world_frame))
+    print(f"[{tag}] added the simulated floor (z = {scene.floor.z:g} m) to the planning scene", flush=True)
+
+
+def sim_verdict(tag: str, params_path: str, argv: list[str]) -> int:
+    """Print the twin's verdict on the object (sim_verdict.py); 0 only when it holds."""
+    params = pick_place_report.parameters_with_overrides(params_path, argv)
+    print(f"[{tag}] the simulator's verdict (object at rest, against the place pose):", flush=True)
+    with TwinObserver(f"demo_sim_verdict_{os.getpid()}") as observer:
+        outcome, reason = twin_verdict(observer, params)
+    ok, lines = verdict_lines(outcome, reason)
+    for line in lines:
+        print(line, flush=True)
+    return 0 if ok else 1
+
+
 def pick_place_demo(argv: list[str]) -> int:
+    sim, argv = _option(argv, "--sim")
+    if sim is not None and sim not in bringup.SIMULATORS:
+        print(f"demo.sh: --sim needs a simulator ({', '.join(bringup.SIMULATORS)}), got '{sim}'", file=sys.stderr)
+        return 2
+    if sim:
+        return sim_pick_place_demo(sim, argv)
     hardware = ""
     if argv and argv[0] == "--hardware":
         if len(argv) < 2 or not argv[1]:
@@ -269,7 +338,79 @@ def pick_place_demo(argv: list[str]) -> int:
     return run_demo(demo, body)
 
 
+def sim_pick_place_demo(sim: str, argv: list[str]) -> int:
+    """demo.sh --sim mujoco: mtc_node plans and executes as on the mock, through the twin; the
+    verdict is the simulator's."""
+    demo = Demo("demo", "demo", sim=sim)
+
+    def body() -> int:
+        demo.say(f"ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}; logs in {demo.dir}")
+        demo.say("starting mujoco_sim (the MuJoCo twin) and the planning_server")
+        demo.start_robot()
+        demo.start_extras(demo.viewer_node())
+        demo.report_viewer()
+        add_sim_floor("demo", demo.params, argv)
+        demo.say("running mtc_node (plan, then execute in the simulation)")
+        node_code = demo.run_mtc_node(sim_mtc_args(demo.params, argv))
+        print(f"\n[demo] mtc_node exited with code {node_code}", flush=True)
+        demo.say("what the planning scene says (mtc_node's view; the simulator's verdict follows):")
+        pick_place_report.main([str(demo.dir / "mtc_node.log"), demo.params, str(node_code), *argv])
+        verdict = sim_verdict("demo", demo.params, argv)
+        if node_code != 0:
+            demo.warn(f"FAILED: mtc_node exited with code {node_code}")
+        return verdict or (1 if node_code != 0 else 0)
+
+    return run_demo(demo, body)
+
+
+#: perception_server's settings for the twin's world (docs/simulation.md, the depth camera): the
+#: floor 3 cm below a 10 x 20 cm table top; the twin's clouds come in its world frame (base_link's origin)
+SIM_PERCEPTION_ARGS = ["-p", "z_tolerance:=0.01", "-p", "plane_voxel_leaf_size:=0.008", "-p", "min_cluster_size:=30",
+                       "-p", "cloud_frame_id:=world", "-p", "cloud_frame_pose:=[0.0, 0.0, 0.0, 0.0, 0.0, 0.0]"]
+
+
+def sim_perception_demo(sim: str, argv: list[str]) -> int:
+    """perception_demo.sh --sim mujoco: the twin's rendered cloud -> perception_server -> mtc_node;
+    the perception error against the simulator's truth, and the simulator's verdict."""
+    demo = Demo("perception demo", "perception-demo", sim=sim, sim_params=("camera_rate:=1.0",))
+    perception_params = str(config_file("perception_server.yaml"))
+
+    def body() -> int:
+        demo.say(f"ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}; logs in {demo.dir}")
+        demo.say("starting mujoco_sim (the MuJoCo twin, its depth camera at 1 Hz) and the planning_server")
+        demo.start_robot()
+        demo.say("starting the perception_server on the twin's rendered cloud")
+        demo.start_extras([bringup.extra_node("perception_server", ["--ros-args", "--params-file", perception_params,
+                                                                   *SIM_PERCEPTION_ARGS]), *demo.viewer_node()])
+        add_sim_floor("perception demo", demo.params, argv)
+        demo.say("what the perception_server sees:")
+        with TwinObserver(f"demo_truth_{os.getpid()}") as observer:
+            if not show_detections(demo.params, demo.start_timeout,
+                                   truth=lambda name: observer.wait_for_pose(name, demo.start_timeout)):
+                return 1
+        demo.report_viewer()
+        demo.say("running mtc_node with use_perception:=true (plan, then execute in the simulation)")
+        node_code = demo.run_mtc_node(["-p", "use_perception:=true", "-p", "perception_server:=/perception_server",
+                                       *argv])
+        print(f"\n[perception demo] mtc_node exited with code {node_code}", flush=True)
+        demo.say("what the planning scene says (mtc_node's view; the simulator's verdict follows):")
+        pick_place_report.main(["--perception", str(demo.dir / "mtc_node.log"), demo.params, str(node_code), *argv])
+        verdict = sim_verdict("perception demo", demo.params, argv)
+        if node_code != 0:
+            demo.warn(f"FAILED: mtc_node exited with code {node_code}")
+        return verdict or (1 if node_code != 0 else 0)
+
+    return run_demo(demo, body)
+
+
 def perception_demo(argv: list[str]) -> int:
+    sim, argv = _option(argv, "--sim")
+    if sim is not None and sim not in bringup.SIMULATORS:
+        print(f"perception_demo.sh: --sim needs a simulator ({', '.join(bringup.SIMULATORS)}), got '{sim}'",
+              file=sys.stderr)
+        return 2
+    if sim:
+        return sim_perception_demo(sim, argv)
     demo = Demo("perception demo", "perception-demo")
     perception_params = str(config_file("perception_server.yaml"))
 

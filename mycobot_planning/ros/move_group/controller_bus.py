@@ -153,8 +153,14 @@ class ActionControllerBus:
     # ------------------------------------------------------------------ action callbacks
     def _record(self, controller: str, state: ControllerState) -> None:
         with self._lock:
-            self._latest[controller] = state
             goals = self._by_goal[controller]
+            known = goals.get(state.goal_id)
+            if known is not None and not known.active and state.active:
+                # a goal's end is final: a feedback message handled after its result (the executor's
+                # threads may run them out of order; a gripper goal that ends in one control cycle
+                # made this happen) must not turn it back into "executing"
+                return
+            self._latest[controller] = state
             goals[state.goal_id] = state
             goals.move_to_end(state.goal_id)
             while len(goals) > self.MAX_GOALS:
