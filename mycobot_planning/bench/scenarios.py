@@ -25,6 +25,7 @@ from .robots_scenarios import bench_robots
 from .robustness import bench_robustness
 from .sim_scenarios import SIM_SCENARIOS
 from .ros_scenarios import ROS_SCENARIOS
+from .servo_scenarios import SERVO_SCENARIOS
 from .task_scenarios import TASK_SCENARIOS
 from .time_parameterization_scenarios import TIME_PARAMETERIZATION_SCENARIOS
 from .viewer_scenarios import VIEWER_SCENARIOS
@@ -255,5 +256,6 @@ SCENARIOS: dict[str, Callable[..., None]] = {
     **SIM_SCENARIOS,
     **CONCURRENCY_SCENARIOS,
     **REACT_SCENARIOS,
+    **SERVO_SCENARIOS,
     **IDLE_SCENARIOS,
 }
