@@ -129,17 +129,17 @@ def hold(system, button: str, until, what: str, timeout: float = 60.0) -> None:
 
 
 def test_joint_jog_moves_only_that_joint(system):
-    probe, page = system["probe"], system["page"]
+    probe = system["probe"]
     start = probe.settle()
     hold(system, "J1+", lambda: probe.arm()[0] > start[0] + 0.05, "holding J1+ did not move the first joint")
     moved = probe.settle() - start
     assert moved[0] > 0.05
     assert np.all(np.abs(moved[1:]) < 1e-9)
-    assert system["probe"].teleop()["jog_repeats"] > 0
+    assert probe.teleop()["jog_repeats"] > 0
 
 
 def test_cartesian_jog_moves_the_flange_along_the_axis(system):
-    probe, page = system["probe"], system["page"]
+    probe = system["probe"]
     model = RobotModel.mycobot()
     start = probe.settle()
     assert probe.teleop()["frame"] == "base"
