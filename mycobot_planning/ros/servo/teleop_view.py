@@ -208,6 +208,8 @@ class TeleopView:
 
         def work() -> None:
             try:
+                if not self._rpc.wait_for_server(0.1):
+                    return  # no planning_server (yet): the next poll looks again, without waiting
                 listed = self._rpc.call("list_waypoints", {}, timeout=10.0)
             except RpcError:
                 return  # no planning_server (yet): the next poll tries again
