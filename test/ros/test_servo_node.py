@@ -381,7 +381,12 @@ def test_pause_and_switch_command_type_behave_as_moveits(servo):
     before = probe.arm()
     probe.pause(True)
     since = time.time()
-    probe.stream(lambda: probe.send_jog(["link1_to_link2"], [1.0]), 0.3)  # paused: nothing may happen
+    # paused: until the servo says it drops them, and as long again, nothing may happen
+    mark = len(node.output())
+    probe.drive(lambda: probe.send_jog(["link1_to_link2"], [1.0]),
+                lambda: logged_after(node, mark, "ignoring a command sent while servoing was paused"),
+                "the paused servo did not say it drops commands")
+    probe.stream(lambda: probe.send_jog(["link1_to_link2"], [1.0]), 0.3)
     assert np.max(np.abs(probe.settle() - before)) < 1e-9 and probe.outputs_after(since) == []
     probe.pause(False)
     # twists are ignored while the type is JOINT_JOG: until the servo says so, and as long again
@@ -413,12 +418,17 @@ def test_parameters_are_checked_one_by_one_and_together(servo):
 
 
 def test_humble_start_and_stop_servo(servo, model):
-    probe, _ = servo
+    probe, node = servo
     ready(probe, ServoCommandType.Request.POSE)
     assert probe.trigger("/servo_node/stop_servo").success
     before = probe.arm()
     since = time.time()
-    probe.stream(lambda: probe.send_jog(["link1_to_link2"], [1.0]), 0.3)  # stopped: nothing may happen
+    # stopped: until the servo says it drops them, and as long again, nothing may happen
+    mark = len(node.output())
+    probe.drive(lambda: probe.send_jog(["link1_to_link2"], [1.0]),
+                lambda: logged_after(node, mark, "ignoring a command sent while servoing was paused"),
+                "the stopped servo did not say it drops commands")
+    probe.stream(lambda: probe.send_jog(["link1_to_link2"], [1.0]), 0.3)
     assert np.max(np.abs(probe.settle() - before)) < 1e-9 and probe.outputs_after(since) == []
     assert probe.trigger("/servo_node/start_servo").success
     # Humble's servo takes twists and joint jogs alike, without switch_command_type

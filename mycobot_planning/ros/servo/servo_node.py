@@ -209,6 +209,9 @@ class ServoNode(Node):
         # commands
         self._command_type: int | None = None
         self._legacy = False  # after start_servo: the command type follows the topic
+        #: system time of the last resume (pause_servo false, start_servo): commands stamped before it
+        #: were sent while the servo was paused and never act, however late they are delivered
+        self._resumed_at = 0.0
         self._paused = False
         self._latest: dict[int, tuple[Any, float]] = {}
         self._invalid: str | None = None
@@ -328,6 +331,12 @@ class ServoNode(Node):
 
     def _accept(self, kind: int, command: Any, stamp: Any = None) -> None:
         with self._lock:
+            paused = self._paused
+        if paused:
+            if self._throttle("paused"):
+                self.get_logger().info("ignoring a command sent while servoing was paused")
+            return
+        with self._lock:
             if self._legacy and kind != CommandType.POSE:
                 self._command_type = kind
             current = self._command_type
@@ -349,6 +358,12 @@ class ServoNode(Node):
             return
         received = time.time()
         sent = stamp.sec + stamp.nanosec * 1e-9 if stamp is not None else 0.0
+        with self._lock:
+            resumed_at = self._resumed_at
+        if 0.0 < sent < resumed_at:
+            if self._throttle("paused"):
+                self.get_logger().info("ignoring a command sent while servoing was paused")
+            return
         # as MoveIt: a command is as old as its stamp; unstamped (0) or future ones from when they came
         when = sent if 0.0 < sent <= received else received
         with self._lock:
@@ -425,6 +440,8 @@ class ServoNode(Node):
 
     def _srv_pause(self, request: SetBool.Request, response: SetBool.Response):
         with self._lock:
+            if self._paused and not request.data:
+                self._resumed_at = time.time()
             self._paused = bool(request.data)
             self._latest.clear()
         response.success = True
@@ -434,6 +451,8 @@ class ServoNode(Node):
 
     def _srv_start(self, request: Trigger.Request, response: Trigger.Response):
         with self._lock:
+            if self._paused:
+                self._resumed_at = time.time()
             self._paused = False
             self._legacy = True
         response.success = True
