@@ -47,6 +47,8 @@ setup(
             f"mycobot_emulator = {PACKAGE}.hardware.emulator:main",
             f"planning_server = {PACKAGE}.nodes.planning_server:main",
             f"robot_state_publisher = {PACKAGE}.nodes.robot_state_publisher:main",
+            f"servo_node = {PACKAGE}.nodes.servo_node:main",
+            f"servo_keyboard_input = {PACKAGE}.nodes.servo_keyboard_input:main",
             f"modular = {PACKAGE}.nodes.modular:main",
             f"fallbacks_move_to = {PACKAGE}.nodes.fallbacks_move_to:main",
             f"ik_clearance_cost = {PACKAGE}.nodes.ik_clearance_cost:main",

@@ -188,9 +188,7 @@ class Chromium:
                       "clickCount": 1 if kind != "mouseMoved" else 0}
             self.call("Input.dispatchMouseEvent", params)
 
-    def click_button(self, text: str, timeout: float = 10.0) -> None:
-        """Click the visible, enabled button whose text is ``text`` once there is one (a page
-        updated by its server may show it a moment later); BrowserError if none appears."""
+    def _button(self, text: str, timeout: float) -> list[float]:
         script = ("(() => { const b = [...document.querySelectorAll('button')].find("
                   f"e => e.innerText.trim() === {json.dumps(text)} && e.offsetParent !== null && !e.disabled);"
                   " if (!b) return null; b.scrollIntoView({block: 'nearest'}); const r = b.getBoundingClientRect();"
@@ -198,7 +196,48 @@ class Chromium:
         box = self.wait_for(script, timeout)
         if not box:
             raise BrowserError(f"no visible button '{text}'")
-        self.click_at(*box)
+        return box
+
+    def click_button(self, text: str, timeout: float = 10.0) -> None:
+        """Click the visible, enabled button whose text is ``text`` once there is one (a page
+        updated by its server may show it a moment later); BrowserError if none appears."""
+        self.click_at(*self._button(text, timeout))
+
+    def press_button(self, text: str, timeout: float = 10.0) -> list[float]:
+        """Press the mouse on the button ``text`` (as click_button finds it) and keep it down;
+        where, for release_at."""
+        deadline = time.monotonic() + timeout
+        while True:  # the page may still be laying out (folders opening): press where the button is
+            x, y = self._button(text, max(0.1, deadline - time.monotonic()))
+            hit = self.evaluate(f"(() => {{ const e = document.elementFromPoint({x}, {y}); const b = e && e.closest('button');"
+                                f" return !!b && b.innerText.trim() === {json.dumps(text)}; }})()")
+            if hit:
+                break
+            if time.monotonic() > deadline:
+                raise BrowserError(f"button '{text}' does not stay where it is")
+            time.sleep(0.2)
+        self.call("Input.dispatchMouseEvent", {"type": "mouseMoved", "x": x, "y": y, "button": "none", "clickCount": 0})
+        self.call("Input.dispatchMouseEvent", {"type": "mousePressed", "x": x, "y": y, "button": "left", "clickCount": 1})
+        return [x, y]
+
+    def release_at(self, x: float, y: float) -> None:
+        self.call("Input.dispatchMouseEvent", {"type": "mouseReleased", "x": x, "y": y, "button": "left", "clickCount": 1})
+
+    def type_into(self, label: str, text: str, timeout: float = 10.0) -> None:
+        """Type ``text`` into the text field labelled ``label`` (focused by a real click, typed as
+        keyboard input), replacing what it held."""
+        # the label's own field, else the first input of the row the label is in (viser's text
+        # inputs carry another id than their label names)
+        field_script = (
+            f"(() => {{ const l = [...document.querySelectorAll('label')].find(l => l.innerText.trim() === {json.dumps(label)});"
+            " if (!l) return null; const own = document.getElementById(l.htmlFor); if (own) return own;"
+            " let e = l; const q = 'input:not([type=hidden]), textarea';"
+            " while (e && !e.querySelector(q)) e = e.parentElement; return e ? e.querySelector(q) : null; })()")
+        if not self.wait_for(f"!!{field_script}", timeout):
+            raise BrowserError(f"no text field labelled '{label}'")
+        self.click_at(*self._center(field_script))
+        self.evaluate(f"(() => {{ const e = {field_script}; e.select(); }})()")
+        self.call("Input.insertText", {"text": text})
 
     def _center(self, script: str) -> list[float] | None:
         return self.evaluate("(() => { const e = (" + script + "); if (!e) return null;"

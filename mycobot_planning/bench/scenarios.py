@@ -26,6 +26,7 @@ from .robustness import bench_robustness
 from .sim_scenarios import SIM_SCENARIOS
 from .soak_scenarios import SOAK_SCENARIOS
 from .ros_scenarios import ROS_SCENARIOS
+from .servo_scenarios import SERVO_SCENARIOS
 from .task_scenarios import TASK_SCENARIOS
 from .time_parameterization_scenarios import TIME_PARAMETERIZATION_SCENARIOS
 from .viewer_scenarios import VIEWER_SCENARIOS
@@ -257,5 +258,6 @@ SCENARIOS: dict[str, Callable[..., None]] = {
     **CONCURRENCY_SCENARIOS,
     **REACT_SCENARIOS,
     **SOAK_SCENARIOS,
+    **SERVO_SCENARIOS,
     **IDLE_SCENARIOS,
 }

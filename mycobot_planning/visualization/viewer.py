@@ -36,6 +36,7 @@ from ..core.robot_model.robot_model import RobotModel
 from ..core.robot_state.robot_state import RobotState
 from .geometry import object_shapes, robot_link_shapes
 from .objective_panel import ObjectiveActions, ObjectivePanel
+from .teleop_panel import TeleopActions, TeleopPanel
 from .playback import SceneObjects, Timeline, joint_vector
 from .task_tree import TaskRegistry, TaskTree
 
@@ -221,7 +222,8 @@ class TaskViewer:
     def __init__(self, model: RobotModel, host: str = "127.0.0.1", port: int = 8080, *,
                  max_update_rate: float = 100.0, speed: float = 1.0, loop: bool = True,
                  auto_play_planned_path: bool = True, package_dirs: Sequence[Any] = (),
-                 log: Callable[[str], None] | None = None, objective_actions: ObjectiveActions | None = None) -> None:
+                 log: Callable[[str], None] | None = None, objective_actions: ObjectiveActions | None = None,
+                 teleop_actions: TeleopActions | None = None, teleop_joints: Sequence[str] = ()) -> None:
         import viser
 
         if max_update_rate <= 0:
@@ -279,6 +281,8 @@ class TaskViewer:
         self._build_gui()
         #: the Objectives panel (MoveIt Pro's objectives view), when an objective_server is served
         self.objectives = ObjectivePanel(self.server.gui, objective_actions) if objective_actions else None
+        #: the Teleoperate panel (MoveIt Pro's teleoperation view), when a servo_node is served
+        self.teleop = TeleopPanel(self.server.gui, teleop_actions, teleop_joints) if teleop_actions else None
         self._thread = threading.Thread(target=self._run, name="task_viewer display", daemon=True)
         self._thread.start()
 
@@ -459,6 +463,7 @@ class TaskViewer:
             "colours": {"live_robot": list(LIVE_COLOUR), "preview_robot": list(PREVIEW_COLOUR),
                         "attached": list(ATTACHED_COLOUR), "objects": {k: list(v) for k, v in self._colour_of.items()}},
             "objectives": self.objectives.state() if self.objectives is not None else None,
+            "teleop": self.teleop.state() if self.teleop is not None else None,
         }
         if preview is not None:
             positions = self.preview_robot.positions

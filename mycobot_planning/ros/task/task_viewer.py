@@ -22,6 +22,7 @@ from interfaces_py.ros_conversions import joint_trajectory_from_msg
 from mycobot_planning.core.robot_model.robot_model import RobotModel
 from mycobot_planning.ros.node_runtime import Parameters, ParameterSpec
 from mycobot_planning.ros.objectives.objective_view import ObjectiveView
+from mycobot_planning.ros.servo.teleop_view import TeleopView
 from mycobot_planning.ros.task.task_topics import SOLUTION_QOS, STATISTICS_QOS, TASK_SUFFIXES, parse_task_topic
 from mycobot_planning.paths import package_share_dirs
 from mycobot_planning.visualization.viewer import TaskViewer
@@ -64,6 +65,15 @@ class TaskViewerNode(Node):
                               range=(0.05, 60.0)),
                 ParameterSpec("objective_server", "/objective_server", "the objective_server whose objectives the "
                               "page's Objectives panel lists, runs and stops (empty: no panel)", read_only=True),
+                ParameterSpec("servo_node", "/servo_node", "the servo_node the page's Teleoperate panel jogs "
+                              "the arm through (empty: no panel)", read_only=True),
+                ParameterSpec("planning_server", "/planning_server", "the planning_server whose waypoints the "
+                              "Teleoperate panel lists, saves and moves to", non_empty=True, read_only=True),
+                ParameterSpec("gripper_action", "/grip_action_controller/gripper_cmd", "the gripper controller's "
+                              "GripperCommand action (the Teleoperate panel's open / close)", non_empty=True,
+                              read_only=True),
+                ParameterSpec("teleop_group", "arm", "the planning group the Teleoperate panel jogs and saves",
+                              non_empty=True, read_only=True),
             ])
         except ParameterException as exc:
             raise ValueError(f"invalid parameters: {exc}") from None
@@ -71,19 +81,30 @@ class TaskViewerNode(Node):
         model = self._load_model()
         server = self._params.get("objective_server").strip()
         self._objective_view = ObjectiveView(self, server) if server else None
+        servo = self._params.get("servo_node").strip()
+        try:
+            self._teleop_view = TeleopView(self, model, servo, self._params.get("planning_server"),
+                                           self._params.get("gripper_action"),
+                                           self._params.get("teleop_group")) if servo else None
+        except (KeyError, ValueError) as exc:
+            raise ValueError(f"teleop_group: {exc}") from None
         try:
             self.viewer = TaskViewer(
                 model, self._params.get("host"), self._params.get("port"),
                 max_update_rate=self._params.get("max_update_rate"), speed=self._params.get("playback_speed"),
                 loop=self._params.get("loop"), auto_play_planned_path=self._params.get("auto_play_planned_path"),
                 package_dirs=package_share_dirs(), log=lambda text: log.warning(text),
-                objective_actions=self._objective_view.actions() if self._objective_view else None)
+                objective_actions=self._objective_view.actions() if self._objective_view else None,
+                teleop_actions=self._teleop_view.actions() if self._teleop_view else None,
+                teleop_joints=self._teleop_view.joint_names if self._teleop_view else ())
         except OSError as exc:
             raise ValueError(f"cannot serve the page on {self._params.get('host')}:{self._params.get('port')}: {exc}") \
                 from None
         self._params.on_change(self._on_params)
         if self._objective_view is not None and self.viewer.objectives is not None:
             self._objective_view.attach(self.viewer.objectives)
+        if self._teleop_view is not None and self.viewer.teleop is not None:
+            self._teleop_view.attach(self.viewer.teleop)
 
         # /joint_states (100 Hz and more) on a node of its own with a single-threaded executor:
         # the multi-threaded executor's re-polling would cost a core at that rate (see
