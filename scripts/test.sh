@@ -1,10 +1,22 @@
 #!/usr/bin/env bash
 # README command two: set up if needed, then run the whole test suite in .venv.
-# Extra arguments go to pytest (e.g. ./scripts/test.sh -k ik -x).
+# With no arguments: the tests that start no ROS node run on two workers (pytest-xdist, a module
+# per worker), then the ROS tests one at a time (they start processes and judge real-time
+# behaviour, so they run with nothing else beside them). Extra arguments go to one plain pytest
+# run instead (e.g. ./scripts/test.sh -k ik -x, or -m "not ros" for the fast set).
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$ROOT/scripts/setup.sh"
 cd "$ROOT"
 # Nodes started by tests talk only on localhost, on a domain of their own.
 export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
-exec "$ROOT/.venv/bin/python" -m pytest -q "$@"
+PYTEST=("$ROOT/.venv/bin/python" -m pytest -q)
+if [[ $# -gt 0 ]]; then
+  exec "${PYTEST[@]}" "$@"
+fi
+status=0
+echo "[test] 1/2: the tests without ROS nodes, on 2 workers"
+"${PYTEST[@]}" -m "not ros" -n 2 --dist loadfile || status=$?
+echo "[test] 2/2: the ROS tests"
+"${PYTEST[@]}" -m ros || status=$((status > 0 ? status : $?))
+exit "$status"
