@@ -9,7 +9,8 @@ import threading
 from dataclasses import dataclass
 from typing import Any, Callable, Sequence
 
-from interfaces_py.msgs import MoveItErrorCode, RobotState as RobotStateMsg
+from interfaces_py.msgs import CollisionObject, MoveItErrorCode, PlanningScene as PlanningSceneMsg
+from interfaces_py.msgs import PlanningSceneWorld, RobotState as RobotStateMsg, SolidPrimitive
 
 from ..core.planning_interface.planning_interface import MotionPlanRequest
 from ..core.trajectory_execution import ExecutionResult
@@ -103,7 +104,7 @@ def plan_and_execute(ctx: MoveGroupContext, requests: Sequence[tuple[MotionPlanR
         joints = list(ctx.model.group(group).joint_names) if group and ctx.model.has_group(group) else []
         if joints and not ctx.wait_for_rest(joints):
             ctx.log("warning", "replanning: the arm did not come to rest within 2 s; planning from where it is")
-        replanned = plan_any(ctx, requests, None, path_constraints, display, scene_diff)
+        replanned = _replan(ctx, requests, path_constraints, display, scene_diff)
         if replanned.trajectory is None:
             code = replanned.error_code
             return replanned, ExecutionResult(MoveItErrorCode(
@@ -134,3 +135,54 @@ def _wait(delay: float, cancelled: Callable[[], bool]) -> bool:
         if cancelled():
             return True
     return False
+
+
+#: m: world primitives are grown by this much for a replan, so the new path keeps clear of what
+#: invalidated the old one (OMPL's paths, checked at the validator's resolution with no padding,
+#: may graze an object, and an executed state then touched it once in a test run); less than the
+#: stop's own clearance (core.trajectory_execution.path_ahead.STOP_CLEARANCE), so the arm where it
+#: stopped is still clear of the grown objects
+REPLAN_CLEARANCE = 0.005
+
+
+def _replan(ctx: MoveGroupContext, requests: Sequence[tuple[MotionPlanRequest, str]], path_constraints: Any,
+            display: bool, scene_diff: Any) -> PlanResult:
+    """A replan from the current state: first in the scene with its world primitives grown by
+    REPLAN_CLEARANCE (not when the goal brings its own planning_scene_diff), then, if that finds
+    nothing, in the scene as it is."""
+    grown = None if scene_diff is not None else _grown_world(ctx, REPLAN_CLEARANCE)
+    if grown is not None:
+        result = plan_any(ctx, requests, None, path_constraints, display, grown)
+        if result.trajectory is not None:
+            return result
+        ctx.log("info", f"replanning {REPLAN_CLEARANCE * 1e3:.0f} mm clear of the world's objects found nothing "
+                        f"({result.error_code.message}); planning in the scene as it is")
+    return plan_any(ctx, requests, None, path_constraints, display, scene_diff)
+
+
+def _grown_world(ctx: MoveGroupContext, margin: float) -> PlanningSceneMsg | None:
+    """A scene diff replacing each world object made only of boxes, spheres and cylinders by
+    the same object grown by ``margin`` on every side (None when there is none)."""
+    grown = []
+    for obj in ctx.scene_copy().world_objects():
+        if obj.meshes or not obj.primitives:
+            continue
+        shapes = []
+        for primitive in obj.primitives:
+            d = list(primitive.dimensions)
+            if primitive.type == SolidPrimitive.BOX and len(d) == 3:
+                d = [v + 2 * margin for v in d]
+            elif primitive.type == SolidPrimitive.SPHERE and len(d) == 1:
+                d = [d[0] + margin]
+            elif primitive.type == SolidPrimitive.CYLINDER and len(d) == 2:
+                d = [d[0] + 2 * margin, d[1] + margin]
+            else:
+                break
+            shapes.append(SolidPrimitive(type=primitive.type, dimensions=d))
+        else:
+            grown.append(CollisionObject(id=obj.id, frame_id=obj.frame_id, pose=obj.pose, primitives=shapes,
+                                         primitive_poses=list(obj.primitive_poses), operation=CollisionObject.ADD))
+    if not grown:
+        return None
+    return PlanningSceneMsg(is_diff=True, robot_state=RobotStateMsg(is_diff=True),
+                            world=PlanningSceneWorld(collision_objects=grown))

@@ -338,6 +338,14 @@ def test_move_with_and_without_replanning(server, mycobot, replan):
         # the replanned path went around the box: every state of it is free in the final scene
         path = PathAhead(mycobot, planned.trajectory)
         assert path.first_collision(scene, 0.0) is None
+        # and kept the replan's clearance from it (grown boxes), checked with exact distances
+        base = np.array(scene.current_state.positions, dtype=float)
+        nearest = np.inf
+        for row in path.positions[::4]:
+            values = base.copy()
+            values[path.indices] = row
+            nearest = min(nearest, scene.distance(RobotState(mycobot, values), include_self=False).min_distance)
+        assert nearest >= move_action.REPLAN_CLEARANCE * 0.9, nearest
 
 
 @pytest.mark.parametrize("attempts, delay, problem", [

@@ -409,20 +409,28 @@ class ObjectiveServer(Node):
         where = f" (failed at {run.failed_node})" if run.failed_node else ""
         return self._finish(run, goal_handle, S.FAILURE, C.FAILURE, f"objective '{run.name}' ended {status.name}{where}")
 
-    def wait_for_rest(self, threshold: float = 1e-4) -> bool:
-        """Wait (up to rest_timeout) until two /joint_states readings 50 ms apart agree."""
+    def wait_for_rest(self, threshold: float = 1e-4, still_for: float = 0.1) -> bool:
+        """Wait (up to rest_timeout) until /joint_states has stayed within ``threshold`` for
+        ``still_for`` s, judged on fresh messages only: the same cached message read twice (the
+        subscription not yet served) proves nothing, and an arm still finishing its smooth stop
+        was once taken for at rest that way, so the next objective planned from a moving arm."""
         deadline = time.monotonic() + self.params.get("rest_timeout")
-        previous = None
+        context = self.behavior_context
+        anchor, anchor_count, since = None, -1, None
         while time.monotonic() < deadline:
+            count = context.joint_state_count()
             try:
-                current = self.behavior_context.current_joint_state().as_dict()
+                current = context.current_joint_state().as_dict()
             except LookupError:
                 return False
-            if previous is not None and all(abs(current[k] - previous.get(k, current[k])) < threshold
-                                            for k in current):
-                return True
-            previous = current
-            time.sleep(0.05)
+            if count != anchor_count:
+                if anchor is not None and all(abs(current[k] - anchor.get(k, current[k])) < threshold for k in current):
+                    if time.monotonic() - since >= still_for:
+                        return True
+                else:
+                    anchor, since = current, time.monotonic()
+                anchor_count = count
+            time.sleep(0.02)
         return False
 
     # ------------------------------------------------------------------ services

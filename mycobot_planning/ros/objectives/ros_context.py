@@ -86,6 +86,8 @@ class RosBehaviorContext(BehaviorContext):
         self._services: dict[str, Any] = {}
         self._topics: dict[str, tuple[Any, list[Callable[[Any], None]]]] = {}
         self._joint_state: JointState | None = None
+        #: /joint_states messages received so far (tells a fresh reading from the same one again)
+        self._joint_state_count = 0
         self._perception: Any = None
         self.detected_object_ids: list[str] = []
         node.create_subscription(JointState, "/joint_states", self._on_joint_state, 10, callback_group=self.group)
@@ -114,6 +116,12 @@ class RosBehaviorContext(BehaviorContext):
     def _on_joint_state(self, msg: JointState) -> None:
         with self._lock:
             self._joint_state = msg
+            self._joint_state_count += 1
+
+    def joint_state_count(self) -> int:
+        """How many /joint_states messages have arrived (a reading is fresh when this grew)."""
+        with self._lock:
+            return self._joint_state_count
 
     def current_joint_state(self) -> JointStateValue:
         with self._lock:

@@ -72,8 +72,9 @@ class TaskViewerNode(Node):
                 ParameterSpec("gripper_action", "/grip_action_controller/gripper_cmd", "the gripper controller's "
                               "GripperCommand action (the Teleoperate panel's open / close)", non_empty=True,
                               read_only=True),
-                ParameterSpec("teleop_group", "arm", "the planning group the Teleoperate panel jogs and saves",
-                              non_empty=True, read_only=True),
+                ParameterSpec("teleop_group", "", "the planning group the Teleoperate panel jogs and saves "
+                              "(empty: 'arm' when the robot has it, else its group with the most joints)",
+                              read_only=True),
             ])
         except ParameterException as exc:
             raise ValueError(f"invalid parameters: {exc}") from None
@@ -82,10 +83,10 @@ class TaskViewerNode(Node):
         server = self._params.get("objective_server").strip()
         self._objective_view = ObjectiveView(self, server) if server else None
         servo = self._params.get("servo_node").strip()
+        group = self._params.get("teleop_group").strip() or _default_teleop_group(model)
         try:
             self._teleop_view = TeleopView(self, model, servo, self._params.get("planning_server"),
-                                           self._params.get("gripper_action"),
-                                           self._params.get("teleop_group")) if servo else None
+                                           self._params.get("gripper_action"), group) if servo else None
         except (KeyError, ValueError) as exc:
             raise ValueError(f"teleop_group: {exc}") from None
         try:
@@ -268,3 +269,16 @@ class TaskViewerNode(Node):
     def close(self) -> None:
         self._monitor_spin.stop()
         self.viewer.close()
+
+
+def _default_teleop_group(model: Any) -> str:
+    """'arm' when the robot has it (our configurations), else the group with the most joints
+    among those that do not contain another group (a composite arm + hand group is not an arm:
+    the Panda's panda_arm, not panda_arm_hand)."""
+    if model.has_group("arm"):
+        return "arm"
+    joints = {n: set(model.group(n).joint_names) for n in model.group_names}
+    simple = [n for n in joints if not any(m != n and joints[m] < joints[n] for m in joints)] or list(joints)
+    if not simple:
+        return "arm"  # TeleopView names the problem
+    return min(simple, key=lambda n: (-len(joints[n]), n))
