@@ -28,7 +28,7 @@ from dataclasses import replace
 from typing import Any
 
 from geometry_msgs.msg import TransformStamped
-from sensor_msgs.msg import PointCloud2, PointField
+from sensor_msgs.msg import PointCloud2
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import String
@@ -41,6 +41,7 @@ from mycobot_planning.paths import config_file
 from mycobot_planning.ros.controllers.controller_manager import ControllerManager
 from mycobot_planning.ros.node_runtime import Parameters, ParameterSpec
 from mycobot_planning.perception.pointcloud_layout import pack_xyzrgb
+from mycobot_planning.ros.perception.camera_simulator import point_cloud2
 from mycobot_planning.simulation import DepthFrame, MujocoSimulator, SimulationError, load_settings
 from mycobot_planning.simulation.mujoco_plant import MujocoPlant, SimTracking
 
@@ -194,17 +195,7 @@ class MujocoSimNode(ControllerManager):
         """A rendered depth frame as an organised XYZRGB cloud (called in the camera's thread)."""
         if self._closing:
             return
-        packed = pack_xyzrgb(frame.points)
-        msg = PointCloud2()
-        msg.header.stamp = self.get_clock().now().to_msg()
-        msg.header.frame_id = frame.frame_id
-        msg.height, msg.width = packed.height, packed.width
-        msg.fields = [PointField(name=f.name, offset=f.offset, datatype=f.datatype, count=f.count)
-                      for f in packed.fields]
-        msg.is_bigendian = packed.is_bigendian
-        msg.point_step, msg.row_step = packed.point_step, packed.row_step
-        msg.data = packed.data
-        msg.is_dense = packed.is_dense
+        msg = point_cloud2(pack_xyzrgb(frame.points), frame.frame_id, self.get_clock().now().to_msg())
         self._cloud_pub.publish(msg)
         self._frames += 1
         if self._frames == 1:

@@ -35,6 +35,7 @@ from mycobot_planning.perception import (
     DepthCamera,
     DepthCameraConfig,
     GroundTruthScene,
+    PackedCloud,
     PerceptionError,
     load_camera_scene,
     pack_xyzrgb,
@@ -45,6 +46,20 @@ DEFAULT_TOPIC = "/camera_head/depth/color/points"
 CLOUD_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
 LATCHED_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 _OUTPUT_FRAMES = ("world", "camera")
+
+
+def point_cloud2(packed: PackedCloud, frame_id: str, stamp: Any) -> PointCloud2:
+    """A packed cloud (perception.pointcloud_layout) as a sensor_msgs/PointCloud2."""
+    msg = PointCloud2()
+    msg.header.stamp = stamp
+    msg.header.frame_id = frame_id
+    msg.height, msg.width = packed.height, packed.width
+    msg.fields = [PointField(name=f.name, offset=f.offset, datatype=f.datatype, count=f.count) for f in packed.fields]
+    msg.is_bigendian = packed.is_bigendian
+    msg.point_step, msg.row_step = packed.point_step, packed.row_step
+    msg.data = packed.data
+    msg.is_dense = packed.is_dense
+    return msg
 
 
 def _default_scene_file() -> str:
@@ -242,18 +257,7 @@ class CameraSimulator(Node):
             camera, scene, rng = self._camera, self._scene, self._rng
         frame = "camera" if self.params.get("output_frame") == "camera" else "world"
         cloud = camera.capture(scene, rng, frame=frame)
-        packed = pack_xyzrgb(cloud.points, cloud.colors)
-        msg = PointCloud2()
-        msg.header.stamp = self.get_clock().now().to_msg()
-        msg.header.frame_id = cloud.frame_id
-        msg.height, msg.width = packed.height, packed.width
-        msg.fields = [PointField(name=f.name, offset=f.offset, datatype=f.datatype, count=f.count)
-                      for f in packed.fields]
-        msg.is_bigendian = packed.is_bigendian
-        msg.point_step, msg.row_step = packed.point_step, packed.row_step
-        msg.data = packed.data
-        msg.is_dense = packed.is_dense
-        return msg
+        return point_cloud2(pack_xyzrgb(cloud.points, cloud.colors), cloud.frame_id, self.get_clock().now().to_msg())
 
     def _tick(self) -> None:
         try:
