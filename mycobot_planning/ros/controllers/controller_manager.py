@@ -381,13 +381,16 @@ class ControllerManager(Node):
                     self.get_logger().error(f"control loop: {type(exc).__name__}: {exc}")
 
     def _on_control_loop(self) -> None:
-        clock = self.get_clock().now()  # one reading per cycle: the update's time and every stamp
-        now = clock.nanoseconds * 1e-9
-        stamp = clock.to_msg()
         due = [c for c in self.controllers.values() if self._loop_count % c.divisor == 0]
         self._loop_count += 1
         reports = []
         with self._lock:
+            # One reading per cycle, the update's time and every stamp, taken under the lock: a
+            # command submitted (with its own, later reading) while this cycle waited for the lock
+            # would otherwise move the joints past the time their /joint_states is stamped with.
+            clock = self.get_clock().now()
+            now = clock.nanoseconds * 1e-9
+            stamp = clock.to_msg()
             self.plant.read(now)
             for c in due:
                 changed, state = c.update_locked(now)
