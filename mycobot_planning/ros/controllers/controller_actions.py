@@ -27,6 +27,7 @@ from trajectory_msgs.msg import JointTrajectoryPoint
 
 from interfaces_py.ros_conversions import duration_to_seconds, seconds_to_duration
 from mycobot_planning.ros.action_servers import ACTION_SERVER_OPTIONS
+from mycobot_planning.ros.stamped_cdr import StampedCdr
 from mycobot_planning.mock_control.joint_trajectory_follower import ControllerStatus, FollowerState, TrajectoryCommand
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -106,6 +107,8 @@ class ControllerActions:
         self._state_msg = JointTrajectoryControllerState()
         self._state_msg.joint_names = list(controller.config.joints)
         self._state_points = (JointTrajectoryPoint(), JointTrajectoryPoint(), JointTrajectoryPoint())
+        self._state_key: tuple = ()  # what the points hold (time and arrays of the last state published)
+        self._state_cdr = StampedCdr()
         self._closing = False
 
     def destroy(self) -> None:
@@ -124,6 +127,12 @@ class ControllerActions:
         msg = self._state_msg
         msg.header.stamp = stamp
         t = state.time_from_start
+        key = (t, *(a.tobytes() for a in (state.desired_positions, state.desired_velocities, state.desired_accelerations,
+                                          state.actual_positions, state.actual_velocities, state.actual_accelerations)))
+        if key == self._state_key:  # holding still: the serialized message already says so
+            self._state_cdr.publish(self.state_pub, stamp.sec, stamp.nanosec)
+            return
+        self._state_key = key
         sec = math.floor(t) if math.isfinite(t) else 0
         nanosec = min(999_999_999, max(0, int(round((t - sec) * 1e9)))) if math.isfinite(t) else 0
         for point, (p, v, a) in zip(self._state_points, (
@@ -137,7 +146,8 @@ class ControllerActions:
             point.time_from_start.sec, point.time_from_start.nanosec = int(sec), nanosec
         msg.reference, msg.feedback, msg.error = self._state_points
         msg.output = msg.reference
-        self.state_pub.publish(msg)
+        self._state_cdr.update(msg)
+        self._state_cdr.publish(self.state_pub, stamp.sec, stamp.nanosec)
 
     # ------------------------------------------------------------------ shared
     def _log(self) -> Any:

@@ -17,6 +17,7 @@ import time
 from typing import Any, Callable
 
 import numpy as np
+from builtin_interfaces.msg import Time as TimeMsg
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -45,15 +46,16 @@ from mycobot_planning.mock_control.joint_trajectory_follower import (
 from mycobot_planning.paths import config_file, package_share_dirs
 from mycobot_planning.ros.controllers.controller_actions import ControllerActions
 from mycobot_planning.ros.node_runtime import Parameters, ParameterSpec, load_yaml_file
+from mycobot_planning.ros.stamped_cdr import StampedCdr
 
 JOINT_STATES_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
 #: Deep enough that a monitor never misses a status change in a burst of events.
 STATE_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
 COMMAND_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
-#: A controller without a goal publishes controller_state every this many cycles (20 Hz at the
+#: A controller without a goal publishes controller_state every this many cycles (10 Hz at the
 #: 100 Hz loop; every cycle while it follows a goal, as JTC does): it is a heartbeat then, and
 #: two thirds of the idle node's cost went into it.
-IDLE_STATE_DIVISOR = 5
+IDLE_STATE_DIVISOR = 10
 #: s between two identical /<controller>/state messages of a controller holding still
 STATE_KEEP_ALIVE = 1.0
 MOVING_JOINT_TYPES = ("revolute", "continuous", "prismatic")
@@ -129,8 +131,17 @@ class Controller:
             self._logger.warning(f"{self.name}: {state.message}")
 
     # ------------------------------------------------------------------ called under the lock by the loop
-    def update_locked(self, now: float) -> tuple[FollowerState | None, FollowerState]:
-        return self._follower.update(now), self._follower.state()
+    def update_locked(self, now: float, report_idle: bool) -> tuple[FollowerState | None, FollowerState | None]:
+        """Advance the follower to ``now``: (the change, if any; its state). A controller holding
+        still since its last published state gets no state (None) unless ``report_idle`` or its
+        keep-alive is due: nothing in it can have changed (a goal or a stop makes it active, and
+        publish_cycle_state would drop it), and copying it a hundred times a second was a third
+        of the idle node's cost."""
+        follower = self._follower
+        if not report_idle and not follower.active and not self._last_active \
+                and now - self._last_state_time < STATE_KEEP_ALIVE:
+            return follower.update(now), None
+        return follower.update(now), follower.state()
 
     # ------------------------------------------------------------------ thread-safe calls
     def submit(self, command: TrajectoryCommand) -> SubmitResult:
@@ -238,6 +249,9 @@ class ControllerManager(Node):
         # wake-up (a wait set rebuilt in Python over every service and action of the node) costs
         # far more than our update does: 20 % of a core idle, against a few % for this thread.
         self._loop_count = 0
+        #: the controllers when all of them run at the loop's rate (the usual case), else empty
+        self._every_cycle = list(self.controllers.values()) if all(
+            c.divisor == 1 for c in self.controllers.values()) else []
         self._loop_stop = threading.Event()
         self._loop_thread = threading.Thread(target=self._run_control_loop, name="controller manager loop", daemon=True)
         self.plant.start(PlantHost(lock=self._lock, clock=self.now, log=self._plant_log, report=self._plant_report))
@@ -304,6 +318,8 @@ class ControllerManager(Node):
         self._js_offset = offset
         self._js_msg = JointState()
         self._js_msg.name = names
+        self._js_key = b""  # the plant's positions and velocities the serialized message holds
+        self._js_cdr = StampedCdr()  # sent serialized: only the stamp changes while the joints hold
         self._js_pub = self.create_publisher(JointState, "/joint_states", JOINT_STATES_QOS)
         self._js_group = MutuallyExclusiveCallbackGroup()
         self._js_timer = None
@@ -330,7 +346,16 @@ class ControllerManager(Node):
     # ------------------------------------------------------------------ the plant's side
     def now(self) -> float:
         """The manager's clock in seconds (the node's clock: ROS time)."""
-        return self.get_clock().now().nanoseconds * 1e-9
+        return self.now_ns() * 1e-9
+
+    def now_ns(self) -> int:
+        """The node's clock in nanoseconds: ROS time, which is the system's clock unless simulated
+        time overrides it (read here directly: rclpy's Clock.now() builds a Time object, a
+        noticeable share of a 100 Hz loop's cost)."""
+        clock = self.get_clock()
+        if clock.ros_time_is_active:
+            return clock.now().nanoseconds
+        return time.time_ns()
 
     def _plant_log(self, level: str, text: str) -> None:
         if self._closing:  # rclpy's context is gone at shutdown: its logger cannot publish any more
@@ -364,7 +389,8 @@ class ControllerManager(Node):
             deadline += period
             delay = deadline - time.monotonic()
             if delay > 0.0:
-                if self._loop_stop.wait(delay):
+                time.sleep(delay)  # at most a period; cheaper to wake from than an Event's wait
+                if self._loop_stop.is_set():
                     return
             elif delay < -period:
                 deadline = time.monotonic()
@@ -381,28 +407,34 @@ class ControllerManager(Node):
                     self.get_logger().error(f"control loop: {type(exc).__name__}: {exc}")
 
     def _on_control_loop(self) -> None:
-        due = [c for c in self.controllers.values() if self._loop_count % c.divisor == 0]
+        due = self._every_cycle or [c for c in self.controllers.values() if self._loop_count % c.divisor == 0]
+        report_idle = self._loop_count % IDLE_STATE_DIVISOR == 0
         self._loop_count += 1
         reports = []
         with self._lock:
             # One reading per cycle, the update's time and every stamp, taken under the lock: a
             # command submitted (with its own, later reading) while this cycle waited for the lock
             # would otherwise move the joints past the time their /joint_states is stamped with.
-            clock = self.get_clock().now()
-            now = clock.nanoseconds * 1e-9
-            stamp = clock.to_msg()
+            ns = self.now_ns()
+            now = ns * 1e-9
             self.plant.read(now)
             for c in due:
-                changed, state = c.update_locked(now)
+                changed, state = c.update_locked(now, report_idle)
                 reports.append((c, changed, state))
             self.plant.write(now)
-        if self._js_in_loop:
-            self._publish_joint_states(stamp)
+            joint_states = self._js_in_loop and self._refresh_joint_states_locked()
+        sec, nanosec = divmod(ns, 1_000_000_000)
+        if joint_states:
+            self._js_cdr.publish(self._js_pub, sec, nanosec)
+        stamp = None
         for c, changed, state in reports:
             if changed is not None:
                 c.log_change(changed)
+            if state is None:
+                continue
             c.publish_cycle_state(state, now)
-            if state.active or self._loop_count % IDLE_STATE_DIVISOR == 0:
+            if state.active or report_idle:
+                stamp = stamp or TimeMsg(sec=sec, nanosec=nanosec)
                 c.actions.publish_state(state, stamp)
 
     def _on_trajectory(self, c: Controller, msg: JointTrajectory) -> None:
@@ -427,18 +459,28 @@ class ControllerManager(Node):
         response.success = True
         return response
 
-    def _publish_joint_states(self, stamp: Any = None) -> None:
+    def _refresh_joint_states_locked(self) -> bool:
+        """Bring the serialized /joint_states up to the plant's state (under the lock); False
+        while the plant has nothing to report. Only a change of the joints re-serializes: the
+        message goes out as bytes with its stamp written in place (ros.stamped_cdr)."""
+        state = self.plant.joint_state()
+        if state is None:
+            return False
+        key = state[0].tobytes() + state[1].tobytes()
+        if key != self._js_key:
+            self._js_key = key
+            msg = self._js_msg
+            msg.position = (self._js_select @ state[0] + self._js_offset).tolist()
+            msg.velocity = (self._js_select @ state[1]).tolist()
+            self._js_cdr.update(msg)
+        return True
+
+    def _publish_joint_states(self) -> None:
+        """The broadcaster at a rate of its own (publish_rate other than the update rate)."""
         with self._lock:
-            state = self.plant.joint_state()
-            if state is None:
-                return
-            positions = self._js_select @ state[0] + self._js_offset
-            velocities = self._js_select @ state[1]
-        msg = self._js_msg
-        msg.header.stamp = stamp if stamp is not None else self.get_clock().now().to_msg()
-        msg.position = positions.tolist()
-        msg.velocity = velocities.tolist()
-        self._js_pub.publish(msg)
+            ready = self._refresh_joint_states_locked()
+        if ready:
+            self._js_cdr.publish(self._js_pub, *divmod(self.now_ns(), 1_000_000_000))
 
     def close(self) -> None:
         """On shutdown (Ctrl-C, SIGTERM): the plant stops the joints and lets the hardware go."""
