@@ -138,6 +138,13 @@ class MujocoPlant(Plant):
                 self.sim.command_gripper(target)
             self._gripper_target = target
 
+    def reset_world(self) -> None:
+        """The simulation back to its scene file and initial positions, and a fresh grasp watch
+        (a new episode). Under the lock, while no controller follows a goal."""
+        self.sim.reset()
+        self.grasp = GraspWatch(open_position=self.sim.joint_states().as_dict()[self.sim.gripper_joint])
+        self._gripper_target = None
+
     def joint_state(self) -> tuple[np.ndarray, np.ndarray]:
         state = self.sim.joint_states()
         for name, q, qd in zip(state.names, state.positions, state.velocities):

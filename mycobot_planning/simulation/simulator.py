@@ -136,6 +136,7 @@ class MujocoSimulator:
         self._trajectory_columns: np.ndarray | None = None
         self._command = _ArmCommand(np.zeros(len(self.arm_joints)), np.zeros(len(self.arm_joints)), 0.0)
         self._paused = False
+        self._resync = False  # set by reset(): the real-time loop takes its time reference anew
         self._steps = 0
         self._camera: CameraWorker | None = None
         self._camera_enabled = camera and self.scene.camera is not None
@@ -600,8 +601,10 @@ class MujocoSimulator:
         window: list[tuple[float, float]] = [(wall0, sim0)]
         try:
             while not self._stop.is_set() and self.time < end_time - 1e-12:
-                if self._paused:
-                    time.sleep(0.005)
+                if self._paused or self._resync:
+                    if self._paused:
+                        time.sleep(0.005)
+                    self._resync = False
                     wall0, sim0 = time.perf_counter(), self.time
                     window = [(wall0, sim0)]
                     continue
@@ -707,6 +710,8 @@ class MujocoSimulator:
                 self._rebuild(self.scene)
             self._reset_state()
             self._message = "reset"
+            self._lag = 0.0
+            self._resync = True  # the real-time loop measures time from here, not from before the reset
 
     def spawn_object(self, obj: SceneObject) -> None:
         """Add ``obj`` to the running world. Refused (SpawnError, nothing changed) when its name

@@ -9,6 +9,7 @@ tests run that module with this interpreter (setup.sh is tested on its own)."""
 from __future__ import annotations
 
 import re
+import time
 import shutil
 import subprocess
 
@@ -188,4 +189,90 @@ def test_the_twins_rendered_cloud_shows_perception_the_cylinder_where_the_physic
             assert target["dimensions"][0] == pytest.approx(0.35, abs=0.01)
     finally:
         perception.stop()
+        sim.stop()
+
+
+def test_world_services_reset_pause_step_spawn_and_remove():
+    """mujoco_sim's world services (ros/controllers/sim_services.py) through the JSON face and
+    std_srvs, with the object poses the simulator publishes as the judge: an overlapping spawn is
+    refused naming what it overlaps, a free one falls onto the table and can be removed; pause
+    freezes simulated time and step advances it by exactly the steps asked; reset brings the
+    world back to the scene file, and is refused while the arm follows a goal."""
+    from std_srvs.srv import SetBool
+    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+    from interfaces_py.json_rpc import BAD_REQUEST, JsonRpcClient, RpcError
+    from mycobot_planning.ros.controllers.sim_services import NO_SUCH_OBJECT, SIM_BUSY, SPAWN_REFUSED
+    from mycobot_planning.ros.demos.sim_verdict import TwinObserver
+    from ros_testing import ProbeNode
+
+    def refused(method: str, params: dict, code: int, words: str) -> None:
+        with pytest.raises(RpcError) as caught:
+            rpc.call(method, params, timeout=30.0)
+        assert caught.value.code == code and words in caught.value.message, (caught.value.code, caught.value.message)
+
+    use_session_domain()
+    sim = NodeProcess("mycobot_planning.nodes.mujoco_sim", [])
+    probe = ProbeNode("test_world_services")
+    probe.spin_in_background()
+    try:
+        rpc = JsonRpcClient(probe.node, "/mujoco_sim")
+        with TwinObserver("test_world_truth") as observer:
+            assert wait_until(lambda: "mujoco_sim ready" in sim.output(), 90.0), sim.output()[-3000:]
+            assert rpc.wait_for_server(30.0)
+            start = observer.wait_for_rest("object", 60.0)
+            assert start is not None, sim.output()[-3000:]
+            # spawning: refused when it overlaps (named, nothing added), bad input refused, a free one falls
+            box = {"id": "crate", "shape": "box", "size": [0.03, 0.03, 0.03], "pose": [0.22, 0.12, 0.1, 0, 0, 0],
+                   "mass": 0.05}
+            refused("spawn_object", {"object": box}, SPAWN_REFUSED, "it overlaps 'object'")
+            refused("spawn_object", {"object": {**box, "shape": "cone"}}, SPAWN_REFUSED, "shape must be one of")
+            refused("spawn_object", {"thing": box}, BAD_REQUEST, "takes one parameter, object")
+            free = {**box, "pose": [0.22, 0.20, 0.08, 0, 0, 0]}
+            assert rpc.call("spawn_object", {"object": free}, timeout=30.0)["id"] == "crate"
+            refused("spawn_object", {"object": free}, SPAWN_REFUSED, "'crate'")
+            landed = observer.wait_for_rest("crate", 30.0)
+            assert landed is not None and landed[2, 3] == pytest.approx(0.015, abs=0.003), landed  # on the table
+            refused("remove_object", {"id": "ghost"}, NO_SUCH_OBJECT, "no object 'ghost'")
+            assert "crate" not in rpc.call("remove_object", {"id": "crate"}, timeout=30.0)["objects"]
+            assert wait_until(lambda: observer.pose("crate") is None, 10.0)
+            # pause and step
+            refused("step", {"steps": 10}, SIM_BUSY, "pause it first")
+            answer = probe.call(SetBool, "/mujoco_sim/pause", SetBool.Request(data=True))
+            assert answer.success, answer.message
+            paused_at = rpc.call("sim_status", {}, timeout=30.0)
+            assert paused_at["paused"]
+            time.sleep(0.3)
+            assert rpc.call("sim_status", {}, timeout=30.0)["time"] == paused_at["time"]
+            stepped = rpc.call("step", {"steps": 100}, timeout=30.0)
+            assert stepped["time"] == pytest.approx(paused_at["time"] + 100 * 0.001, abs=1e-6), (stepped, paused_at)
+            refused("step", {"steps": 0}, BAD_REQUEST, "steps must be an integer")
+            refused("step", {"steps": 1.5}, BAD_REQUEST, "steps must be an integer")
+            answer = probe.call(SetBool, "/mujoco_sim/pause", SetBool.Request(data=False))
+            assert answer.success, answer.message
+            assert wait_until(lambda: rpc.call("sim_status", {}, timeout=30.0)["time"] > stepped["time"] + 0.2, 10.0)
+            # reset: refused while the arm follows a goal, then the world as the scene file has it
+            rpc.call("spawn_object", {"object": free}, timeout=30.0)
+            assert observer.wait_for_pose("crate", 10.0) is not None
+            command = probe.node.create_publisher(JointTrajectory, "/arm_controller/joint_trajectory", 10)
+            point = JointTrajectoryPoint(positions=[0.3, 0.0, 0.0, 0.0, 0.0, 0.0])
+            point.time_from_start.sec = 3
+            msg = JointTrajectory(joint_names=[*(f"link{i}_to_link{i + 1}" for i in range(1, 6)), "link6_to_link6_flange"],
+                                 points=[point])
+            assert wait_until(lambda: command.get_subscription_count() > 0, 10.0)
+            mark = len(sim.output())
+            command.publish(msg)
+            assert wait_until(lambda: "executing goal" in sim.output()[mark:], 10.0), sim.output()[-2000:]
+            busy = probe.trigger("/mujoco_sim/reset_world")
+            assert not busy.success and "arm_controller is executing goal" in busy.message, busy.message
+            assert observer.pose("crate") is not None  # nothing was reset
+            assert probe.trigger("/arm_controller/stop").success
+            done = probe.trigger("/mujoco_sim/reset_world")
+            assert done.success, done.message
+            assert wait_until(lambda: observer.pose("crate") is None, 10.0)
+            back = observer.wait_for_rest("object", 30.0)
+            assert back is not None and np.linalg.norm(back[:3, 3] - start[:3, 3]) < 0.002, (back, start)
+            assert "Traceback" not in sim.output()
+    finally:
+        probe.close()
         sim.stop()

@@ -12,7 +12,10 @@ simulation knows:
 * ``/mujoco_sim/status`` (std_msgs/String, JSON): simulated time, real-time factor, whether it
   falls behind real time (and by how much), and the gripper's holds (which object it held, how
   much it slipped in the hand, how the hold ended), at ``status_rate`` and at once when falling
-  behind starts or ends (the log says so too).
+  behind starts or ends (the log says so too);
+* world services (ros/controllers/sim_services.py): reset the world, pause and step, spawn and
+  remove objects, on the JSON face (``/mujoco_sim/requests``) and, for the data-free ones, as
+  std_srvs services (``/mujoco_sim/reset_world``, ``/mujoco_sim/pause``).
 
     ros2 run mycobot_planning mujoco_sim [--ros-args -p speed_factor:=0.5 -p scene_file:=my_scene.yaml]
 
@@ -39,6 +42,7 @@ from mycobot_planning.core.trajectory_execution.controllers_config import Contro
 from mycobot_planning.core.transforms import pose_to_xyz_quat
 from mycobot_planning.paths import config_file
 from mycobot_planning.ros.controllers.controller_manager import ControllerManager
+from mycobot_planning.ros.controllers.sim_services import SimServices
 from mycobot_planning.ros.node_runtime import Parameters, ParameterSpec
 from mycobot_planning.perception.pointcloud_layout import pack_xyzrgb
 from mycobot_planning.ros.perception.camera_simulator import point_cloud2
@@ -172,6 +176,7 @@ class MujocoSimNode(ControllerManager):
         if float(self.get_parameter("camera_rate").value) > 0:
             self._cloud_pub = self.create_publisher(PointCloud2, self.get_parameter("cloud_topic").value, CLOUD_QOS)
             self.sim.on_frame(self._publish_cloud)
+        self.world_services = SimServices(self)
         self.get_logger().info(
             f"simulating {', '.join(self.sim.scene.object_ids) or 'no objects'} in '{self._frame}' at speed factor "
             f"{self.sim.speed_factor:g}; object poses on {OBJECT_POSES_TOPIC}, status on {STATUS_TOPIC}")
