@@ -18,14 +18,12 @@ import numpy as np
 import pinocchio as pin
 
 from ...core.transforms import inverse
-from ..cost_terms import PathLength
-from ..errors import InitStageException
-from ..geometry import PoseStamped, TwistStamped, Vector3Stamped, as_pose_stamped, as_twist_stamped, as_vector3_stamped, frame_transform
-from ..path_constraints import check_path_constraints, declare_path_constraints
+from ..geometry import TwistStamped, Vector3Stamped, as_twist_stamped, as_vector3_stamped, frame_transform
+from ..path_constraints import check_path_constraints
 from ..solvers import PlannerInterface
-from ..stage import PropagatingEitherWay
 from ..storage import BACKWARD, InterfaceState, SubTrajectory
 from ..trajectories import reverse_trajectory
+from .planning_stage import PlanningStage
 from .common import robot_tip_for_frame
 
 _EPS = np.finfo(float).eps
@@ -49,29 +47,14 @@ def _as_direction(value: Any) -> Any:
     raise TypeError("expected a Vector3Stamped, a TwistStamped or a joint map of offsets")
 
 
-class MoveRelative(PropagatingEitherWay):
+class MoveRelative(PlanningStage):
     def __init__(self, name: str = "move relative", planner: PlannerInterface | None = None) -> None:
-        super().__init__(name)
-        self._planner = planner
-        self.setCostTerm(PathLength())
+        super().__init__(name, planner, "frame to be moved in Cartesian direction")
         p = self._properties
-        p.property("timeout").setDefaultValue(1.0)
-        p.declare("group", type=str, description="name of planning group")
-        p.declare("ik_frame", type=PoseStamped, coerce=as_pose_stamped, description="frame to be moved in Cartesian direction")
         p.declare("direction", description="motion specification", coerce=_as_direction)
         p.declare("min_distance", -1.0, "minimum distance to move", type=float)
         p.declare("max_distance", 0.0, "maximum distance to move", type=float)
-        declare_path_constraints(p)
-
-    @property
-    def planner(self) -> PlannerInterface | None:
-        return self._planner
-
-    def setGroup(self, group: str) -> None:
-        self._properties.set("group", group)
-
-    def setIKFrame(self, pose_or_link: Any, link: str | None = None) -> None:
-        self._properties.set("ik_frame", pose_or_link if link is None else PoseStamped(link, pose_or_link))
+        self._declare_path_constraints()
 
     def setDirection(self, direction: Any) -> None:
         self._properties.set("direction", direction)
@@ -86,22 +69,8 @@ class MoveRelative(PropagatingEitherWay):
         self.setMinDistance(min_distance)
         self.setMaxDistance(max_distance)
 
-    def setPathConstraints(self, path_constraints: Any) -> None:
-        self._properties.set("path_constraints", path_constraints)
-
     def init(self, robot_model) -> None:
-        errors = InitStageException()
-        try:
-            super().init(robot_model)
-        except InitStageException as exc:
-            errors.append(exc)
-        if not isinstance(self._planner, PlannerInterface):
-            errors.push_back(self, f"needs a planner (a PlannerInterface), got {type(self._planner).__name__}")
-        else:
-            try:
-                self._planner.init(robot_model)
-            except (ValueError, TypeError) as exc:
-                errors.push_back(self, f"planner {type(self._planner).__name__}: {exc}")
+        errors = self._init_planner(robot_model)
         group = self._require_property("group", errors)
         direction = self._require_property("direction", errors)
         if self._check_group("group", group, robot_model, errors) and isinstance(direction, dict):

@@ -17,14 +17,12 @@ from interfaces_py.msgs import RobotState as RobotStateMsg
 
 from ...core.robot_state.robot_state import RobotState
 from ...core.transforms import inverse
-from ..cost_terms import PathLength
-from ..errors import InitStageException
 from ..geometry import PointStamped, PoseStamped, as_point_stamped, as_pose_stamped, frame_transform
-from ..path_constraints import check_path_constraints, declare_path_constraints
+from ..path_constraints import check_path_constraints
 from ..solvers import PlannerInterface
-from ..stage import PropagatingEitherWay
 from ..storage import BACKWARD, InterfaceState, SubTrajectory
 from ..trajectories import reverse_trajectory
+from .planning_stage import PlanningStage
 from .common import joint_goal_values, robot_tip_for_frame
 
 
@@ -43,47 +41,18 @@ def _as_goal(value: Any) -> Any:
     raise TypeError("expected a named state, a joint map, a RobotState, a PoseStamped or a PointStamped")
 
 
-class MoveTo(PropagatingEitherWay):
+class MoveTo(PlanningStage):
     def __init__(self, name: str = "move to", planner: PlannerInterface | None = None) -> None:
-        super().__init__(name)
-        self._planner = planner
-        self.setCostTerm(PathLength())
+        super().__init__(name, planner, "frame to be moved towards the goal pose")
         p = self._properties
-        p.property("timeout").setDefaultValue(1.0)
-        p.declare("group", type=str, description="name of planning group")
-        p.declare("ik_frame", type=PoseStamped, coerce=as_pose_stamped, description="frame to be moved towards the goal pose")
         p.declare("goal", description="goal specification", coerce=_as_goal)
-        declare_path_constraints(p)
-
-    @property
-    def planner(self) -> PlannerInterface | None:
-        return self._planner
-
-    def setGroup(self, group: str) -> None:
-        self._properties.set("group", group)
+        self._declare_path_constraints()
 
     def setGoal(self, goal: Any) -> None:
         self._properties.set("goal", goal)
 
-    def setIKFrame(self, pose_or_link: Any, link: str | None = None) -> None:
-        self._properties.set("ik_frame", pose_or_link if link is None else PoseStamped(link, pose_or_link))
-
-    def setPathConstraints(self, path_constraints: Any) -> None:
-        self._properties.set("path_constraints", path_constraints)
-
     def init(self, robot_model) -> None:
-        errors = InitStageException()
-        try:
-            super().init(robot_model)
-        except InitStageException as exc:
-            errors.append(exc)
-        if not isinstance(self._planner, PlannerInterface):
-            errors.push_back(self, f"needs a planner (a PlannerInterface), got {type(self._planner).__name__}")
-        else:
-            try:
-                self._planner.init(robot_model)
-            except (ValueError, TypeError) as exc:
-                errors.push_back(self, f"planner {type(self._planner).__name__}: {exc}")
+        errors = self._init_planner(robot_model)
         group = self._require_property("group", errors)
         goal = self._require_property("goal", errors)
         if self._check_group("group", group, robot_model, errors) and goal is not None:
