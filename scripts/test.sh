@@ -17,6 +17,6 @@ fi
 status=0
 echo "[test] 1/2: the tests without ROS nodes, on 2 workers"
 "${PYTEST[@]}" -m "not ros" -n 2 --dist loadfile || status=$?
-echo "[test] 2/2: the ROS tests"
-"${PYTEST[@]}" -m ros || status=$((status > 0 ? status : $?))
+echo "[test] 2/2: the ROS tests (the 25 slowest listed at the end: where the suite's time goes)"
+"${PYTEST[@]}" -m ros --durations=25 || status=$((status > 0 ? status : $?))
 exit "$status"
