@@ -579,6 +579,16 @@ class MujocoSimulator:
             thread.join(timeout=5.0)
         self._thread = None
 
+    def set_speed_factor(self, speed_factor: float) -> None:
+        """Change the real-time pace (simulated seconds per wall second, (0, 100]); the real-time
+        loop takes its time reference anew from here."""
+        speed = self._speed_or_default(speed_factor)
+        with self._lock:
+            self._speed = speed
+            self.settings = replace(self.settings, speed_factor=speed)
+            self._lag = 0.0
+            self._resync = True
+
     def pause(self) -> None:
         with self._lock:
             self._paused = True

@@ -192,12 +192,13 @@ def test_the_twins_rendered_cloud_shows_perception_the_cylinder_where_the_physic
         sim.stop()
 
 
-def test_world_services_reset_pause_step_spawn_and_remove():
+def test_world_services_reset_pause_step_spawn_remove_and_speed():
     """mujoco_sim's world services (ros/controllers/sim_services.py) through the JSON face and
     std_srvs, with the object poses the simulator publishes as the judge: an overlapping spawn is
     refused naming what it overlaps, a free one falls onto the table and can be removed; pause
     freezes simulated time and step advances it by exactly the steps asked; reset brings the
     world back to the scene file, and is refused while the arm follows a goal."""
+    from rclpy.parameter import Parameter
     from std_srvs.srv import SetBool
     from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
@@ -266,7 +267,15 @@ def test_world_services_reset_pause_step_spawn_and_remove():
             busy = probe.trigger("/mujoco_sim/reset_world")
             assert not busy.success and "arm_controller is executing goal" in busy.message, busy.message
             assert observer.pose("crate") is not None  # nothing was reset
+            speed = probe.set_param("mujoco_sim", Parameter("speed_factor", value=0.5))
+            assert not speed.successful and "cannot change speed_factor while arm_controller" in speed.reason
             assert probe.trigger("/arm_controller/stop").success
+            # the speed factor, settable while no goal runs
+            assert probe.set_param("mujoco_sim", Parameter("speed_factor", value=0.5)).successful
+            assert rpc.call("sim_status", {}, timeout=30.0)["speed_factor"] == 0.5
+            assert not probe.set_param("mujoco_sim", Parameter("speed_factor", value=-1.0)).successful
+            assert probe.set_param("mujoco_sim", Parameter("speed_factor", value=0.0)).successful  # the file's
+            assert rpc.call("sim_status", {}, timeout=30.0)["speed_factor"] == 1.0
             done = probe.trigger("/mujoco_sim/reset_world")
             assert done.success, done.message
             assert wait_until(lambda: observer.pose("crate") is None, 10.0)

@@ -195,6 +195,33 @@ def test_pause_stops_time_and_step_advances_exactly(sim):
     assert not sim.status().running
 
 
+def test_a_reset_while_running_is_not_taken_for_lag_and_the_speed_can_change(sim, caplog):
+    """reset() while start()'s loop runs: time goes back to 0 and the loop measures from there
+    (before, it took the jump back for a debt of the whole elapsed time: lag, "falling behind").
+    set_speed_factor changes the pace of a running loop and refuses what start() refuses."""
+    sim.start()
+    try:
+        deadline = time.monotonic() + 10.0
+        while sim.time < 0.3 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        with caplog.at_level(logging.WARNING, logger="mycobot_planning.simulation.simulator"):
+            sim.reset()
+            deadline = time.monotonic() + 10.0
+            while sim.time < 0.05 and time.monotonic() < deadline:
+                time.sleep(0.01)
+            status = sim.status()
+        assert 0.05 <= status.time < 0.3 and status.lag < 0.2, status
+        assert not any("falling behind" in r.getMessage() for r in caplog.records)
+        sim.set_speed_factor(0.5)
+        assert sim.speed_factor == 0.5 and sim.status().speed_factor == 0.5
+        for bad in (0.0, -1.0, float("nan"), 101.0, True):
+            with pytest.raises(SimulationError, match="speed_factor must be within"):
+                sim.set_speed_factor(bad)
+        assert sim.speed_factor == 0.5
+    finally:
+        sim.stop()
+
+
 def test_a_simulation_that_falls_behind_says_so_in_its_log_and_status(mycobot, caplog):
     """A camera listener that takes 0.3 s stalls the physics (frames are never dropped): the
     real-time loop reports being behind."""

@@ -75,6 +75,17 @@ def load_mujoco_plant(node: ControllerManager, model: RobotModel, config: Contro
     """The simulation's plant with its parameters on ``node`` (scene, settings, speed factor,
     tracking tolerances, the hand the grasp watch uses). Raises ValueError (the node exits with
     the message) when the model or scene cannot be built."""
+    plant: MujocoPlant | None = None
+
+    def speed_check(value: Any) -> str | None:
+        reason = _seconds("speed_factor", 0.0, 100.0)(value)
+        if reason is None and plant is not None:
+            busy = [f"{name} is executing goal {f.goal_id}" for name, (f, _) in plant.followers.items() if f.active]
+            if busy:
+                reason = (f"cannot change speed_factor while {busy[0]}: the controllers' clock and the physics "
+                          "would part mid-trajectory; stop it first")
+        return reason
+
     p = Parameters(node, [
         ParameterSpec("scene_file", "", "the simulated world (floor, objects with mass and friction, camera): a "
                       "scene YAML (docs/simulation.md); empty: config/mujoco_scene.yaml, the seeds' table and "
@@ -83,8 +94,8 @@ def load_mujoco_plant(node: ControllerManager, model: RobotModel, config: Contro
                       "the layout of config/mujoco_sim.yaml; empty: that file", read_only=True),
         ParameterSpec("speed_factor", 0.0, "simulated seconds per wall second (0.5: half speed); 0: the "
                       "settings file's speed_factor (1.0). The controllers run on the wall clock, so below 1 "
-                      "the arm lags their trajectories more", range=(0.0, 100.0), read_only=True,
-                      validator=_seconds("speed_factor", 0.0, 100.0), dynamic_typing=True),
+                      "the arm lags their trajectories more. Settable while no controller follows a goal",
+                      range=(0.0, 100.0), validator=speed_check, dynamic_typing=True),
         ParameterSpec("object_pose_rate", 20.0, f"Hz of {OBJECT_POSES_TOPIC} (the objects' true poses)",
                       range=(1.0, 200.0), read_only=True, dynamic_typing=True),
         ParameterSpec("status_rate", 1.0, f"Hz of {STATUS_TOPIC} (also published at once when the simulation "
@@ -117,6 +128,7 @@ def load_mujoco_plant(node: ControllerManager, model: RobotModel, config: Contro
     speed = float(p.get("speed_factor"))
     try:
         settings = load_settings(p.get("settings_file") or config_file("mujoco_sim.yaml"))
+        file_speed = settings.speed_factor
         if speed > 0:
             settings = replace(settings, speed_factor=speed)
         camera_rate = float(p.get("camera_rate"))
@@ -130,8 +142,17 @@ def load_mujoco_plant(node: ControllerManager, model: RobotModel, config: Contro
         raise ValueError(f"mujoco_sim: {exc}") from None
     tracking = SimTracking(float(p.get("path_tolerance")), float(p.get("goal_time")),
                            float(p.get("gripper_goal_time")))
-    return MujocoPlant(model.variable_names, model.default_positions(), sim, config.controllers, tracking,
-                       own_simulator=True, hand_link=hand, stop_on_lost_grasp=bool(p.get("stop_on_lost_grasp")))
+    plant = MujocoPlant(model.variable_names, model.default_positions(), sim, config.controllers, tracking,
+                        own_simulator=True, hand_link=hand, stop_on_lost_grasp=bool(p.get("stop_on_lost_grasp")))
+
+    def on_change(changed: dict[str, Any]) -> None:
+        if "speed_factor" in changed:
+            value = float(changed["speed_factor"])
+            sim.set_speed_factor(value if value > 0 else file_speed)
+            node.get_logger().info(f"the simulation now runs at {sim.speed_factor:g} x real time")
+
+    p.on_change(on_change)
+    return plant
 
 
 class _RosLogHandler(logging.Handler):
