@@ -4,6 +4,8 @@ The full story: docs/nodes.md, section mycobot_planning.ros.perception.perceptio
 """
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass, field
 from typing import Any, Iterable, Sequence
 
@@ -246,7 +248,8 @@ class PerceptionObjectSource:
             out = out.with_changes(surface_link=surface.id)
         self._key, self._params_out = key, out
         self._log(f"Perception target '{target.id}': height {h:.4f} m, radius {r:.4f} m, base at "
-                  f"({base_point[0]:.4f}, {base_point[1]:.4f}, {base_point[2]:.4f}) on '{surface.id}'")
+                  f"({base_point[0]:.4f}, {base_point[1]:.4f}, {base_point[2]:.4f}), roll/pitch/yaw "
+                  f"({math.degrees(roll):.2f}, {math.degrees(pitch):.2f}, {math.degrees(yaw):.2f}) deg on '{surface.id}'")
         return out
 
 
