@@ -211,3 +211,25 @@ def test_path_constraints_are_kept(pipeline, mycobot):
     for q in response.trajectory.positions:  # checked here with plain geometry: the tilt of the z axis
         z = arm_state(mycobot, q).frame_pose(TIP)[:3, 2]
         assert np.arccos(np.clip(-z[2], -1.0, 1.0)) <= 0.1 * np.sqrt(2) + 1e-6
+
+
+def test_the_manifold_values_of_many_states_are_those_of_each(mycobot):
+    """ConstraintManifold.values_many (STOMP's rollout cost) gives value() row by row, for joint,
+    orientation (both parameterizations) and box / sphere / cylinder position rows."""
+    from mycobot_planning.core.kinematic_constraints.kinematic_constraints import ConstraintManifold
+
+    start = RobotState(mycobot)
+    regions = [{"type": kind, "dimensions": dims, "pose": {"position": [0.1, 0.0, 0.2]}}
+               for kind, dims in (("box", [0.2, 0.1, 0.3]), ("sphere", [0.15]), ("cylinder", [0.2, 0.1]))]
+    constraints = path_constraints_from_json({
+        "joints": [{"joint": "link1_to_link2", "position": 0.0, "above": 0.3, "below": 0.3}],
+        "orientation": [{"link": TIP, "orientation": DOWN, "tolerance": [0.2, 0.3, 0.4]},
+                        {"link": "link5", "orientation": [0, 0, 0, 1], "tolerance": [0.5, 0.5, 0.5],
+                         "parameterization": 1}],
+        "position": [{"link": TIP, "regions": [region]} for region in regions],
+    }, start, lambda frame: np.eye(4))
+    manifold = ConstraintManifold(constraints, start, "arm")
+    rows = np.random.default_rng(3).uniform(-1.5, 1.5, (50, 6))
+    many = manifold.values_many(rows)
+    assert many.shape == (50, manifold.codim) and np.count_nonzero(many) > 50
+    assert np.allclose(many, [manifold.value(x) for x in rows], atol=1e-9)

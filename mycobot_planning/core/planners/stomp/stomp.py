@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import asdict, dataclass, fields, replace
-from typing import Any, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -233,28 +233,22 @@ class _Costs:
         ``exact`` (rollouts' costs) and with a manifold holding every constraint, a state with
         an excess over the manifold's bounds (a little inside the constraints') counts as
         breaking them, without the exact check."""
-        count, steps, _ = paths.shape
-        cost = np.zeros((count, steps))
+        count, steps, dim = paths.shape
         violated = np.zeros((count, steps), dtype=bool)
         if self.constraints is None:
-            return cost, violated
+            return np.zeros((count, steps)), violated
+        excess = np.zeros((count, steps))
+        if self.manifold is not None:
+            excess = np.abs(self.manifold.values_many(paths.reshape(-1, dim))).sum(axis=1).reshape(count, steps)
+        if self.covered and not exact:
+            violated = excess > 0.0
+            return excess + CONSTRAINT_PENALTY * violated, violated
         state, q = self._state, self._q
-        for b in range(count):
-            for t in range(steps):
-                excess = 0.0
-                if self.manifold is not None:
-                    excess = float(np.sum(np.abs(self.manifold.value(paths[b, t]))))
-                    cost[b, t] = excess
-                if excess > 0.0 and self.covered and not exact:
-                    violated[b, t] = True
-                    cost[b, t] += CONSTRAINT_PENALTY
-                elif excess > 0.0 or not self.covered:
-                    q[self.indices] = paths[b, t]
-                    state.set_positions(q)
-                    if not self.constraints.satisfied(state):
-                        violated[b, t] = True
-                        cost[b, t] += CONSTRAINT_PENALTY
-        return cost, violated
+        for b, t in zip(*np.nonzero((excess > 0.0) | (not self.covered))):
+            q[self.indices] = paths[b, t]
+            state.set_positions(q)
+            violated[b, t] = not self.constraints.satisfied(state)
+        return excess + CONSTRAINT_PENALTY * violated, violated
 
     def state_costs(self, paths: np.ndarray, exact: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """(costs, invalid) per waypoint of each path (``exact``: see constraint_costs)."""
@@ -289,12 +283,15 @@ class StompResult:
     iterations: int
     status: str  # "VALID", "TIMEOUT", "MAX_ITERATIONS", "PREEMPTED"
     message: str = ""
+    accepted: Any = None  # what ``accept`` returned for ``path``
 
 
 def optimize(costs: _Costs, start: np.ndarray, goal: np.ndarray, lower: np.ndarray, upper: np.ndarray,
-             params: StompParams, rng: np.random.Generator, deadline: float, cancel: Any = None) -> StompResult:
-    """STOMP from the straight line ``start`` -> ``goal``; the best valid path found (densely
-    checked) or None with why not."""
+             params: StompParams, rng: np.random.Generator, deadline: float, cancel: Any = None,
+             accept: Callable[[np.ndarray], tuple[Any, str | None]] | None = None) -> StompResult:
+    """STOMP from the straight line ``start`` -> ``goal``; the last valid path found (densely
+    checked, and accepted by ``accept``: (what to keep, None) or (None, why not), e.g. the timed
+    trajectory and its validation) or None with why not."""
     n_steps = params.num_timesteps
     free = n_steps - 2
     dim = start.size
@@ -308,6 +305,8 @@ def optimize(costs: _Costs, start: np.ndarray, goal: np.ndarray, lower: np.ndarr
     kept_paths = np.empty((0, n_steps, dim))
     kept_costs = np.empty((0, free))
     best_valid: np.ndarray | None = None
+    kept: Any = None
+    rejected = ""
     valid_iterations = 0
     iteration = 0
 
@@ -316,20 +315,30 @@ def optimize(costs: _Costs, start: np.ndarray, goal: np.ndarray, lower: np.ndarr
         return acc_scale * np.sum(acc * acc, axis=2) / 6.0  # 6: max of AᵀA (R normalised to max 1)
 
     def check(path: np.ndarray) -> bool:
+        nonlocal kept, rejected
         _, invalid = costs.state_costs(path[None])
-        return not invalid.any() and costs.dense_problem(path) is None
+        if invalid.any() or costs.dense_problem(path) is not None:
+            return False
+        if accept is None:
+            return True
+        result, problem = accept(path)
+        if result is None:
+            rejected = f"; the last path valid at its waypoints was refused: {problem}"
+            return False
+        kept = result
+        return True
 
     if check(theta):
         best_valid = theta.copy()
         if params.num_iterations_after_valid == 0:
-            return StompResult(best_valid, 0, "VALID", "the straight line is valid")
+            return StompResult(best_valid, 0, "VALID", "the straight line is valid", kept)
     while iteration < params.num_iterations:
         if cancel is not None and cancel.is_set():
             return StompResult(None, iteration, "PREEMPTED", "cancelled")
         if time.perf_counter() > deadline:
             if best_valid is not None:
-                return StompResult(best_valid, iteration, "VALID", "time ran out after a valid path")
-            return StompResult(None, iteration, "TIMEOUT", f"no valid path after {iteration} iterations")
+                return StompResult(best_valid, iteration, "VALID", "time ran out after a valid path", kept)
+            return StompResult(None, iteration, "TIMEOUT", f"no valid path after {iteration} iterations{rejected}")
         iteration += 1
         # new rollouts: smooth noise around the interior of the path, within the joint limits
         z = rng.standard_normal((params.num_rollouts, free, dim))
@@ -356,15 +365,16 @@ def optimize(costs: _Costs, start: np.ndarray, goal: np.ndarray, lower: np.ndarr
         if check(theta):
             best_valid = theta.copy()
             if valid_iterations >= params.num_iterations_after_valid:
-                return StompResult(best_valid, iteration, "VALID", f"valid after {iteration} iterations")
+                return StompResult(best_valid, iteration, "VALID", f"valid after {iteration} iterations", kept)
             valid_iterations += 1
         elif best_valid is not None:
             valid_iterations += 1
             if valid_iterations > params.num_iterations_after_valid:
-                return StompResult(best_valid, iteration, "VALID", f"valid after {iteration} iterations")
+                return StompResult(best_valid, iteration, "VALID", f"valid after {iteration} iterations", kept)
     if best_valid is not None:
-        return StompResult(best_valid, iteration, "VALID", f"valid after {iteration} iterations")
-    return StompResult(None, iteration, "MAX_ITERATIONS", f"no valid path in num_iterations = {iteration}")
+        return StompResult(best_valid, iteration, "VALID", f"valid after {iteration} iterations", kept)
+    return StompResult(None, iteration, "MAX_ITERATIONS",
+                       f"no valid path in num_iterations = {iteration}{rejected}")
 
 
 # ---------------------------------------------------------------------------- the planner
@@ -418,17 +428,36 @@ def _plan(scene: PlanningScene, request: MotionPlanRequest, params: StompParams,
     lower = model.lower_limits[jmg.variable_indices]
     upper = model.upper_limits[jmg.variable_indices]
     costs = _Costs(scene, jmg.name, start, constraints, [start, goal_state])
-    result = optimize(costs, start_vector, goal_vector, lower, upper, params, rng, started + budget, request.cancel)
+
+    def timed(path: np.ndarray) -> tuple[Any, str | None]:
+        return _timed_and_validated(scene, jmg, start, path, constraints, velocity_scaling, acceleration_scaling)
+
+    result = optimize(costs, start_vector, goal_vector, lower, upper, params, rng, started + budget, request.cancel,
+                      accept=timed)
     if result.status == "PREEMPTED":
         raise failure(MoveItErrorCode.PREEMPTED, f"planning for group '{jmg.name}' was cancelled (stop requested)")
     if result.path is None:
         code = MoveItErrorCode.TIMED_OUT if result.status == "TIMEOUT" else MoveItErrorCode.PLANNING_FAILED
         raise failure(code, f"STOMP found no valid path for group '{jmg.name}' in {budget:.3g} s: "
                             f"{result.status} ({result.message})")
-    path = result.path
-    trajectory, report_problem = None, "not timed"
-    # the timing follows a smooth curve near the polyline (max_deviation): checked again, and
-    # timed closer to the (densely checked) polyline when the curve touches something
+    path, trajectory = result.path, result.accepted
+    response = success(
+        trajectory, started, request, start, path=path,
+        message=(f"{PLANNER_ID}: {result.message}; {len(path)} waypoints, duration {trajectory.duration:.3f} s"),
+        validated=True,
+    )
+    response.planner_id = STOMP_PIPELINE_ID  # MoveIt's STOMP answers with planner_id "stomp"
+    return response
+
+
+def _timed_and_validated(scene: PlanningScene, jmg: Any, start: RobotState, path: np.ndarray, constraints: Any,
+                         velocity_scaling: float, acceleration_scaling: float) -> tuple[Any, str | None]:
+    """(the timed trajectory of ``path``, None) when the trajectory validator (the scene's
+    checker, every DEFAULT_RESOLUTION) and the path constraints pass it, else (None, why not).
+    The timing follows a smooth curve near the polyline (max_deviation), so it is checked
+    again, and timed closer to the (densely checked) polyline when the curve touches something."""
+    model = scene.robot_model
+    report_problem = "not timed"
     for deviation in (DEFAULT_MAX_DEVIATION, DEFAULT_MAX_DEVIATION / 10.0):
         try:
             candidate = time_group_path(model, jmg, path, velocity_scaling, acceleration_scaling,
@@ -446,18 +475,8 @@ def _plan(scene: PlanningScene, request: MotionPlanRequest, params: StompParams,
             if found is not None:
                 report_problem = f"the timed trajectory leaves the path constraints: {found[2]}"
                 continue
-        trajectory = candidate
-        break
-    if trajectory is None:
-        raise failure(MoveItErrorCode.INVALID_MOTION_PLAN,
-                      f"STOMP's path for group '{jmg.name}' failed validation: {report_problem}")
-    response = success(
-        trajectory, started, request, start, path=path,
-        message=(f"{PLANNER_ID}: {result.message}; {len(path)} waypoints, duration {trajectory.duration:.3f} s"),
-        validated=True,
-    )
-    response.planner_id = STOMP_PIPELINE_ID  # MoveIt's STOMP answers with planner_id "stomp"
-    return response
+        return candidate, None
+    return None, report_problem
 
 
 class StompPlanner:
