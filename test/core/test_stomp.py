@@ -233,3 +233,19 @@ def test_the_manifold_values_of_many_states_are_those_of_each(mycobot):
     many = manifold.values_many(rows)
     assert many.shape == (50, manifold.codim) and np.count_nonzero(many) > 50
     assert np.allclose(many, [manifold.value(x) for x in rows], atol=1e-9)
+
+
+def test_cancel_and_iterations_after_valid(boxed):
+    import threading
+
+    scene, start = boxed
+    cancel = threading.Event()
+    cancel.set()
+    response = StompPlanner().plan(scene, stomp_request(JointGoal(RIGHT), start, cancel=cancel))
+    assert response.error_code.val == MoveItErrorCode.PREEMPTED
+    first = StompPlanner().plan(scene, stomp_request(JointGoal(RIGHT), start, seed=3))
+    more = StompPlanner({"num_iterations_after_valid": 5}).plan(scene, stomp_request(JointGoal(RIGHT), start, seed=3))
+    assert_plain_valid(scene, first, start)
+    assert_plain_valid(scene, more, start)
+    iterations = [int(r.message.split("valid after ")[1].split()[0]) for r in (first, more)]
+    assert iterations[1] >= iterations[0] + 5
