@@ -249,3 +249,20 @@ def test_cancel_and_iterations_after_valid(boxed):
     assert_plain_valid(scene, more, start)
     iterations = [int(r.message.split("valid after ")[1].split()[0]) for r in (first, more)]
     assert iterations[1] >= iterations[0] + 5
+
+
+def test_the_panda_around_a_box(panda, pipeline):
+    """Any URDF + SRDF robot: the Panda's 7 joints swing past a box on the straight line's path."""
+    a = np.array([-1.2, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785])
+    b = a.copy()
+    b[0] = 1.2
+    start = RobotState(panda)
+    start.set_group_positions("arm", a)
+    middle = RobotState(panda)
+    middle.set_group_positions("arm", (a + b) / 2)
+    scene = PlanningScene(panda, start)
+    scene.add_object(CollisionObject.box("box", [0.08] * 3, make_pose(middle.frame_pose(panda.group("arm").tip_link)[:3, 3])))
+    response = pipeline.plan(scene, stomp_request(JointGoal(b), start))
+    assert response.success, response.error_code.message
+    assert "straight line is valid" not in response.message
+    assert validate_trajectory(scene, response.trajectory, "arm", start_state=start).valid
