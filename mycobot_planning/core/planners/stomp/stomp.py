@@ -298,7 +298,7 @@ def optimize(costs: _Costs, start: np.ndarray, goal: np.ndarray, lower: np.ndarr
     fractions = np.linspace(0.0, 1.0, n_steps)
     theta = start + fractions[:, None] * (goal - start)  # (N, d), ends fixed
     theta[-1] = goal
-    r_norm, chol, smoothing = _finite_difference_matrices(free)
+    _, chol, smoothing = _finite_difference_matrices(free)
     acc_scale = params.control_cost_weight * 0.5 / params.delta_t
     h = params.exponentiated_cost_sensitivity
     reuse = params.max_rollouts - params.num_rollouts
