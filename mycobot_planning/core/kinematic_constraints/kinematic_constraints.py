@@ -609,6 +609,49 @@ class ConstraintManifold:
             i += n
         return out
 
+    def values_many(self, xs: np.ndarray) -> np.ndarray:
+        """f(x) for every row of ``xs`` (M x dim) at once: (M x codim), the same numbers as
+        :meth:`value` row by row; the rotations of all rows go to SciPy in one call, which is
+        what makes a cost over many states (STOMP's rollouts) affordable."""
+        xs = np.asarray(xs, dtype=float).reshape(-1, self.dim)
+        count = len(xs)
+        pm, data = self.model.pin_model, self._data
+        poses = {link: np.empty((count, 4, 4)) for link in self._links}
+        if self._links:
+            for m in range(count):
+                pin.forwardKinematics(pm, data, self._configure(xs[m]))
+                for link in self._links:
+                    poses[link][m] = pin.updateFramePlacement(pm, data, self._frame_ids[link]).homogeneous
+        self._last_x = None  # the shared buffers now hold other configurations
+        out = np.empty((count, self.codim))
+        i = 0
+        for kind, c, extra, lower, upper in self._rows:
+            if kind == "joint":
+                value = xs[:, [extra]]
+            elif kind == "orientation":
+                rotation = poses[c.link][:, :3, :3]
+                if c.offset is not None:
+                    rotation = rotation @ c.offset[:3, :3]
+                difference = Rotation.from_matrix(c.orientation.T @ rotation)
+                if c.parameterization == ROTATION_VECTOR:
+                    value = (difference.as_rotvec() @ c.axes.T)[:, extra]
+                else:
+                    value = difference.as_euler("XYZ")[:, extra]
+            else:
+                pose = poses[c.link]
+                point = pose[:, :3, :3] @ c.offset + pose[:, :3, 3]
+                local = point @ extra.pose_inverse[:3, :3].T + extra.pose_inverse[:3, 3]
+                if kind == "box":
+                    value = local
+                elif kind == "sphere":
+                    value = np.linalg.norm(local, axis=1, keepdims=True)
+                else:
+                    value = np.stack([np.hypot(local[:, 0], local[:, 1]), local[:, 2]], axis=1)
+            n = value.shape[1]
+            out[:, i:i + n] = np.where(value > upper, value - upper, np.where(value < lower, value - lower, 0.0))
+            i += n
+        return out
+
     def jacobian(self, x: np.ndarray) -> np.ndarray:
         """df/dx (codim x dim): the quantities' Jacobian rows where they exceed their bounds, 0 inside."""
         x = np.asarray(x, dtype=float)
