@@ -226,9 +226,9 @@ def test_waypoints_are_renamed_and_erased_from_the_page_and_bad_names_refused(sy
     assert "to rename" in probe.teleop()["waypoints"]
     page.type_into("Waypoint name", "renamed")
     page.click_button("Rename waypoint")
-    assert wait_until(lambda: "renamed" in probe.teleop()["waypoints"], 30.0), probe.teleop()
-    state = probe.teleop()
-    assert "to rename" not in state["waypoints"] and state["selected_waypoint"] == "renamed", state
+    # listed, then selected (the 2 s poll may list it before the rename's own refresh selects it)
+    assert wait_until(lambda: probe.teleop()["selected_waypoint"] == "renamed", 30.0), probe.teleop()
+    assert "to rename" not in probe.teleop()["waypoints"], probe.teleop()
     page.click_button("Erase waypoint")
     assert "again" in probe.teleop()["message"] and "renamed" in probe.teleop()["waypoints"]
     page.click_button("Erase waypoint")
