@@ -274,6 +274,37 @@ class Chromium:
         raise BrowserError(f"could not choose '{option_text}' in the dropdown '{label}' "
                            f"(the dropdown offered no such option or did not take it, {attempts} tries)")
 
+    def slider(self, label: str) -> dict | None:
+        """The slider labelled ``label``: {"min", "max", "value", "track": [left, top, width, height],
+        "thumb": [x, y]} (page coordinates, scrolled into view), None when there is none."""
+        return self.evaluate(
+            f"(() => {{ const l = [...document.querySelectorAll('label')].find(l => l.innerText.trim() === {json.dumps(label)});"
+            " const root = l && document.getElementById(l.htmlFor); if (!root) return null;"
+            " root.scrollIntoView({block: 'center'}); const t = root.querySelector('[role=slider]');"
+            " const track = root.querySelector('.mantine-Slider-track') || root; const r = track.getBoundingClientRect();"
+            " const h = t.getBoundingClientRect();"
+            " return {min: +t.getAttribute('aria-valuemin'), max: +t.getAttribute('aria-valuemax'),"
+            "  value: +t.getAttribute('aria-valuenow'), track: [r.left, r.top, r.width, r.height],"
+            "  thumb: [h.left + h.width / 2, h.top + h.height / 2]}; })()")
+
+    def drag_slider(self, label: str, value: float, steps: int = 8) -> None:
+        """Drag the thumb of the slider labelled ``label`` to ``value`` with the mouse (pressed on
+        the thumb, moved in ``steps``, released), as a user does."""
+        info = self.slider(label)
+        if not info:
+            raise BrowserError(f"no slider labelled '{label}'")
+        left, top, width, height = info["track"]
+        fraction = min(max((value - info["min"]) / (info["max"] - info["min"]), 0.0), 1.0)
+        x1, y = left + fraction * width, top + height / 2
+        x0, _ = info["thumb"]
+        self.call("Input.dispatchMouseEvent", {"type": "mouseMoved", "x": x0, "y": y, "button": "none", "clickCount": 0})
+        self.call("Input.dispatchMouseEvent", {"type": "mousePressed", "x": x0, "y": y, "button": "left", "clickCount": 1})
+        for i in range(1, steps + 1):
+            self.call("Input.dispatchMouseEvent", {"type": "mouseMoved", "x": x0 + (x1 - x0) * i / steps, "y": y,
+                                                   "button": "left", "buttons": 1, "clickCount": 0})
+            time.sleep(0.02)
+        self.call("Input.dispatchMouseEvent", {"type": "mouseReleased", "x": x1, "y": y, "button": "left", "clickCount": 1})
+
     def rect_of_text(self, text: str, max_width: float = 450.0) -> list[float] | None:
         """[left, top, right, bottom] of the widest element (at most ``max_width`` px wide) that
         contains ``text``: a toast, a panel, to leave out of pixel counts."""

@@ -223,7 +223,8 @@ class TaskViewer:
                  max_update_rate: float = 100.0, speed: float = 1.0, loop: bool = True,
                  auto_play_planned_path: bool = True, package_dirs: Sequence[Any] = (),
                  log: Callable[[str], None] | None = None, objective_actions: ObjectiveActions | None = None,
-                 teleop_actions: TeleopActions | None = None, teleop_joints: Sequence[str] = ()) -> None:
+                 teleop_actions: TeleopActions | None = None, teleop_joints: Sequence[str] = (),
+                 teleop_limits: Mapping[str, tuple[float, float]] | None = None) -> None:
         import viser
 
         if max_update_rate <= 0:
@@ -282,7 +283,8 @@ class TaskViewer:
         #: the Objectives panel (MoveIt Pro's objectives view), when an objective_server is served
         self.objectives = ObjectivePanel(self.server.gui, objective_actions) if objective_actions else None
         #: the Teleoperate panel (MoveIt Pro's teleoperation view), when a servo_node is served
-        self.teleop = TeleopPanel(self.server.gui, teleop_actions, teleop_joints) if teleop_actions else None
+        self.teleop = TeleopPanel(self.server.gui, teleop_actions, teleop_joints, teleop_limits) \
+            if teleop_actions else None
         self._thread = threading.Thread(target=self._run, name="task_viewer display", daemon=True)
         self._thread.start()
 
@@ -541,6 +543,8 @@ class TaskViewer:
                     if stamp is not None:
                         self._lags.append(time.time() - stamp)
                 self._live_stamp = stamp
+                if self.teleop is not None:
+                    self.teleop.on_joint_positions(names, positions)
         if tasks_dirty:
             self._refresh_tasks()
         self._refresh_status()

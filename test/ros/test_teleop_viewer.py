@@ -1,8 +1,10 @@
 """The viewer's Teleoperate panel in headless Chromium, against real processes (mock_controllers,
 planning_server, servo_node, task_viewer): holding a joint jog button moves that joint only,
-holding a Cartesian jog button moves the flange along the base frame's axis, a waypoint saved
-from the page is listed and the arm moves back to it, the gripper closes and opens; a screenshot
-of the panel.
+holding a Cartesian jog button moves the flange along the base frame's axis (and along the tool's
+axis in the tool frame), a joint slider dragged and let go moves that joint there smoothly, a
+waypoint saved from the page is listed and the arm moves back to it, renamed and erased from the
+page (bad names refused in the page), the gripper
+closes and opens; a screenshot of the panel.
 
 Every motion is judged on /joint_states (what the controllers did). A button is held until the
 arm has moved (judged there too), never for a fixed time; each wait has a generous deadline."""
@@ -40,6 +42,7 @@ class Probe(ProbeNode):
     def __init__(self) -> None:
         super().__init__("teleop_test_probe")
         self.latest: dict[str, float] = {}
+        self.max_step = 0.0
         self.history: list[tuple[float, dict[str, float]]] = []
         self.node.create_subscription(JointState, "/joint_states", self._record, 100)
         self.url = self.collect(String, "/task_viewer/url", LATCHED)
@@ -49,7 +52,10 @@ class Probe(ProbeNode):
 
     def _record(self, msg) -> None:
         with self.lock:
+            before = [self.latest.get(j) for j in ARM]
             self.latest.update(zip(msg.name, msg.position))
+            if None not in before:  # the largest change between two joint states: a jump shows here
+                self.max_step = max(self.max_step, max(abs(self.latest[j] - b) for j, b in zip(ARM, before)))
             self.history.append((time.monotonic(), dict(self.latest)))
             del self.history[:-400]
 
@@ -174,6 +180,81 @@ def test_gripper_closes_and_opens(system):
     assert wait_until(lambda: probe.joint(GRIPPER) > -0.05, 60.0), probe.joint(GRIPPER)
 
 
+def test_joint_sliders_follow_the_arm_and_move_a_joint(system):
+    probe, page = system["probe"], system["page"]
+    model = RobotModel.mycobot()
+    start = probe.settle()
+    limits = dict(zip(model.variable_names, zip(model.lower_limits, model.upper_limits)))
+
+    def shown() -> bool:  # every slider shows where its joint is, within the joint's limits
+        for joint, position in zip(ARM, probe.arm()):
+            info = page.slider(joint)
+            if not info or abs(info["value"] - position) > 0.006:
+                return False
+            assert limits[joint][0] <= info["min"] < info["max"] <= limits[joint][1], (joint, info)
+        return True
+    assert wait_until(shown, 30.0), [page.slider(j) for j in ARM]
+    with probe.lock:
+        probe.max_step = 0.0
+    page.drag_slider(ARM[0], start[0] + 0.3)
+    # a pause in the drag may have moved the arm part of the way first: the moves end at the last value
+    assert wait_until(lambda: abs(probe.teleop()["slider_goal"].get(ARM[0], 0.0) - (start[0] + 0.3)) < 0.05
+                      and not probe.teleop()["slider_targets"], 60.0), probe.teleop()
+    assert "at the sliders' positions" in probe.teleop()["message"], probe.teleop()
+    goal = probe.teleop()["slider_goal"]
+    moved = probe.settle() - start
+    assert abs(moved[0] - (goal[ARM[0]] - start[0])) < 1e-3, (moved, goal)
+    assert np.all(np.abs(moved[1:]) < 1e-3), moved
+    assert probe.max_step < 0.1, f"the joint jumped {probe.max_step} rad between two joint states"
+    assert wait_until(lambda: abs(page.slider(ARM[0])["value"] - probe.arm()[0]) < 0.006, 10.0)
+
+
+def test_waypoints_are_renamed_and_erased_from_the_page_and_bad_names_refused(system):
+    probe, page = system["probe"], system["page"]
+    page.type_into("Waypoint name", "to rename")
+    page.click_button("Save current state")
+    assert wait_until(lambda: probe.teleop()["selected_waypoint"] == "to rename", 60.0), probe.teleop()
+    page.type_into("Waypoint name", "Home")  # a name taken
+    page.click_button("Rename waypoint")
+    assert wait_until(lambda: "not renamed" in probe.teleop()["message"], 30.0), probe.teleop()
+    assert "exists already" in probe.teleop()["message"]
+    assert page.wait_for("document.body.innerText.includes(\"a waypoint named 'Home' exists already\")", 10.0)
+    page.type_into("Waypoint name", "bad\x07name")  # a control character
+    page.click_button("Rename waypoint")
+    assert wait_until(lambda: "control characters" in probe.teleop()["message"], 30.0), probe.teleop()
+    assert page.wait_for("document.body.innerText.includes('contains control characters')", 10.0), page.text()[-500:]
+    assert "to rename" in probe.teleop()["waypoints"]
+    page.type_into("Waypoint name", "renamed")
+    page.click_button("Rename waypoint")
+    # listed, then selected (the 2 s poll may list it before the rename's own refresh selects it)
+    assert wait_until(lambda: probe.teleop()["selected_waypoint"] == "renamed", 30.0), probe.teleop()
+    assert "to rename" not in probe.teleop()["waypoints"], probe.teleop()
+    page.click_button("Erase waypoint")
+    assert "again" in probe.teleop()["message"] and "renamed" in probe.teleop()["waypoints"]
+    page.click_button("Erase waypoint")
+    assert wait_until(lambda: "renamed" not in probe.teleop()["waypoints"], 30.0), probe.teleop()
+    assert "erased waypoint 'renamed'" in probe.teleop()["message"]
+
+
+def test_tool_frame_jog_moves_the_flange_along_the_tool_axis(system):
+    probe, page = system["probe"], system["page"]
+    model = RobotModel.mycobot()
+    start = probe.settle()
+    state = RobotState(model)
+    state.set_joint_positions(dict(zip(ARM, start)))
+    tool_z = state.frame_pose(model.group("arm").tip_link)[:3, 2]
+    page.select_option("Jog frame", "tool")
+    try:
+        assert wait_until(lambda: probe.teleop()["frame"] == "tool", 10.0)
+        hold(system, "+z", lambda: np.linalg.norm(tip(model, probe.arm()) - tip(model, start)) > 0.01,
+             "holding +z in the tool frame did not move the flange")
+        moved = tip(model, probe.settle()) - tip(model, start)
+    finally:
+        page.select_option("Jog frame", "base")
+    assert np.linalg.norm(moved) > 0.01
+    assert angle_deg(moved, tool_z) <= 5.0, (moved, tool_z)
+
+
 def test_screenshot_of_the_panel(system):
     page = system["page"]
     page.evaluate("[...document.querySelectorAll('label')].find(l => l.innerText.trim() === 'Jog speed')"
@@ -182,5 +263,6 @@ def test_screenshot_of_the_panel(system):
     shot = page.screenshot(SHOTS / "teleoperate_panel.png")
     assert shot.stat().st_size > 10_000
     text = page.text()
-    for label in ("J1−", "J6+", "+x", "−yaw", "Stop arm", "Open gripper", "Save current state", "Move to waypoint"):
+    for label in ("J1−", "J6+", "+x", "−yaw", "Stop arm", "Open gripper", "Save current state", "Move to waypoint",
+                  "Rename waypoint", "Erase waypoint", ARM[0]):
         assert label in text, label

@@ -1,9 +1,13 @@
 """The viewer's Teleoperate panel fed from servo_node, the gripper controller and the
 planning_server: jogs out as servo commands (JointJog / TwistStamped, each stamped as it is sent,
 at 50 Hz while the page's button is held), the servo's ~/status in; Stop ends the jog and stops
-move_group's execution (MoveIt's "stop" on /trajectory_execution_event); the gripper through its
-GripperCommand action to the SRDF's "open" / "closed" states; waypoints through the
-planning_server's JSON methods (list_waypoints, save_waypoint, move_to_waypoint; docs/waypoints.md).
+move_group's execution (MoveIt's "stop" on /trajectory_execution_event), and a button still held
+when Stop is pressed jogs no more until it is pressed again; the gripper through its
+GripperCommand action to the SRDF's "open" / "closed" states; the joint sliders as the
+planning_server's plan_and_execute to the joint positions (planned collision-free within the
+limits, executed like any move: never a jump), one at a time, the newest slider positions next;
+waypoints through the planning_server's JSON methods (list_waypoints, save_waypoint,
+rename_waypoint, erase_waypoint, move_to_waypoint; docs/waypoints.md).
 
 Nothing here blocks a ROS callback: service answers come back as futures, the planning_server's
 methods run on worker threads and report to the panel when they answer."""
@@ -26,6 +30,7 @@ from std_srvs.srv import SetBool
 from interfaces_py import names
 from interfaces_py.action_client import ActionClient
 from interfaces_py.json_rpc import JsonRpcClient, RpcError
+from interfaces_py.msgs import MoveItErrorCode
 from mycobot_planning.core.robot_model.robot_model import RobotModel
 from mycobot_planning.visualization.teleop_panel import TeleopActions, TeleopPanel
 
@@ -33,6 +38,9 @@ from mycobot_planning.visualization.teleop_panel import TeleopActions, TeleopPan
 HOLD_GRACE = 0.15
 #: s between two servo commands while a button is held (the servo's timeout is 0.1 s)
 STREAM_PERIOD = 0.02
+#: s: a jog button held when Stop was pressed jogs again only after a pause this long in its
+#: repeats (it was let go and pressed again)
+STOP_LATCH_GAP = 0.5
 STATUS_NAMES = {getattr(ServoStatus, n): n for n in dir(ServoStatus) if n.isupper() and isinstance(getattr(ServoStatus, n), int)}
 
 
@@ -49,6 +57,10 @@ class TeleopView:
         self.panel: TeleopPanel | None = None
         self.group = group
         self.joint_names = list(model.group(group).joint_names)
+        bounds = {n: (float(lo), float(hi)) for n, lo, hi in zip(model.variable_names, model.lower_limits,
+                                                                 model.upper_limits)}
+        #: {joint: (lower, upper)} of the group's joints (the sliders' ranges)
+        self.joint_limits = {n: bounds[n] for n in self.joint_names if n in bounds}
         base = base_frame or ("base_link" if model.has_link("base_link") else model.root_link)
         self.frames = {"base": base, "tool": tool_frame or self._tip(model, group)}
         self._gripper_states = self._gripper_targets(model, gripper_group)
@@ -66,6 +78,9 @@ class TeleopView:
         self._held: tuple[str, Any, Any, float] | None = None  # (kind, target, value, until)
         self._mode: int | None = None  # the command type the servo has confirmed
         self._switching: int | None = None
+        self._stop_latch: tuple[Any, float] | None = None  # (the jog held at Stop, its last repeat)
+        self._joint_goal: dict[str, float] | None = None  # the sliders' next move
+        self._joint_mover = False  # a thread is moving the arm to the sliders' positions
         self.sent = 0
         node.create_timer(STREAM_PERIOD, self._tick, callback_group=callbacks)
         self._listing = threading.Event()  # set while a list_waypoints call is out
@@ -96,7 +111,9 @@ class TeleopView:
 
     def actions(self) -> TeleopActions:
         return TeleopActions(jog=self.jog, stop=self.stop, gripper=self.gripper, save_waypoint=self.save_waypoint,
-                             move_to_waypoint=self.move_to_waypoint, refresh_waypoints=self.refresh_waypoints)
+                             move_to_waypoint=self.move_to_waypoint, refresh_waypoints=self.refresh_waypoints,
+                             move_joints=self.move_joints, rename_waypoint=self.rename_waypoint,
+                             erase_waypoint=self.erase_waypoint)
 
     def attach(self, panel: TeleopPanel) -> None:
         self.panel = panel
@@ -110,7 +127,14 @@ class TeleopView:
     def jog(self, kind: str, target: Any, value: Any) -> None:
         """One repeat of a held jog button: go on jogging for HOLD_GRACE from now."""
         mode = ServoCommandType.Request.JOINT_JOG if kind == "joint" else ServoCommandType.Request.TWIST
+        now = time.monotonic()
         with self._lock:
+            if self._stop_latch is not None:
+                key, last = self._stop_latch
+                if key == (kind, target, value) and now - last < STOP_LATCH_GAP:
+                    self._stop_latch = (key, now)  # still held since Stop: no jog
+                    return
+                self._stop_latch = None
             self._held = (kind, target, value, time.monotonic() + HOLD_GRACE)
             need_switch = self._mode != mode and self._switching != mode
             if need_switch:
@@ -165,10 +189,13 @@ class TeleopView:
         self.sent += 1
 
     def stop(self) -> None:
-        """Stop whatever moves the arm: the jog (the servo halts within its command timeout) and
+        """Stop whatever moves the arm: the jog (the servo halts within its command timeout; the
+        button held now jogs again only once let go and pressed again), the sliders' next move and
         move_group's execution."""
         with self._lock:
-            self._held = None
+            held, self._held = self._held, None
+            self._stop_latch = (held[:3] if held is not None else None, time.monotonic())
+            self._joint_goal = None
         self._events.publish(String(data="stop"))
         self._say("stopped")
 
@@ -230,6 +257,39 @@ class TeleopView:
             self.refresh_waypoints(select=name)
         self._in_background("save", work)
 
+    def rename_waypoint(self, old: str, new: str) -> None:
+        def work() -> None:
+            try:
+                self._rpc.call("rename_waypoint", {"old_name": old, "new_name": new}, timeout=10.0)
+            except RpcError as exc:
+                self._say(f"waypoint '{old}' not renamed: {exc}")
+                return
+            self._say(f"renamed waypoint '{old}' to '{new}'")
+            self.refresh_waypoints(select=new)
+        self._in_background("rename", work)
+
+    def erase_waypoint(self, name: str) -> None:
+        def work() -> None:
+            try:
+                self._rpc.call("erase_waypoint", {"name": name}, timeout=10.0)
+            except RpcError as exc:
+                self._say(f"waypoint '{name}' not erased: {exc}")
+                return
+            self._say(f"erased waypoint '{name}'")
+            self.refresh_waypoints(select="")
+        self._in_background("erase", work)
+
+    @staticmethod
+    def _outcome(result: Any) -> str | None:
+        """None when a plan_and_execute answer is a success, else its error code, e.g.
+        "PREEMPTED: execution stopped"."""
+        code = (result or {}).get("error_code") if isinstance(result, dict) else None
+        if not isinstance(code, dict) or code.get("val", 1) == 1:
+            return None
+        val = code.get("val")
+        name = MoveItErrorCode(val).name if isinstance(val, int) and MoveItErrorCode.is_known(val) else str(val)
+        return f"{name}: {code['message']}" if code.get("message") else name
+
     def move_to_waypoint(self, name: str) -> None:
         def work() -> None:
             self._say(f"moving to waypoint '{name}'")
@@ -238,7 +298,47 @@ class TeleopView:
             except RpcError as exc:
                 self._say(f"move to waypoint '{name}' failed: {exc}")
                 return
-            code = (result or {}).get("error_code", {}) if isinstance(result, dict) else {}
-            self._say(f"at waypoint '{name}'" if not code or code.get("val", 1) == 1
-                      else f"move to waypoint '{name}' ended with {code}")
+            problem = self._outcome(result)
+            self._say(f"at waypoint '{name}'" if problem is None else f"move to waypoint '{name}' ended {problem}")
         self._in_background("move", work)
+
+    # -- joint sliders (a planned move; one at a time, the newest positions next) ------------
+    def move_joints(self, goal: dict[str, float]) -> None:
+        with self._lock:
+            self._joint_goal = {str(k): float(v) for k, v in goal.items()}
+            if self._joint_mover:
+                return  # the running move's thread takes it next
+            self._joint_mover = True
+        threading.Thread(target=self._move_joints_loop, name="teleop sliders move", daemon=True).start()
+
+    def _move_joints_loop(self) -> None:
+        done = False
+        try:
+            while True:
+                with self._lock:
+                    goal, self._joint_goal = self._joint_goal, None
+                    if goal is None:
+                        self._joint_mover, done = False, True
+                        break
+                self._move_to_joints(goal)
+        finally:
+            if not done:
+                with self._lock:
+                    self._joint_mover = False
+            if self.panel is not None:
+                self.panel.on_joint_moves_idle()
+
+    def _move_to_joints(self, goal: dict[str, float]) -> None:
+        self._say("moving to the sliders' positions")
+        try:
+            result = self._rpc.call("plan_and_execute", {"group": self.group, "goal": {"joints": goal},
+                                                         "wait": True}, timeout=120.0)
+        except RpcError as exc:
+            self._say(f"move to the sliders' positions failed: {exc}")
+            return
+        except Exception as exc:  # the node shutting down under the call
+            if self.node.context.ok():
+                self._say(f"move to the sliders' positions failed: {type(exc).__name__}: {exc}")
+            return
+        problem = self._outcome(result)
+        self._say("at the sliders' positions" if problem is None else f"move to the sliders' positions ended {problem}")

@@ -97,7 +97,8 @@ class TaskViewerNode(Node):
                 package_dirs=package_share_dirs(), log=lambda text: log.warning(text),
                 objective_actions=self._objective_view.actions() if self._objective_view else None,
                 teleop_actions=self._teleop_view.actions() if self._teleop_view else None,
-                teleop_joints=self._teleop_view.joint_names if self._teleop_view else ())
+                teleop_joints=self._teleop_view.joint_names if self._teleop_view else (),
+                teleop_limits=self._teleop_view.joint_limits if self._teleop_view else None)
         except OSError as exc:
             raise ValueError(f"cannot serve the page on {self._params.get('host')}:{self._params.get('port')}: {exc}") \
                 from None
