@@ -492,6 +492,34 @@ def test_a_trajectory_that_does_not_move_succeeds_without_the_controllers(mycobo
     assert not bus.controllers["arm_controller"].sent
 
 
+def test_a_start_waits_for_joints_still_settling_and_refuses_joints_at_rest(mycobot):
+    """A real arm ends a step within goal_tolerance (0.02) and settles onto its last point
+    afterwards; the next step's start (allowed_start_tolerance 0.01) waits for it as MoveIt's
+    waitForRobotToStop does, sending nothing meanwhile. Joints at rest and still off are refused
+    once seen at rest, not after the full wait."""
+    bus = SimBus(mycobot)
+    manager = make_manager(mycobot, bus)
+    bus.positions["link1_to_link2"] = 0.018
+    start = bus.now
+    for k in range(1, 10):  # settling: 0.018 -> 0.0 over 0.18 s
+        bus.hooks.append((start + 0.02 * k - 1e-6, lambda k=k: bus.positions.update({"link1_to_link2": 0.018 - 0.002 * k})))
+    sent_at = []
+    send = bus.send
+    bus.send = lambda controller, trajectory: (sent_at.append(bus.now), send(controller, trajectory))
+    result = manager.execute(arm_trajectory([0] * 6, GOAL))
+    assert result.success, result.message
+    assert sent_at and sent_at[0] >= start + 0.08 - 1e-9  # sent once within the tolerance (after 0.08 s), not before
+
+    bus = SimBus(mycobot)
+    manager = make_manager(mycobot, bus)
+    bus.positions["link1_to_link2"] = 0.015
+    start = bus.now
+    result = manager.execute(arm_trajectory([0] * 6, GOAL))
+    assert result.error_code.val == MoveItErrorCode.START_STATE_INVALID and "0.0150" in result.message
+    assert bus.now - start < 0.1  # at rest at the first poll: refused then
+    assert not bus.controllers["arm_controller"].sent
+
+
 def test_start_far_from_the_robot_or_absent_controller_sends_nothing(mycobot):
     bus = SimBus(mycobot)
     manager = make_manager(mycobot, bus)

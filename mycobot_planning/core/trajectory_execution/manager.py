@@ -38,6 +38,12 @@ MIN_STOP_LEAD = 0.008
 HALT_TIME = 0.02
 #: s: how long a new execution waits for one that is stopping (decelerating to rest) to end
 STOPPING_WAIT = 3.0
+#: s a trajectory's start waits at most for joints still settling from the previous motion
+#: (MoveIt's waitForRobotToStop wait_time), polled every SETTLE_POLL s; joints that moved less
+#: than SETTLE_MOTION (rad or m) in one poll are at rest
+SETTLE_WAIT = 1.0
+SETTLE_POLL = 0.02
+SETTLE_MOTION = 1e-4
 
 
 class TrajectoryExecutionManager:
@@ -169,6 +175,31 @@ class TrajectoryExecutionManager:
             raise ExecutionError(MoveItErrorCode.ROBOT_STATE_STALE, f"/joint_states lacks joints {missing}")
         return positions
 
+    def _settled_positions(self, prepared: JointTrajectory, needed: Iterable[str]) -> Mapping[str, float]:
+        """The robot's positions for the start check. When the trajectory's first point is not
+        yet within allowed_start_tolerance and the joints still move (a real arm settling after the
+        previous step, which succeeded within goal_tolerance), wait for them to stop, as MoveIt's
+        waitForRobotToStop does after each part: up to SETTLE_WAIT s, ending as soon as they are
+        within the tolerance or at rest (no joint moved SETTLE_MOTION in SETTLE_POLL s). Nothing
+        is sent meanwhile; the caller's check then decides with the latest positions."""
+        current = self._require_positions(needed)
+        tolerance = self.settings.allowed_start_tolerance
+        if tolerance <= 0 or not prepared.points:
+            return current
+        first = dict(zip(prepared.joint_names, prepared.points[0].positions))
+
+        def within(positions: Mapping[str, float]) -> bool:
+            return all(abs(float(v) - float(positions[n])) <= tolerance for n, v in first.items() if n in positions)
+
+        deadline = self._clock() + SETTLE_WAIT
+        while not within(current) and self._clock() < deadline and not self._stop_requested:
+            self._wait(SETTLE_POLL)
+            previous, current = current, self._require_positions(needed)
+            if max((abs(float(current[n]) - float(previous[n])) for n in first if n in current), default=0.0) \
+                    < SETTLE_MOTION:
+                break  # at rest, and (if still off) the check refuses
+        return current
+
     # ------------------------------------------------------------------ single trajectories
     def stopping(self) -> bool:
         """An execution runs and has been asked to stop: it ends as soon as the arm is at rest."""
@@ -233,7 +264,7 @@ class TrajectoryExecutionManager:
                                       max_waypoint_distance=self.settings.max_waypoint_distance)
         chosen = select_controllers(prepared.joint_names, self.controllers, controllers)
         needed = sorted({j for c in chosen for j in c.joints} | set(prepared.joint_names))
-        current = self._require_positions(needed)
+        current = self._settled_positions(prepared, needed)
         check_start_state(prepared, current, self.settings.allowed_start_tolerance)
         if self._already_there(prepared, current):
             return ExecutionResult(_code(MoveItErrorCode.SUCCESS, "nothing to execute: the robot is already at the "
