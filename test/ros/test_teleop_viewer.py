@@ -230,7 +230,8 @@ def test_waypoints_are_renamed_and_erased_from_the_page_and_bad_names_refused(sy
     assert wait_until(lambda: probe.teleop()["selected_waypoint"] == "renamed", 30.0), probe.teleop()
     assert "to rename" not in probe.teleop()["waypoints"], probe.teleop()
     page.click_button("Erase waypoint")
-    assert "again" in probe.teleop()["message"] and "renamed" in probe.teleop()["waypoints"]
+    assert wait_until(lambda: "again" in probe.teleop()["message"], 10.0), probe.teleop()
+    assert "renamed" in probe.teleop()["waypoints"]
     page.click_button("Erase waypoint")
     assert wait_until(lambda: "renamed" not in probe.teleop()["waypoints"], 30.0), probe.teleop()
     assert "erased waypoint 'renamed'" in probe.teleop()["message"]

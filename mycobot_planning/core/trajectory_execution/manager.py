@@ -179,9 +179,9 @@ class TrajectoryExecutionManager:
         """The robot's positions for the start check. When the trajectory's first point is not
         yet within allowed_start_tolerance and the joints still move (a real arm settling after the
         previous step, which succeeded within goal_tolerance), wait for them to stop, as MoveIt's
-        waitForRobotToStop does after each part: up to SETTLE_WAIT s, ending as soon as they are
-        within the tolerance or at rest (no joint moved SETTLE_MOTION in SETTLE_POLL s). Nothing
-        is sent meanwhile; the caller's check then decides with the latest positions."""
+        waitForRobotToStop does after each part: up to SETTLE_WAIT s, until they are at rest (no
+        joint moved SETTLE_MOTION in SETTLE_POLL s). Nothing is sent meanwhile, and never while
+        they still move; the caller's check then decides with the latest positions."""
         current = self._require_positions(needed)
         tolerance = self.settings.allowed_start_tolerance
         if tolerance <= 0 or not prepared.points:
@@ -191,13 +191,15 @@ class TrajectoryExecutionManager:
         def within(positions: Mapping[str, float]) -> bool:
             return all(abs(float(v) - float(positions[n])) <= tolerance for n, v in first.items() if n in positions)
 
+        if within(current):
+            return current
         deadline = self._clock() + SETTLE_WAIT
-        while not within(current) and self._clock() < deadline and not self._stop_requested:
+        while self._clock() < deadline and not self._stop_requested:
             self._wait(SETTLE_POLL)
             previous, current = current, self._require_positions(needed)
             if max((abs(float(current[n]) - float(previous[n])) for n in first if n in current), default=0.0) \
                     < SETTLE_MOTION:
-                break  # at rest, and (if still off) the check refuses
+                break  # at rest (never sent while the joints still move): the caller's check decides
         return current
 
     # ------------------------------------------------------------------ single trajectories
