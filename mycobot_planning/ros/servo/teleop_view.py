@@ -247,37 +247,29 @@ class TeleopView:
         self._in_background("list", work)
 
     def save_waypoint(self, name: str) -> None:
-        def work() -> None:
-            try:
-                self._rpc.call("save_waypoint", {"name": name, "group": self.group}, timeout=10.0)
-            except RpcError as exc:
-                self._say(f"waypoint '{name}' not saved: {exc}")
-                return
-            self._say(f"saved waypoint '{name}'")
-            self.refresh_waypoints(select=name)
-        self._in_background("save", work)
+        self._waypoint_call("save", "save_waypoint", {"name": name, "group": self.group},
+                            f"waypoint '{name}' not saved", f"saved waypoint '{name}'", name)
 
     def rename_waypoint(self, old: str, new: str) -> None:
-        def work() -> None:
-            try:
-                self._rpc.call("rename_waypoint", {"old_name": old, "new_name": new}, timeout=10.0)
-            except RpcError as exc:
-                self._say(f"waypoint '{old}' not renamed: {exc}")
-                return
-            self._say(f"renamed waypoint '{old}' to '{new}'")
-            self.refresh_waypoints(select=new)
-        self._in_background("rename", work)
+        self._waypoint_call("rename", "rename_waypoint", {"old_name": old, "new_name": new},
+                            f"waypoint '{old}' not renamed", f"renamed waypoint '{old}' to '{new}'", new)
 
     def erase_waypoint(self, name: str) -> None:
+        self._waypoint_call("erase", "erase_waypoint", {"name": name},
+                            f"waypoint '{name}' not erased", f"erased waypoint '{name}'", "")
+
+    def _waypoint_call(self, what: str, method: str, params: dict, failed: str, done: str, select: str) -> None:
+        """One waypoint method of the planning_server in the background: its refusal or its
+        success said in the page, then the list refreshed with ``select`` selected."""
         def work() -> None:
             try:
-                self._rpc.call("erase_waypoint", {"name": name}, timeout=10.0)
+                self._rpc.call(method, params, timeout=10.0)
             except RpcError as exc:
-                self._say(f"waypoint '{name}' not erased: {exc}")
+                self._say(f"{failed}: {exc}")
                 return
-            self._say(f"erased waypoint '{name}'")
-            self.refresh_waypoints(select="")
-        self._in_background("erase", work)
+            self._say(done)
+            self.refresh_waypoints(select=select)
+        self._in_background(what, work)
 
     @staticmethod
     def _outcome(result: Any) -> str | None:
