@@ -49,7 +49,7 @@ from mycobot_planning.ros.drop_in import rclcpp
 from mycobot_planning.ros.drop_in.moveit.task_constructor import stages as mtc_stages
 from ros_testing import REPO, use_session_domain
 
-TUTORIAL_CONFIG = REPO / "test" / "moveit_py_tutorial" / "config" / "motion_planning_python_api_tutorial.yaml"
+TUTORIAL_CONFIG = REPO / "test" / "third_party" / "moveit_py_tutorial" / "config" / "motion_planning_python_api_tutorial.yaml"
 #: the tutorial's collision objects (motion_planning_python_api_planning_scene.py)
 BOXES = [((0.15, 0.1, 0.5), (0.1, 0.4, 0.1)), ((0.25, 0.0, 1.0), (0.1, 0.4, 0.1)),
          ((-0.25, -0.3, 0.8), (0.2, 0.2, 0.2)), ((0.25, 0.3, 0.75), (0.15, 0.15, 0.15))]

@@ -20,7 +20,7 @@ import pytest
 from mycobot_planning.paths import use_fast_discovery
 from ros_testing import PANDA_READY, REPO, NodeProcess, ProbeNode, panda_processes, use_session_domain, wait_until
 
-TUTORIAL = REPO / "test" / "moveit_py_tutorial"
+TUTORIAL = REPO / "test" / "third_party" / "moveit_py_tutorial"
 CONFIG = TUTORIAL / "config" / "motion_planning_python_api_tutorial.yaml"
 RUNNER = REPO / "test" / "mtc_script_runner.py"
 SUCCEEDED = "Completed trajectory execution with status SUCCEEDED"

@@ -1,6 +1,6 @@
 """MTC's 14 demo scripts, as fetched, byte for byte, through ``mtc_script`` against the Panda bring-up.
 
-The scripts (test/mtc_demo_scripts/, moveit_task_constructor's demo/scripts at 8e76def8, see its
+The scripts (test/third_party/mtc_demo_scripts/, moveit_task_constructor's demo/scripts at 8e76def8, see its
 SOURCE.md) import ``moveit.task_constructor``, ``rclcpp`` and (pickplace.py) ``moveit_commander``,
 which the runner serves. Each runs in its own process through test/mtc_script_runner.py (the
 runner, with ``time.sleep`` capped: the scripts end by sleeping up to an hour for RViz), which
@@ -43,7 +43,7 @@ from ros_testing import (
 )
 from task_helpers import MAX_WAYPOINT_GAP, replay_task_solution
 
-SCRIPTS = REPO / "test" / "mtc_demo_scripts"
+SCRIPTS = REPO / "test" / "third_party" / "mtc_demo_scripts"
 RUNNER = REPO / "test" / "mtc_script_runner.py"
 ALL_SCRIPTS = sorted(p.stem for p in SCRIPTS.glob("*.py"))
 #: scripts that plan (properties.py only exercises the property API)
