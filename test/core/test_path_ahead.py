@@ -182,6 +182,71 @@ def test_execution_stops_short_of_an_object_appearing_on_the_path(mycobot):
     assert manager.watch_stats["checks"] >= 1
 
 
+def test_an_arm_behind_the_clock_is_checked_from_where_it_is(mycobot):
+    """A controller that accepted the goal late runs behind the execution's clock: an object
+    appearing on the stretch of path between the arm and the clock's time must still stop it (a
+    check from the clock's time alone finds the rest of the path free and the arm runs through)."""
+    bus = SimBus(mycobot)
+    traj = sweep(mycobot)
+    jt = start_sweep(mycobot, bus, traj)
+    scene = PlanningScene(mycobot)
+    box = flange_box(mycobot, 0.0, size=0.04)
+    probe = scene.copy()
+    probe.add_object(box)
+    path = PathAhead(mycobot, traj)
+    hit = path.first_collision(probe, 0.0)
+    last = max(t for t, q in zip(path.times, path.positions) if collides(probe, mycobot, q))
+    lag = last - hit.time + 0.3
+    manager, intrusion = watched_manager(mycobot, bus, scene)
+    arm = bus.controllers["arm_controller"]
+    original = arm.send
+
+    def late_send(trajectory, now):  # the first goal starts ``lag`` s after it was sent
+        original(trajectory, now)
+        if len(arm.sent) == 1:
+            arm.start = now + lag
+    arm.send = late_send
+    # on the clock the path has left the box; the arm has not reached it yet
+    intrusion.at(last + 0.05, lambda s: s.add_object(box))
+    result = manager.execute(jt)
+    assert result.error_code.val == INVALIDATED, result.message
+    final = [bus.positions[n] for n in ARM]
+    assert final[0] < 0.0 and not collides(probe, mycobot, final)
+
+
+def test_a_stop_of_an_arm_behind_the_clock_begins_where_the_arm_is(mycobot):
+    """The stop along the path of an arm running 0.5 s behind the clock starts at the arm's own
+    position (a stop from where the clock says would first jump the arm ahead along the path)."""
+    bus = SimBus(mycobot)
+    traj = sweep(mycobot)
+    jt = start_sweep(mycobot, bus, traj)
+    scene = PlanningScene(mycobot)
+    box = flange_box(mycobot, 0.3, size=0.04)
+    probe = scene.copy()
+    probe.add_object(box)
+    hit = PathAhead(mycobot, traj).first_collision(probe, 0.0)
+    manager, intrusion = watched_manager(mycobot, bus, scene)
+    arm = bus.controllers["arm_controller"]
+    original = arm.send
+    at_stop: list[list[float]] = []
+
+    def late_send(trajectory, now):
+        if len(arm.sent) == 1:
+            at_stop.append([bus.positions[n] for n in trajectory.joint_names])
+        original(trajectory, now)
+        if len(arm.sent) == 1:
+            arm.start = now + 0.5
+    arm.send = late_send
+    intrusion.at(hit.free_until - 0.1, lambda s: s.add_object(box))
+    result = manager.execute(jt)
+    assert result.error_code.val == INVALIDATED, result.message
+    assert "at rest at" in result.message  # a stop along the path, not a halt
+    stop = arm.sent[1]
+    assert np.max(np.abs(np.array(stop.points[0].positions) - np.array(at_stop[0]))) < 0.05
+    final = [bus.positions[n] for n in ARM]
+    assert final[0] < 0.3 and not collides(probe, mycobot, final)
+
+
 def test_a_task_solution_stops_at_the_step_whose_path_became_invalid(mycobot):
     """MTC cannot replan a solution: its execution stops at the step whose path is blocked and
     the error names that step; the steps before it ran, those after it did not."""

@@ -37,5 +37,8 @@ def test_the_bench_measures_reactions_clearances_and_stops(monkeypatch, capsys):
                 "stop_decel_ms", "stop_overhead_ms", "invalidated"):
         assert key in summary, key
     assert summary["invalidated"] >= 1 and summary["reaction_ms"] > 0
+    # a run whose box this client published with under half its lead (itself too late on a
+    # loaded machine) tests the client, not the stop; at least one must test the stop
+    assert summary["late_intrusions"] < summary["intrusions"]
     assert summary["min_clearance_m"] > 0.0  # the stops never touched the boxes
     assert summary["stop_latency_ms"] > 0 and summary["stop_decel_ms"] > 0

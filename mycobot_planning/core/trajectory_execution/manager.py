@@ -34,6 +34,9 @@ from .trajectory_preparation import check_start_state, prepare_trajectory, traje
 
 #: s: the least time a stop command's first point may lie ahead of its sending
 MIN_STOP_LEAD = 0.008
+#: s before the clock's time searched for the arm's place on the path when a stop begins (a
+#: window, not the whole past: a path that passes a state twice must not send the stop back)
+STOP_LOCATE_WINDOW = 1.0
 #: s: how soon a halt (no room to decelerate) holds the joints where they were last seen
 HALT_TIME = 0.02
 #: s: how long a new execution waits for one that is stopping (decelerating to rest) to end
@@ -292,8 +295,8 @@ class TrajectoryExecutionManager:
         if self._scene_source is not None:
             ahead = PathAhead(self.model, prepared)
             path = ahead.trajectory
-            watch = _PathWatch(ahead, self._scene_source, self._clock, started, self._wake, self.watch_stats,
-                               self._log)
+            watch = _PathWatch(ahead, self._scene_source, lambda: self._arm_time(ahead, started), self._wake,
+                               self.watch_stats, self._log)
         else:
             path = joint_trajectory_to_timed(prepared)
         try:
@@ -344,6 +347,18 @@ class TrajectoryExecutionManager:
                 return outcome
             self._wait(self._poll_period)
 
+    def _arm_time(self, ahead: PathAhead, started: float) -> float:
+        """Where on ``ahead`` the arm is (s from its start): the clock's time, or earlier where
+        fresh joint states place the arm behind it (a controller that accepted the goal late or
+        runs behind), so a check of the path ahead never skips what the arm has still to pass."""
+        t_clock = self._clock() - started
+        fresh = self._fresh_positions()
+        if fresh is None or not all(n in fresh for n in ahead.joint_names):
+            return t_clock
+        # the whole past is searched: a state matching an earlier part of the path only widens the check
+        return min(t_clock, ahead.locate(np.array([fresh[n] for n in ahead.joint_names]), t_clock,
+                                         window=max(t_clock, 0.3)))
+
     def _record_reaction(self, hit: PathCollision | None) -> None:
         """For a stop caused by ``hit``: ms from the scene change's arrival to now (the stop sent)."""
         watch = self._watch
@@ -372,8 +387,9 @@ class TrajectoryExecutionManager:
             if (ahead is not None and fresh is not None and age is not None
                     and age <= self.settings.joint_state_timeout and all(n in fresh for n in ahead.joint_names)):
                 # where the arm really is (a controller that accepted the goal late runs behind
-                # the clock), plus how old that joint state is
-                t_arm = ahead.locate(np.array([fresh[n] for n in ahead.joint_names]), t_arm) + age
+                # the clock, on a loaded machine by half a second), plus how old that joint state is
+                t_arm = ahead.locate(np.array([fresh[n] for n in ahead.joint_names]), t_arm,
+                                     window=STOP_LOCATE_WINDOW) + age
             if hit is not None and before is None:
                 break
             plan = stopping_trajectory(path, t_arm + lead, limits, before)
@@ -476,14 +492,12 @@ class _PathWatch:
     sleeps until a change arrives, checks the newest scene, and records the first collision
     ahead, which the execution loop then acts on (woken through ``wake``)."""
 
-    def __init__(self, path: PathAhead, scene_source: Callable[[], PlanningScene], clock: Callable[[], float],
-                 started: float, wake: threading.Event, stats: dict[str, Any],
-                 log: Callable[[str, str], None]) -> None:
+    def __init__(self, path: PathAhead, scene_source: Callable[[], PlanningScene], arm_time: Callable[[], float],
+                 wake: threading.Event, stats: dict[str, Any], log: Callable[[str, str], None]) -> None:
         self.path = path
         self._log = log
         self._scene_source = scene_source
-        self._clock = clock
-        self._started = started
+        self._arm_time = arm_time  # where on the path the arm is now (s from its start)
         self._wake = wake
         self._changed = threading.Event()
         self._closed = False
@@ -522,7 +536,7 @@ class _PathWatch:
             self._changed.clear()
             covered = self._stats["changes"]  # read after the clear: a later change sets the event again
             since, self._since = self._since, None
-            t_from = self._clock() - self._started
+            t_from = self._arm_time()
             woke = time.monotonic()
             try:
                 scene = self._scene_source()

@@ -51,7 +51,15 @@ INTRUDER_SIZE = 0.06
 
 class ReactProbe:
     """A client node: move_action, /collision_object, /trajectory_execution_event, /planned_path
-    and every /joint_states message with its arrival time."""
+    and every /joint_states message with its time.
+
+    A state's time is its header stamp when that is on this machine's wall clock (the mock
+    controllers stamp with it), else its arrival: on a loaded machine this client's executor can
+    run late, and arrival times then place states after events that came later than they did.
+    Compare them with ``now()`` (wall clock seconds)."""
+
+    #: s: a stamp further than this from the wall clock is on another clock (simulated time)
+    STAMP_SKEW = 5.0
 
     def __init__(self) -> None:
         self.context = Context()
@@ -72,8 +80,16 @@ class ReactProbe:
         self.node.create_subscription(JointTrajectory, "/planned_path", self._on_plan, latched)
         self.spinner = BackgroundSpin(self.executor, name="react bench probe")
 
+    @staticmethod
+    def now() -> float:
+        """The wall clock (s), the clock of the recorded states' times."""
+        return time.time()
+
     def _on_joint_state(self, msg: Any) -> None:
-        now = time.perf_counter()
+        now = time.time()
+        stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+        if abs(stamp - now) < self.STAMP_SKEW:
+            now = stamp
         if self._index is None:
             names = list(msg.name)
             if not all(j in names for j in ARM):
@@ -87,7 +103,7 @@ class ReactProbe:
     def _on_plan(self, msg: Any) -> None:
         with self.lock:
             self.plans.append(msg)
-            self.plan_times.append(time.perf_counter())
+            self.plan_times.append(time.time())
 
     def arm(self) -> np.ndarray:
         with self.lock:
@@ -96,6 +112,15 @@ class ReactProbe:
     def since(self, t: float) -> list[tuple[float, np.ndarray]]:
         with self.lock:
             return [(s, p) for s, p in self.history if s >= t]
+
+    def left(self, start: Any, after: float, tolerance: float = 1e-4) -> float | None:
+        """The time of the first state at or after ``after`` more than ``tolerance`` from
+        ``start`` (the motion's start), or None while there is none."""
+        start = np.asarray(start, dtype=float)
+        for t, p in self.since(after):
+            if np.max(np.abs(p - start)) > tolerance:
+                return t
+        return None
 
     def close(self) -> None:
         self.spinner.stop()
@@ -211,7 +236,7 @@ def react(say: Any) -> int:
         wait_for(lambda: future.done() or np.max(np.abs(probe.arm() - np.array(SWEEP_START))) > 1e-4, 30.0,
                  "the motion")
         time.sleep(INTRUSION_AFTER)
-        published = time.perf_counter()
+        published = probe.now()
         probe.objects.publish(box_msg("intruder", where, INTRUDER_SIZE))
         say(f"a {INTRUDER_SIZE * 100:.0f} cm box 'intruder' appears on /collision_object at "
             f"({where[0]:.3f}, {where[1]:.3f}, {where[2]:.3f}), where the flange passes at mid-sweep")
