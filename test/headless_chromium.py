@@ -198,24 +198,32 @@ class Chromium:
             raise BrowserError(f"no visible button '{text}'")
         return box
 
-    def click_button(self, text: str, timeout: float = 10.0) -> None:
-        """Click the visible, enabled button whose text is ``text`` once there is one (a page
-        updated by its server may show it a moment later); BrowserError if none appears."""
-        self.click_at(*self._button(text, timeout))
-
-    def press_button(self, text: str, timeout: float = 10.0) -> list[float]:
-        """Press the mouse on the button ``text`` (as click_button finds it) and keep it down;
-        where, for release_at."""
+    def _button_on_top(self, text: str, timeout: float) -> list[float]:
+        """Where the button ``text`` is and nothing covers it (the page may still be laying out,
+        folders opening, the panel scrolling)."""
         deadline = time.monotonic() + timeout
-        while True:  # the page may still be laying out (folders opening): press where the button is
+        while True:
             x, y = self._button(text, max(0.1, deadline - time.monotonic()))
             hit = self.evaluate(f"(() => {{ const e = document.elementFromPoint({x}, {y}); const b = e && e.closest('button');"
                                 f" return !!b && b.innerText.trim() === {json.dumps(text)}; }})()")
             if hit:
-                break
+                return [x, y]
             if time.monotonic() > deadline:
                 raise BrowserError(f"button '{text}' does not stay where it is")
-            time.sleep(0.2)
+            # a hint (tooltip) of the button the mouse was left on may cover it: move the mouse away
+            self.call("Input.dispatchMouseEvent", {"type": "mouseMoved", "x": 0, "y": 0, "button": "none",
+                                                   "clickCount": 0})
+            time.sleep(0.05)
+
+    def click_button(self, text: str, timeout: float = 10.0) -> None:
+        """Click the visible, enabled button whose text is ``text`` once there is one (a page
+        updated by its server may show it a moment later); BrowserError if none appears."""
+        self.click_at(*self._button_on_top(text, timeout))
+
+    def press_button(self, text: str, timeout: float = 10.0) -> list[float]:
+        """Press the mouse on the button ``text`` (as click_button finds it) and keep it down;
+        where, for release_at."""
+        x, y = self._button_on_top(text, timeout)
         self.call("Input.dispatchMouseEvent", {"type": "mouseMoved", "x": x, "y": y, "button": "none", "clickCount": 0})
         self.call("Input.dispatchMouseEvent", {"type": "mousePressed", "x": x, "y": y, "button": "left", "clickCount": 1})
         return [x, y]

@@ -36,6 +36,7 @@ from ..core.robot_model.robot_model import RobotModel
 from ..core.robot_state.robot_state import RobotState
 from .geometry import object_shapes, robot_link_shapes
 from .objective_panel import ObjectiveActions, ObjectivePanel
+from .pose_target import PoseTargetActions, PoseTargetPanel
 from .teleop_panel import TeleopActions, TeleopPanel
 from .playback import SceneObjects, Timeline, joint_vector
 from .task_tree import TaskRegistry, TaskTree
@@ -224,7 +225,8 @@ class TaskViewer:
                  auto_play_planned_path: bool = True, package_dirs: Sequence[Any] = (),
                  log: Callable[[str], None] | None = None, objective_actions: ObjectiveActions | None = None,
                  teleop_actions: TeleopActions | None = None, teleop_joints: Sequence[str] = (),
-                 teleop_limits: Mapping[str, tuple[float, float]] | None = None) -> None:
+                 teleop_limits: Mapping[str, tuple[float, float]] | None = None,
+                 pose_target_actions: PoseTargetActions | None = None, pose_target_link: str = "") -> None:
         import viser
 
         if max_update_rate <= 0:
@@ -285,6 +287,10 @@ class TaskViewer:
         #: the Teleoperate panel (MoveIt Pro's teleoperation view), when a servo_node is served
         self.teleop = TeleopPanel(self.server.gui, teleop_actions, teleop_joints, teleop_limits) \
             if teleop_actions else None
+        #: the Pose target panel (a draggable goal for ``pose_target_link``, planned, previewed, approved)
+        self.pose_target = PoseTargetPanel(self.server.gui, self.server.scene, pose_target_actions,
+                                           lambda: self._live_frame_pose(pose_target_link), pose_target_link) \
+            if pose_target_actions and pose_target_link else None
         self._thread = threading.Thread(target=self._run, name="task_viewer display", daemon=True)
         self._thread.start()
 
@@ -345,6 +351,12 @@ class TaskViewer:
         self._planned_button.on_click(lambda e: self._command("play_planned_path"))
         self._live_checkbox.on_update(lambda e: user(e) and self._command("live_visible", bool(e.target.value)))
         self._objects_checkbox.on_update(lambda e: user(e) and self._command("objects_visible", bool(e.target.value)))
+
+    def _live_frame_pose(self, frame: str) -> np.ndarray | None:
+        """``frame``'s world pose in the live robot's state (any thread: a state of its own)."""
+        with self._lock:
+            positions = np.array(self._live_positions, dtype=float)
+        return RobotState(self.model, positions).frame_pose(frame)
 
     def _speed_label(self) -> str:
         return min(SPEEDS, key=lambda k: abs(SPEEDS[k] - self.speed))
@@ -466,6 +478,7 @@ class TaskViewer:
                         "attached": list(ATTACHED_COLOUR), "objects": {k: list(v) for k, v in self._colour_of.items()}},
             "objectives": self.objectives.state() if self.objectives is not None else None,
             "teleop": self.teleop.state() if self.teleop is not None else None,
+            "pose_target": self.pose_target.state() if self.pose_target is not None else None,
         }
         if preview is not None:
             positions = self.preview_robot.positions

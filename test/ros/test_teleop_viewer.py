@@ -4,13 +4,15 @@ holding a Cartesian jog button moves the flange along the base frame's axis (and
 axis in the tool frame), a joint slider dragged and let go moves that joint there smoothly, a
 waypoint saved from the page is listed and the arm moves back to it, renamed and erased from the
 page (bad names refused in the page), the gripper
-closes and opens; a screenshot of the panel.
+closes and opens, a pose target is planned, previewed and executed on approval, Stop clicked in
+the page stops a running move; a screenshot of the panel.
 
 Every motion is judged on /joint_states (what the controllers did). A button is held until the
 arm has moved (judged there too), never for a fixed time; each wait has a generous deadline."""
 from __future__ import annotations
 
 import math
+import re
 import shutil
 import time
 from pathlib import Path
@@ -26,6 +28,7 @@ import headless_chromium
 from interfaces_py.json_rpc import JsonRpcClient
 from mycobot_planning.core import RobotModel, RobotState
 from mycobot_planning.paths import config_file
+from mycobot_planning.visualization.pose_target import format_pose, parse_pose
 from ros_testing import NodeProcess, ProbeNode, robot_processes, wait_until
 
 pytestmark = pytest.mark.skipif(not headless_chromium.available(), reason="needs Debian's chromium (setup.sh installs it as root)")
@@ -256,6 +259,76 @@ def test_tool_frame_jog_moves_the_flange_along_the_tool_axis(system):
     assert angle_deg(moved, tool_z) <= 5.0, (moved, tool_z)
 
 
+def test_a_pose_target_is_planned_previewed_and_run_only_when_approved(system):
+    """The Pose target panel: the target placed at the tool, typed 2 cm higher; "Plan to target"
+    previews the plan (the orange robot on /planned_path) and moves nothing; "Execute previewed
+    plan" runs it and the flange ends at the target."""
+    probe, page = system["probe"], system["page"]
+    model = RobotModel.mycobot()
+
+    def panel() -> dict:
+        return probe.rpc.call("get_state", timeout=15.0)["pose_target"]
+    start = probe.settle()
+    page.click_button("Target at the tool")
+    assert wait_until(lambda: panel()["target"] is not None, 30.0), (panel(), system["viewer"].output()[-3000:])
+    state = RobotState(model)
+    state.set_joint_positions(dict(zip(ARM, start)))
+    goal = state.frame_pose("link6_flange")
+    goal[2, 3] += 0.02
+    assert np.allclose(parse_pose(panel()["target"])[:3, 3], goal[:3, 3] - [0.0, 0.0, 0.02], atol=2e-4)
+    page.type_into("Target pose", format_pose(goal))
+    assert wait_until(lambda: np.allclose(parse_pose(panel()["target"]), goal, atol=1e-3), 30.0), panel()
+    page.click_button("Plan to target")
+    assert wait_until(lambda: panel()["previewed"], 60.0), panel()
+    view = probe.rpc.call("get_state", timeout=15.0)
+    assert wait_until(lambda: (probe.rpc.call("get_state", timeout=15.0)["preview"] or {}).get("source")
+                      == "planned_path", 30.0), view["preview"]
+    assert np.max(np.abs(probe.arm() - start)) < 1e-6, "the arm moved before the plan was approved"
+    page.click_button("Execute previewed plan")
+    assert wait_until(lambda: "at the target" in panel()["message"], 120.0), panel()
+    state.set_joint_positions(dict(zip(ARM, probe.settle())))
+    reached = state.frame_pose("link6_flange")
+    assert np.linalg.norm(reached[:3, 3] - goal[:3, 3]) < 1e-3
+    assert np.linalg.norm(reached[:3, :3] - goal[:3, :3]) < 1e-2
+
+
+def test_stop_in_the_page_stops_a_running_move(system):
+    """Stop arm, clicked in the page while a previewed plan runs (the base turned 150° at the
+    panel's default velocity scaling 0.1: many seconds of motion; a click in a software-rendered
+    page on this loaded machine can take seconds), stops the arm along its path: the move ends PREEMPTED short of the target,
+    with no jump between two joint states."""
+    probe, page = system["probe"], system["page"]
+    model = RobotModel.mycobot()
+
+    def view() -> dict:
+        return probe.rpc.call("get_state", timeout=15.0)
+    start = probe.settle()
+    state = RobotState(model)
+    state.set_joint_positions(dict(zip(ARM, start)))
+    turn = np.eye(4)
+    angle = math.radians(150.0) * (-1.0 if start[0] > 0 else 1.0)
+    turn[:2, :2] = [[math.cos(angle), -math.sin(angle)], [math.sin(angle), math.cos(angle)]]
+    goal = turn @ state.frame_pose("link6_flange")
+    page.click_button("Target at the tool")
+    assert wait_until(lambda: view()["pose_target"]["target"] is not None, 30.0)
+    page.type_into("Target pose", format_pose(goal))
+    assert wait_until(lambda: np.allclose(parse_pose(view()["pose_target"]["target"]), goal, atol=1e-3), 30.0)
+    page.click_button("Plan to target")
+    assert wait_until(lambda: view()["pose_target"]["previewed"], 60.0), view()["pose_target"]
+    found = re.search(r"a ([0-9.]+) s move", view()["pose_target"]["message"])
+    assert found and float(found.group(1)) > 5.0, f"too short a move to stop from the page: {view()['pose_target']}"
+    with probe.lock:
+        probe.max_step = 0.0
+    page.click_button("Execute previewed plan")
+    assert wait_until(lambda: np.max(np.abs(probe.arm() - start)) > 0.02, 30.0), "the previewed plan did not start"
+    page.click_button("Stop arm")
+    assert wait_until(lambda: "PREEMPTED" in view()["pose_target"]["message"], 30.0), view()["pose_target"]
+    stopped = probe.settle()
+    state.set_joint_positions(dict(zip(ARM, stopped)))
+    assert np.linalg.norm(state.frame_pose("link6_flange")[:3, 3] - goal[:3, 3]) > 0.02, "the move was not stopped"
+    assert probe.max_step < 0.1, f"the joints jumped {probe.max_step} rad between two joint states"
+
+
 def test_screenshot_of_the_panel(system):
     page = system["page"]
     page.evaluate("[...document.querySelectorAll('label')].find(l => l.innerText.trim() === 'Jog speed')"
@@ -265,5 +338,6 @@ def test_screenshot_of_the_panel(system):
     assert shot.stat().st_size > 10_000
     text = page.text()
     for label in ("J1−", "J6+", "+x", "−yaw", "Stop arm", "Open gripper", "Save current state", "Move to waypoint",
-                  "Rename waypoint", "Erase waypoint", ARM[0]):
+                  "Rename waypoint", "Erase waypoint", ARM[0], "Target at the tool", "Plan to target",
+                  "Execute previewed plan"):
         assert label in text, label

@@ -272,7 +272,7 @@ class TeleopView:
         self._in_background(what, work)
 
     @staticmethod
-    def _outcome(result: Any) -> str | None:
+    def outcome(result: Any) -> str | None:
         """None when a plan_and_execute answer is a success, else its error code, e.g.
         "PREEMPTED: execution stopped"."""
         code = (result or {}).get("error_code") if isinstance(result, dict) else None
@@ -290,7 +290,7 @@ class TeleopView:
             except RpcError as exc:
                 self._say(f"move to waypoint '{name}' failed: {exc}")
                 return
-            problem = self._outcome(result)
+            problem = self.outcome(result)
             self._say(f"at waypoint '{name}'" if problem is None else f"move to waypoint '{name}' ended {problem}")
         self._in_background("move", work)
 
@@ -332,5 +332,5 @@ class TeleopView:
             if self.node.context.ok():
                 self._say(f"move to the sliders' positions failed: {type(exc).__name__}: {exc}")
             return
-        problem = self._outcome(result)
+        problem = self.outcome(result)
         self._say("at the sliders' positions" if problem is None else f"move to the sliders' positions ended {problem}")

@@ -22,6 +22,7 @@ from interfaces_py.ros_conversions import joint_trajectory_from_msg
 from mycobot_planning.core.robot_model.robot_model import RobotModel
 from mycobot_planning.ros.node_runtime import Parameters, ParameterSpec
 from mycobot_planning.ros.objectives.objective_view import ObjectiveView
+from mycobot_planning.ros.servo.pose_target_view import PoseTargetView
 from mycobot_planning.ros.servo.teleop_view import TeleopView
 from mycobot_planning.ros.task.task_topics import SOLUTION_QOS, STATISTICS_QOS, TASK_SUFFIXES, parse_task_topic
 from mycobot_planning.paths import package_share_dirs
@@ -89,6 +90,9 @@ class TaskViewerNode(Node):
                                            self._params.get("gripper_action"), group) if servo else None
         except (KeyError, ValueError) as exc:
             raise ValueError(f"teleop_group: {exc}") from None
+        # the pose target goes with the Teleoperate panel: the same group, its tool frame
+        self._pose_target_view = PoseTargetView(self, self._params.get("planning_server"), group,
+                                                self._teleop_view.frames["tool"]) if self._teleop_view else None
         try:
             self.viewer = TaskViewer(
                 model, self._params.get("host"), self._params.get("port"),
@@ -98,7 +102,9 @@ class TaskViewerNode(Node):
                 objective_actions=self._objective_view.actions() if self._objective_view else None,
                 teleop_actions=self._teleop_view.actions() if self._teleop_view else None,
                 teleop_joints=self._teleop_view.joint_names if self._teleop_view else (),
-                teleop_limits=self._teleop_view.joint_limits if self._teleop_view else None)
+                teleop_limits=self._teleop_view.joint_limits if self._teleop_view else None,
+                pose_target_actions=self._pose_target_view.actions() if self._pose_target_view else None,
+                pose_target_link=self._pose_target_view.link if self._pose_target_view else "")
         except OSError as exc:
             raise ValueError(f"cannot serve the page on {self._params.get('host')}:{self._params.get('port')}: {exc}") \
                 from None
@@ -107,6 +113,8 @@ class TaskViewerNode(Node):
             self._objective_view.attach(self.viewer.objectives)
         if self._teleop_view is not None and self.viewer.teleop is not None:
             self._teleop_view.attach(self.viewer.teleop)
+        if self._pose_target_view is not None and self.viewer.pose_target is not None:
+            self._pose_target_view.attach(self.viewer.pose_target)
 
         # /joint_states (100 Hz and more) on a node of its own with a single-threaded executor:
         # the multi-threaded executor's re-polling would cost a core at that rate (see
