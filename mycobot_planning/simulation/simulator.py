@@ -339,6 +339,12 @@ class MujocoSimulator:
         with self._lock:
             return self._arm_reference()[0]
 
+    def world_objects(self) -> tuple[SceneObject, ...]:
+        """The objects of the world as it is now (the scene file's, spawned ones, not removed ones),
+        each with the pose it was built at; object_poses() gives where they are."""
+        with self._lock:
+            return tuple(self._built.scene.objects)
+
     def object_poses(self) -> dict[str, np.ndarray]:
         """Every scene object's true pose (4x4, world frame) now."""
         with self._lock:

@@ -47,6 +47,8 @@ LIVE_COLOUR = (70, 120, 215)
 PREVIEW_COLOUR = (245, 135, 25)
 ATTACHED_COLOUR = (140, 70, 215)
 OBJECT_COLOURS = [(50, 175, 75), (205, 50, 170), (30, 180, 195), (225, 200, 30), (215, 55, 55)]
+#: the simulated world's objects (at their true poses) when the simulator gives no colour
+SIM_COLOUR = (160, 160, 160)
 SPEEDS = {"0.25×": 0.25, "0.5×": 0.5, "1×": 1.0, "2×": 2.0, "4×": 4.0}
 NO_TASK = "(no task published yet)"
 NO_SOLUTION = "(no published solution)"
@@ -265,6 +267,10 @@ class TaskViewer:
         self.preview_robot = RobotDisplay(self.server, model, "/preview_robot", PREVIEW_COLOUR, visible=False)
         self.live_objects = ObjectsDisplay(self.server, "/scene", self._colour, package_dirs)
         self.preview_objects = ObjectsDisplay(self.server, "/preview_scene", self._colour, package_dirs)
+        #: the simulated world (a physics twin's objects at their true poses), beside the planning scene
+        self._sim_colours: dict[str, tuple[int, int, int]] = {}
+        self.sim_objects = ObjectsDisplay(self.server, "/sim_world", lambda i: self._sim_colours.get(i, SIM_COLOUR))
+        self._sim_msg: SceneObjects | None = None
         self.preview_objects.visible = False
         self._live_scene = SceneObjects()
         self._live_positions = model.default_positions()
@@ -334,6 +340,9 @@ class TaskViewer:
         with gui.add_folder("Display"):
             self._live_checkbox = gui.add_checkbox("Live robot", True)
             self._objects_checkbox = gui.add_checkbox("Scene objects", True)
+            self._sim_checkbox = gui.add_checkbox("Simulated world", True,
+                                                  hint="a physics twin's objects where its simulation has them "
+                                                       "(mujoco_sim: their true poses), drawn in their own colours")
             # last: its text changes as data arrives, and nothing below it may move
             self._status = gui.add_markdown("waiting for joint states")
 
@@ -351,6 +360,7 @@ class TaskViewer:
         self._planned_button.on_click(lambda e: self._command("play_planned_path"))
         self._live_checkbox.on_update(lambda e: user(e) and self._command("live_visible", bool(e.target.value)))
         self._objects_checkbox.on_update(lambda e: user(e) and self._command("objects_visible", bool(e.target.value)))
+        self._sim_checkbox.on_update(lambda e: user(e) and self._command("sim_visible", bool(e.target.value)))
 
     def _live_frame_pose(self, frame: str) -> np.ndarray | None:
         """``frame``'s world pose in the live robot's state (any thread: a state of its own)."""
@@ -375,6 +385,16 @@ class TaskViewer:
             msg = PlanningSceneMsg.from_json(msg)
         with self._lock:
             self._scene_msg = msg
+        self._wake.set()
+
+    def on_sim_world(self, objects: Mapping[str, Any], colours: Mapping[str, tuple[int, int, int]] | None = None
+                     ) -> None:
+        """A simulator's objects at their true poses ({id: CollisionObject posed in the world}),
+        optional {id: RGB 0-255}; the newest is drawn."""
+        with self._lock:
+            self._sim_msg = SceneObjects(world=dict(objects))
+            if colours:
+                self._sim_colours.update(colours)
         self._wake.set()
 
     def on_task_description(self, source: str, msg: TaskDescription) -> None:
@@ -479,6 +499,7 @@ class TaskViewer:
             "objectives": self.objectives.state() if self.objectives is not None else None,
             "teleop": self.teleop.state() if self.teleop is not None else None,
             "pose_target": self.pose_target.state() if self.pose_target is not None else None,
+            "sim_world": {"visible": self.sim_objects.visible, "objects": self.sim_objects.shown},
         }
         if preview is not None:
             positions = self.preview_robot.positions
@@ -527,7 +548,10 @@ class TaskViewer:
         with self._lock:
             joint_msg, self._joint_msg = self._joint_msg, None
             scene_msg, self._scene_msg = self._scene_msg, None
+            sim_msg, self._sim_msg = self._sim_msg, None
             tasks_dirty, self._tasks_dirty = self._tasks_dirty, False
+        if sim_msg is not None:
+            self.sim_objects.update(sim_msg, {})
         if scene_msg is not None:
             try:
                 self._live_scene = SceneObjects.from_msg(self.model, scene_msg)
@@ -661,6 +685,14 @@ class TaskViewer:
 
     def _do_live_visible(self, visible: bool) -> None:
         self.live.visible = visible
+
+    def _do_sim_visible(self, visible: bool) -> None:
+        self.sim_objects.visible = visible
+
+    def set_sim_visible(self, visible: bool) -> None:
+        """Show or hide the simulated world (the "Simulated world" checkbox)."""
+        self._sim_checkbox.value = bool(visible)
+        self._command("sim_visible", bool(visible))
 
     def _do_objects_visible(self, visible: bool) -> None:
         self.live_objects.visible = visible and self._preview is None

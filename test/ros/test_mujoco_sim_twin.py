@@ -285,3 +285,49 @@ def test_world_services_reset_pause_step_spawn_remove_and_speed():
     finally:
         probe.close()
         sim.stop()
+
+
+def test_the_viewer_shows_the_simulated_world_at_its_true_poses():
+    """task_viewer beside mujoco_sim: the page draws the simulator's objects where the physics has
+    them (its /mujoco_sim/object_poses), with their shapes from the simulator's ``world``; an
+    object spawned in the simulation appears, a removed one goes."""
+    from interfaces_py.json_rpc import JsonRpcClient
+    from mycobot_planning.ros.demos.sim_verdict import TwinObserver
+    from ros_testing import ProbeNode
+
+    use_session_domain()
+    sim = NodeProcess("mycobot_planning.nodes.mujoco_sim", [])
+    viewer = NodeProcess("mycobot_planning.nodes.task_viewer", ["--ros-args", "-p", "port:=0", "-p", "servo_node:=''"])
+    probe = ProbeNode("test_sim_world_view")
+    probe.spin_in_background()
+    try:
+        sim_rpc, page = JsonRpcClient(probe.node, "/mujoco_sim"), JsonRpcClient(probe.node, "/task_viewer")
+        with TwinObserver("test_sim_world_truth") as observer:
+            assert wait_until(lambda: "mujoco_sim ready" in sim.output(), 90.0), sim.output()[-3000:]
+            assert page.wait_for_server(90.0), viewer.output()[-3000:]
+            truth = observer.wait_for_rest("object", 60.0)
+            assert truth is not None, sim.output()[-3000:]
+            world = {o["id"]: o for o in sim_rpc.call("world", {}, timeout=30.0)["objects"]}
+            assert world["object"]["shape"] == "cylinder"
+
+            def shown() -> dict:
+                return page.call("get_state", {}, timeout=15.0)["sim_world"]["objects"]
+            assert wait_until(lambda: set(world) <= set(shown()), 60.0), (shown(), viewer.output()[-2000:])
+            drawn = shown()["object"]
+            assert np.linalg.norm(np.array(drawn["position"]) - truth[:3, 3]) < 0.001, (drawn, truth)
+            assert drawn["shapes"] == ["cylinder"]
+            assert drawn["colour"] == [int(round(255 * c)) for c in world["object"]["color"][:3]]
+            crate = {"id": "crate", "shape": "box", "size": [0.03, 0.03, 0.03], "pose": [0.22, 0.20, 0.08, 0, 0, 0],
+                     "mass": 0.05}
+            sim_rpc.call("spawn_object", {"object": crate}, timeout=30.0)
+            landed = observer.wait_for_rest("crate", 30.0)
+            assert landed is not None
+            assert wait_until(lambda: "crate" in shown() and np.linalg.norm(
+                np.array(shown()["crate"]["position"]) - landed[:3, 3]) < 0.001, 30.0), shown()
+            sim_rpc.call("remove_object", {"id": "crate"}, timeout=30.0)
+            assert wait_until(lambda: "crate" not in shown(), 30.0), shown()
+        assert "Traceback" not in viewer.output() and "Traceback" not in sim.output()
+    finally:
+        probe.close()
+        viewer.stop()
+        sim.stop()

@@ -3,7 +3,7 @@
 What Gazebo's world control gives its users, on this node's names. Requests with data go through
 the JSON face (``/mujoco_sim/requests``, interfaces_py.json_rpc: methods ``reset_world``,
 ``pause``, ``resume``, ``step`` {steps}, ``spawn_object`` {object: an entry of the scene file's
-``objects:`` list}, ``remove_object`` {id}, ``sim_status``); the data-free ones are std_srvs
+``objects:`` list}, ``remove_object`` {id}, ``sim_status``, ``world``: the objects' shapes); the data-free ones are std_srvs
 services as well (``~/reset_world`` Trigger, ``~/pause`` SetBool: true pauses, false resumes).
 
 Nothing here moves the arm by surprise: reset and pause are refused while a controller follows a
@@ -39,7 +39,7 @@ class SimServices:
         rpc = JsonRpcServer(node)
         for name, handler in (("reset_world", self._reset), ("pause", self._pause), ("resume", self._resume),
                               ("step", self._step), ("spawn_object", self._spawn), ("remove_object", self._remove),
-                              ("sim_status", self._status)):
+                              ("sim_status", self._status), ("world", self._world)):
             rpc.register(name, handler)
         self.rpc = rpc
         node.create_service(Trigger, "~/reset_world", self._srv_reset)
@@ -135,6 +135,15 @@ class SimServices:
             raise RpcError(NO_SUCH_OBJECT, f"remove_object: {exc.args[0]}") from None
         self._node.get_logger().info(f"removed '{name}' from the simulation")
         return {"id": name, "objects": list(self._sim.object_poses())}
+
+    def _world(self, params: dict) -> dict:
+        """The world's objects as the simulation has them: id, shape, size (the scene file's
+        conventions), RGBA colour, fixed (what a viewer needs to draw the true poses of
+        ``/mujoco_sim/object_poses``)."""
+        self._no_params("world", params)
+        return {"frame_id": self._sim.scene.frame_id,
+                "objects": [{"id": o.id, "shape": o.shape, "size": list(o.size), "color": list(o.color),
+                             "fixed": o.fixed} for o in self._sim.world_objects()]}
 
     def _status(self, params: dict) -> dict:
         self._no_params("sim_status", params)

@@ -24,6 +24,7 @@ from mycobot_planning.ros.node_runtime import Parameters, ParameterSpec
 from mycobot_planning.ros.objectives.objective_view import ObjectiveView
 from mycobot_planning.ros.servo.pose_target_view import PoseTargetView
 from mycobot_planning.ros.servo.teleop_view import TeleopView
+from mycobot_planning.ros.task.sim_world_view import SimWorldView
 from mycobot_planning.ros.task.task_topics import SOLUTION_QOS, STATISTICS_QOS, TASK_SUFFIXES, parse_task_topic
 from mycobot_planning.paths import package_share_dirs
 from mycobot_planning.visualization.viewer import TaskViewer
@@ -73,6 +74,9 @@ class TaskViewerNode(Node):
                 ParameterSpec("gripper_action", "/grip_action_controller/gripper_cmd", "the gripper controller's "
                               "GripperCommand action (the Teleoperate panel's open / close)", non_empty=True,
                               read_only=True),
+                ParameterSpec("sim_node", "/mujoco_sim", "the physics twin whose objects the page shows at their "
+                              "true poses (<sim_node>/object_poses, shapes from its 'world' method) beside the "
+                              "planning scene; empty: none", read_only=True),
                 ParameterSpec("teleop_group", "", "the planning group the Teleoperate panel jogs and saves "
                               "(empty: 'arm' when the robot has it, else its group with the most joints)",
                               read_only=True),
@@ -115,6 +119,8 @@ class TaskViewerNode(Node):
             self._teleop_view.attach(self.viewer.teleop)
         if self._pose_target_view is not None and self.viewer.pose_target is not None:
             self._pose_target_view.attach(self.viewer.pose_target)
+        sim = self._params.get("sim_node").strip()
+        self._sim_world_view = SimWorldView(self, self.viewer, sim) if sim else None
 
         # /joint_states (100 Hz and more) on a node of its own with a single-threaded executor:
         # the multi-threaded executor's re-polling would cost a core at that rate (see
