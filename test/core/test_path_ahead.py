@@ -182,61 +182,62 @@ def test_execution_stops_short_of_an_object_appearing_on_the_path(mycobot):
     assert manager.watch_stats["checks"] >= 1
 
 
+def sweep_with_a_box(model, joint1: float):
+    """A sweep ready to run on a SimBus, its empty scene, and a 4 cm box where the flange passes
+    at ``joint1`` with a copy of the scene holding it (to judge by)."""
+    bus = SimBus(model)
+    traj = sweep(model)
+    jt = start_sweep(model, bus, traj)
+    scene = PlanningScene(model)
+    box = flange_box(model, joint1, size=0.04)
+    judge = scene.copy()
+    judge.add_object(box)
+    return bus, traj, jt, scene, box, judge
+
+
+def start_late(bus: SimBus, lag: float, at_second_send: list | None = None):
+    """The arm controller starts its first goal ``lag`` s after it was sent (accepted late, so it
+    runs behind the execution's clock); ``at_second_send`` gets the arm's positions when the next
+    goal (the stop) is sent."""
+    arm = bus.controllers["arm_controller"]
+    original = arm.send
+
+    def send(trajectory, now):
+        if at_second_send is not None and len(arm.sent) == 1:
+            at_second_send.append([bus.positions[n] for n in trajectory.joint_names])
+        original(trajectory, now)
+        if len(arm.sent) == 1:
+            arm.start = now + lag
+    arm.send = send
+    return arm
+
+
 def test_an_arm_behind_the_clock_is_checked_from_where_it_is(mycobot):
     """A controller that accepted the goal late runs behind the execution's clock: an object
     appearing on the stretch of path between the arm and the clock's time must still stop it (a
     check from the clock's time alone finds the rest of the path free and the arm runs through)."""
-    bus = SimBus(mycobot)
-    traj = sweep(mycobot)
-    jt = start_sweep(mycobot, bus, traj)
-    scene = PlanningScene(mycobot)
-    box = flange_box(mycobot, 0.0, size=0.04)
-    probe = scene.copy()
-    probe.add_object(box)
+    bus, traj, jt, scene, box, judge = sweep_with_a_box(mycobot, 0.0)
     path = PathAhead(mycobot, traj)
-    hit = path.first_collision(probe, 0.0)
-    last = max(t for t, q in zip(path.times, path.positions) if collides(probe, mycobot, q))
-    lag = last - hit.time + 0.3
+    hit = path.first_collision(judge, 0.0)
+    last = max(t for t, q in zip(path.times, path.positions) if collides(judge, mycobot, q))
     manager, intrusion = watched_manager(mycobot, bus, scene)
-    arm = bus.controllers["arm_controller"]
-    original = arm.send
-
-    def late_send(trajectory, now):  # the first goal starts ``lag`` s after it was sent
-        original(trajectory, now)
-        if len(arm.sent) == 1:
-            arm.start = now + lag
-    arm.send = late_send
+    start_late(bus, last - hit.time + 0.3)
     # on the clock the path has left the box; the arm has not reached it yet
     intrusion.at(last + 0.05, lambda s: s.add_object(box))
     result = manager.execute(jt)
     assert result.error_code.val == INVALIDATED, result.message
     final = [bus.positions[n] for n in ARM]
-    assert final[0] < 0.0 and not collides(probe, mycobot, final)
+    assert final[0] < 0.0 and not collides(judge, mycobot, final)
 
 
 def test_a_stop_of_an_arm_behind_the_clock_begins_where_the_arm_is(mycobot):
     """The stop along the path of an arm running 0.5 s behind the clock starts at the arm's own
     position (a stop from where the clock says would first jump the arm ahead along the path)."""
-    bus = SimBus(mycobot)
-    traj = sweep(mycobot)
-    jt = start_sweep(mycobot, bus, traj)
-    scene = PlanningScene(mycobot)
-    box = flange_box(mycobot, 0.3, size=0.04)
-    probe = scene.copy()
-    probe.add_object(box)
-    hit = PathAhead(mycobot, traj).first_collision(probe, 0.0)
+    bus, traj, jt, scene, box, judge = sweep_with_a_box(mycobot, 0.3)
+    hit = PathAhead(mycobot, traj).first_collision(judge, 0.0)
     manager, intrusion = watched_manager(mycobot, bus, scene)
-    arm = bus.controllers["arm_controller"]
-    original = arm.send
     at_stop: list[list[float]] = []
-
-    def late_send(trajectory, now):
-        if len(arm.sent) == 1:
-            at_stop.append([bus.positions[n] for n in trajectory.joint_names])
-        original(trajectory, now)
-        if len(arm.sent) == 1:
-            arm.start = now + 0.5
-    arm.send = late_send
+    arm = start_late(bus, 0.5, at_stop)
     intrusion.at(hit.free_until - 0.1, lambda s: s.add_object(box))
     result = manager.execute(jt)
     assert result.error_code.val == INVALIDATED, result.message
@@ -244,7 +245,7 @@ def test_a_stop_of_an_arm_behind_the_clock_begins_where_the_arm_is(mycobot):
     stop = arm.sent[1]
     assert np.max(np.abs(np.array(stop.points[0].positions) - np.array(at_stop[0]))) < 0.05
     final = [bus.positions[n] for n in ARM]
-    assert final[0] < 0.3 and not collides(probe, mycobot, final)
+    assert final[0] < 0.3 and not collides(judge, mycobot, final)
 
 
 def test_a_task_solution_stops_at_the_step_whose_path_became_invalid(mycobot):

@@ -25,10 +25,12 @@ FIGURES = re.compile(r"Simulated object at \(([-0-9.]+), ([-0-9.]+), ([-0-9.]+)\
                      r"([0-9.]+), tilt_deg ([0-9.]+), slip_mm ([0-9.na]+)")
 
 
-def run_demo(tmp_path, *args: str) -> tuple[int, str]:
+def run_demo(tmp_path, *args: str, which: str = "demo") -> tuple[int, str]:
+    """robot_demos' ``which`` (demo.sh's "demo" or perception_demo.sh's "perception") with --sim mujoco."""
     env = ros_env()
     env["MYCOBOT_DEMO_DIR"] = str(tmp_path / "demo")
-    run = subprocess.run([*DEMO, *args], cwd=REPO, env=env, capture_output=True, text=True, timeout=600)
+    command = [*DEMO[:3], which, *DEMO[4:], *args]
+    run = subprocess.run(command, cwd=REPO, env=env, capture_output=True, text=True, timeout=600)
     return run.returncode, run.stdout + run.stderr
 
 
@@ -53,6 +55,21 @@ def test_demo_sim_mujoco_places_the_cylinder_as_the_simulator_judges_it(tmp_path
     assert "mujoco_sim ready: arm_controller (6 joints, 100 Hz), grip_action_controller" in sim_log
     assert "Traceback" not in sim_log
     assert not (tmp_path / "demo" / "run" / "mujoco_sim.pid").exists()  # stopped again
+
+
+def test_perception_demo_sim_mujoco_picks_the_cylinder_the_rendered_cloud_shows(tmp_path):
+    """perception_demo.sh --sim mujoco: the cylinder's pose comes from the twin's rendered cloud
+    (perception_server), not from the simulator; perceived within 5 mm of the true pose, then
+    picked and placed as the simulator judges it."""
+    code, out = run_demo(tmp_path, which="perception")
+    assert code == 0, out[-6000:]
+    found = re.search(r"perception error: the perceived cylinder's centre is ([0-9.]+) mm from the simulated one", out)
+    assert found and float(found.group(1)) <= 5.0, out[-6000:]
+    assert "SUCCESS: the simulator says the object stands at the place pose" in out
+    position, place_error_mm, tilt_deg, slip_mm = figures(out)
+    assert np.linalg.norm(position - [-0.183, -0.14, 0.145]) <= 0.01
+    assert place_error_mm <= 10.0 and tilt_deg <= 5.0 and slip_mm <= 5.0
+    assert "Traceback" not in (tmp_path / "demo" / "mujoco_sim.log").read_text()
 
 
 def barely_closing_config(directory) -> str:

@@ -374,10 +374,10 @@ def test_apply_to_planning_server_puts_the_objects_into_the_scene(system):
 class _TaskNodeLike:
     """What PerceptionObjectSource needs of mtc_node: a node, params, scene_interface, model."""
 
-    def __init__(self, node: Node, scene: PlanningSceneInterface, model: RobotModel) -> None:
+    def __init__(self, node: Node, scene: PlanningSceneInterface, model: RobotModel, **more: object) -> None:
         self._node, self.scene_interface, self.model = node, scene, model
-        self.params = type("P", (), {"get": staticmethod(lambda name: {
-            "use_perception": True, "perception_server": "/perception_server", "perception_timeout": 30.0}[name])})()
+        values = {"use_perception": True, "perception_server": "/perception_server", "perception_timeout": 30.0, **more}
+        self.params = type("P", (), {"get": staticmethod(lambda name: values[name])})()
 
     def get_logger(self):
         return self._node.get_logger()
@@ -409,6 +409,12 @@ def test_perception_object_source_replaces_the_seed_objects(system):
         scene.move_object("cylinder_0", [-0.18, -0.14, 0.145, 0, 0, 0, 1])
         assert source.setup_planning_scene(params) is out
         assert scene.get_object_poses(["cylinder_0"])["cylinder_0"].position[0] == pytest.approx(-0.18)
+        # perception_padding widens the perceived cylinder for planning (the scene and the task's dimensions)
+        padded = PerceptionObjectSource(_TaskNodeLike(node, scene, RobotModel.mycobot(), perception_padding=0.005))
+        wide = padded.setup_planning_scene(params)
+        assert wide.object_dimensions[1] == pytest.approx(out.object_dimensions[1] + 0.005, abs=2e-4)
+        assert scene.get_objects()["cylinder_0"].primitives[0].dimensions[1] == pytest.approx(
+            wide.object_dimensions[1])
         # no perception_server answering: a clear ValueError
         lost = PerceptionObjectSource(owner, server="/no_perception_server", timeout=0.5)
         with pytest.raises(ValueError, match="no server '/no_perception_server' answering"):

@@ -29,7 +29,7 @@ from interfaces_py.clients import PlanningSceneInterface
 from interfaces_py.perception_client import PerceptionClient, RpcError
 from mycobot_planning.demos import pick_place_report
 from mycobot_planning.demos.pick_place import load_parameters
-from mycobot_planning.demos.sim_pick_place import floor_object, padded_dimensions
+from mycobot_planning.demos.sim_pick_place import PLANNING_CLEARANCE, floor_object, padded_dimensions
 from mycobot_planning.paths import config_file, use_fast_discovery
 from mycobot_planning.ros.bringup import robot as bringup
 from mycobot_planning.ros.bringup.process import ManagedProcess
@@ -389,9 +389,10 @@ def sim_perception_demo(sim: str, argv: list[str]) -> int:
                                    truth=lambda name: observer.wait_for_pose(name, demo.start_timeout)):
                 return 1
         demo.report_viewer()
-        demo.say("running mtc_node with use_perception:=true (plan, then execute in the simulation)")
+        demo.say(f"running mtc_node with use_perception:=true, the perceived cylinder padded by "
+                 f"{PLANNING_CLEARANCE * 1000:g} mm for planning (plan, then execute in the simulation)")
         node_code = demo.run_mtc_node(["-p", "use_perception:=true", "-p", "perception_server:=/perception_server",
-                                       *argv])
+                                       "-p", f"perception_padding:={PLANNING_CLEARANCE}", *argv])
         print(f"\n[perception demo] mtc_node exited with code {node_code}", flush=True)
         demo.say("what the planning scene says (mtc_node's view; the simulator's verdict follows):")
         pick_place_report.main(["--perception", str(demo.dir / "mtc_node.log"), demo.params, str(node_code), *argv])

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Iterable, Sequence
 
 import numpy as np
@@ -50,6 +50,11 @@ def perception_parameter_specs(server: str = DEFAULT_PERCEPTION_SERVER) -> list[
                       validator=_server_name),
         ParameterSpec("perception_timeout", 30.0, "seconds to wait for the perception_server's answer",
                       range=(0.1, 600.0)),
+        ParameterSpec("perception_padding", 0.0, "metres added to the perceived target cylinder's radius before it "
+                      "enters the planning scene and the task: the planner keeps no distance from obstacles "
+                      "(MoveIt's padding defaults to 0), and a path grazing a real object knocks it (the twin's "
+                      "perception demo uses 0.005, as demo.sh --sim mujoco pads the seed's cylinder)",
+                      range=(0.0, 0.05)),
     ]
 
 
@@ -159,6 +164,11 @@ class PerceptionObjectSource:
     def timeout(self) -> float:
         return float(self._timeout if self._timeout is not None else self._param("perception_timeout", 30.0))
 
+    @property
+    def padding(self) -> float:
+        """The node's ``perception_padding`` parameter (m added to the target's radius)."""
+        return float(self._param("perception_padding", 0.0))
+
     def _log(self, text: str, level: str = "info") -> None:
         # rclpy refuses a call site whose severity changes: one call per severity.
         if level == "warning":
@@ -209,14 +219,20 @@ class PerceptionObjectSource:
         """Detect, update the planning_server's scene, and return ``params`` (PickPlaceParameters)
         pointing at the detected cylinder and support surface (see docs/nodes.md (mycobot_planning.ros.perception.perception_object_source)).
         ValueError when perception or the scene update fails (the task is not built)."""
+        padding = self.padding
         key = (tuple(params.object_dimensions), params.world_frame, params.object_name, params.table_name,
-               self._server)
+               self._server, padding)
         if key == self._key and self._params_out is not None and not force and self._scene_still_set_up(params):
             return self._params_out
         height, radius = (float(v) for v in params.object_dimensions)
         self._log(f"Taking the object from perception: asking {self._server} for a cylinder of height "
                   f"{height:.4f} m and radius {radius:.4f} m")
         perceived = self.fetch("cylinder", [height, radius], params.world_frame)
+        seen_radius = perceived.target_dimensions()[1]
+        if padding > 0.0:
+            t = perceived.target
+            perceived = replace(perceived, target=CollisionObject.cylinder(
+                t.id, perceived.target_dimensions()[0], seen_radius + padding, t.pose.to_matrix(), t.frame_id))
         result = perceived.result
         for line in _summary_lines(result):
             self._log(line)
@@ -247,7 +263,8 @@ class PerceptionObjectSource:
         if getattr(params, "surface_link", ""):
             out = out.with_changes(surface_link=surface.id)
         self._key, self._params_out = key, out
-        self._log(f"Perception target '{target.id}': height {h:.4f} m, radius {r:.4f} m, base at "
+        padded = f" (perceived {seen_radius:.4f} m + perception_padding {padding:g} m)" if padding > 0.0 else ""
+        self._log(f"Perception target '{target.id}': height {h:.4f} m, radius {r:.4f} m{padded}, base at "
                   f"({base_point[0]:.4f}, {base_point[1]:.4f}, {base_point[2]:.4f}), roll/pitch/yaw "
                   f"({math.degrees(roll):.2f}, {math.degrees(pitch):.2f}, {math.degrees(yaw):.2f}) deg on '{surface.id}'")
         return out
