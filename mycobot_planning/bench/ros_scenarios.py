@@ -315,34 +315,15 @@ class _NoControllers:
         return None
 
 
-def _events_executor(context: Any) -> Any:
-    from rclpy.experimental import EventsExecutor
-
-    return EventsExecutor(context=context)
-
-
-def _single_threaded_executor(context: Any) -> Any:
-    from rclpy.executors import SingleThreadedExecutor
-
-    return SingleThreadedExecutor(context=context)
-
-
-#: the client's executor, each measured (interleaved): rclpy's EventsExecutor (C++; the figures of
-#: the summary) and its SingleThreadedExecutor (Python: its spin_until_future_complete alone costs
-#: milliseconds per call, a cost of the client, not of the server measured)
-CLIENT_EXECUTORS = {"events": _events_executor, "single": _single_threaded_executor}
-
-
 def bench_moveit_api(repeat: int, seed: int) -> None:
     """move_group's services end to end (GetMotionPlan with a joint goal and GetPositionIK, myCobot,
     empty scene) from a client process, against the same typed capability calls in-process
     (capabilities.plan.plan, capabilities.kinematics.compute_ik: what the moveit_msgs face calls):
-    the difference is what the moveit_msgs face and ROS transport cost. The client calls through
-    two executors in turn (CLIENT_EXECUTORS): the summary's figures are the EventsExecutor
-    client's, ``single_threaded_client`` the same figures through a SingleThreadedExecutor."""
+    the difference is what the moveit_msgs face and ROS transport cost."""
     import rclpy
     from moveit_msgs.msg import Constraints, JointConstraint
     from moveit_msgs.srv import GetMotionPlan, GetPositionIK
+    from rclpy.executors import SingleThreadedExecutor
     from rclpy.node import Node
 
     from mycobot_planning.core.trajectory_execution import load_controllers
@@ -388,23 +369,19 @@ def bench_moveit_api(repeat: int, seed: int) -> None:
                                                   allowed_planning_time=5.0, num_planning_attempts=1),
                          start, display=False)
     with RobotProcesses(bench_domain_id()):
-        contexts, clients = [], {}
+        context = rclpy.Context()
+        rclpy.init(context=context)
+        node = Node("bench_moveit_api", context=context)
+        executor = SingleThreadedExecutor(context=context)
+        executor.add_node(node)
+        plan_client = node.create_client(GetMotionPlan, "/plan_kinematic_path")
+        ik_client = node.create_client(GetPositionIK, "/compute_ik")
         try:
-            for kind, make in CLIENT_EXECUTORS.items():
-                context = rclpy.Context()
-                rclpy.init(context=context)
-                contexts.append(context)
-                node = Node(f"bench_moveit_api_{kind}", context=context)
-                executor = make(context)
-                executor.add_node(node)
-                clients[kind] = (executor, node.create_client(GetMotionPlan, "/plan_kinematic_path"),
-                                 node.create_client(GetPositionIK, "/compute_ik"))
-                for client in clients[kind][1:]:
-                    if not client.wait_for_service(timeout_sec=30.0):
-                        raise RuntimeError(f"{client.srv_name} is not offered")
+            for client in (plan_client, ik_client):
+                if not client.wait_for_service(timeout_sec=30.0):
+                    raise RuntimeError(f"{client.srv_name} is not offered")
 
-            def call(kind: str, which: int, request: Any) -> Any:
-                executor, client = clients[kind][0], clients[kind][which]
+            def call(client: Any, request: Any) -> Any:
                 future = client.call_async(request)
                 executor.spin_until_future_complete(future, timeout_sec=30.0)
                 if not future.done():
@@ -420,60 +397,51 @@ def bench_moveit_api(repeat: int, seed: int) -> None:
                     raise RuntimeError(f"IK failed: {response.error_code.message}")
 
             for i in range(3):  # warm-up: discovery, caches, IK seed tables (untimed)
-                for kind in clients:
-                    ok_plan(call(kind, 1, plan_request(_GOALS[i % 2])))
-                    ok_ik(call(kind, 2, ik_request(poses[i % 2])))
+                ok_plan(call(plan_client, plan_request(_GOALS[i % 2])))
+                ok_ik(call(ik_client, ik_request(poses[i % 2])))
                 plan_local(_GOALS[i % 2])
                 kinematics.compute_ik(local, "arm", pose_matrices[i % 2], seed=start)
-            keys = ["plan_local", "ik_local"] + [f"{what}_{kind}" for kind in clients for what in ("plan", "ik")]
-            samples: dict[str, list[float]] = {k: [] for k in keys}
+            samples: dict[str, list[float]] = {"plan": [], "plan_local": [], "ik": [], "ik_local": []}
             medians: list[float] = []
             for index in range(repeat):
                 run: dict[str, list[float]] = {k: [] for k in samples}
                 for k in range(MOVEIT_API_CALLS):
                     goal, pose = _GOALS[k % 2], poses[k % 2]
-                    for kind in clients:  # the two clients and the in-process calls interleaved
-                        t0 = time.perf_counter()
-                        ok_plan(call(kind, 1, plan_request(goal)))
-                        run[f"plan_{kind}"].append(time.perf_counter() - t0)
-                        t0 = time.perf_counter()
-                        ok_ik(call(kind, 2, ik_request(pose)))
-                        run[f"ik_{kind}"].append(time.perf_counter() - t0)
                     t0 = time.perf_counter()
+                    ok_plan(call(plan_client, plan_request(goal)))
+                    t1 = time.perf_counter()
                     result = plan_local(goal)
-                    run["plan_local"].append(time.perf_counter() - t0)
+                    t2 = time.perf_counter()
                     if result.error_code.val != 1:
                         raise RuntimeError(f"in-process plan failed: {result.error_code.message}")
-                    t0 = time.perf_counter()
+                    ok_ik(call(ik_client, ik_request(pose)))
+                    t3 = time.perf_counter()
                     code, _ = kinematics.compute_ik(local, "arm", pose_matrices[k % 2], seed=start)
-                    run["ik_local"].append(time.perf_counter() - t0)
+                    t4 = time.perf_counter()
                     if code.val != 1:
                         raise RuntimeError(f"in-process IK failed: {code.message}")
+                    for key, value in (("plan", t1 - t0), ("plan_local", t2 - t1), ("ik", t3 - t2),
+                                       ("ik_local", t4 - t3)):
+                        run[key].append(value)
                 record = {"scenario": "moveit_api", "repeat": index, "calls": MOVEIT_API_CALLS}
                 for key, values in run.items():
                     record[f"{key}_median_ms"] = round(float(np.median(values)) * 1e3, 3)
                     samples[key] += values
-                medians.append(record["plan_events_median_ms"])
+                medians.append(record["plan_median_ms"])
                 emit(record)
         finally:
-            for executor, *_ in clients.values():
-                executor.shutdown()
-            for context in contexts:
-                rclpy.try_shutdown(context=context)
+            executor.shutdown()
+            node.destroy_node()
+            rclpy.try_shutdown(context=context)
     med = {key: float(np.median(values)) * 1e3 for key, values in samples.items()}
-
-    def figures(kind: str) -> dict[str, float]:
-        out = {"plan_median_ms": round(med[f"plan_{kind}"], 3), "ik_median_ms": round(med[f"ik_{kind}"], 3),
-               "plan_overhead_ms": round(med[f"plan_{kind}"] - med["plan_local"], 3),
-               "ik_overhead_ms": round(med[f"ik_{kind}"] - med["ik_local"], 3)}
-        out["overhead_ms"] = max(out["plan_overhead_ms"], out["ik_overhead_ms"])
-        return out
     summary = {
-        "scenario": "moveit_api", "summary": True, "calls": len(samples["plan_local"]), "client": "events",
-        **figures("events"),
-        "plan_in_process_median_ms": round(med["plan_local"], 3), "ik_in_process_median_ms": round(med["ik_local"], 3),
-        "single_threaded_client": figures("single"),
+        "scenario": "moveit_api", "summary": True, "calls": len(samples["plan"]),
+        "plan_median_ms": round(med["plan"], 3), "plan_in_process_median_ms": round(med["plan_local"], 3),
+        "ik_median_ms": round(med["ik"], 3), "ik_in_process_median_ms": round(med["ik_local"], 3),
+        "plan_overhead_ms": round(med["plan"] - med["plan_local"], 3),
+        "ik_overhead_ms": round(med["ik"] - med["ik_local"], 3),
     }
+    summary["overhead_ms"] = max(summary["plan_overhead_ms"], summary["ik_overhead_ms"])
     emit({**summary, **spread(medians), **machine()})
 
 
