@@ -108,7 +108,7 @@ def test_pipeline_specs_accept_infinite_crop_bounds_but_not_nan():
     assert "within" in specs["angle_tolerance"].check(1.5)
     assert specs["point_cloud_topic"].read_only
     names = [s.name for s in perception_parameter_specs()]
-    assert names == ["use_perception", "perception_server", "perception_timeout"]
+    assert names == ["use_perception", "perception_server", "perception_timeout", "perception_padding"]
 
 
 def test_fixed_frames_relate_and_moving_frames_are_refused():

@@ -37,6 +37,8 @@ MIN_STOP_LEAD = 0.008
 #: s before the clock's time searched for the arm's place on the path when a stop begins (a
 #: window, not the whole past: a path that passes a state twice must not send the stop back)
 STOP_LOCATE_WINDOW = 1.0
+#: s after the clock's time searched likewise (as before the window grew: an arm is not ahead of it)
+STOP_LOCATE_AHEAD = 0.05
 #: s: how soon a halt (no room to decelerate) holds the joints where they were last seen
 HALT_TIME = 0.02
 #: s: how long a new execution waits for one that is stopping (decelerating to rest) to end
@@ -389,7 +391,7 @@ class TrajectoryExecutionManager:
                 # where the arm really is (a controller that accepted the goal late runs behind
                 # the clock, on a loaded machine by half a second), plus how old that joint state is
                 t_arm = ahead.locate(np.array([fresh[n] for n in ahead.joint_names]), t_arm,
-                                     window=STOP_LOCATE_WINDOW) + age
+                                     window=STOP_LOCATE_WINDOW, ahead=STOP_LOCATE_AHEAD) + age
             if hit is not None and before is None:
                 break
             plan = stopping_trajectory(path, t_arm + lead, limits, before)

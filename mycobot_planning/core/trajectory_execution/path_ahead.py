@@ -118,12 +118,12 @@ class PathAhead:
                 near = mid
         return j
 
-    def locate(self, positions: np.ndarray, around: float, window: float = 0.3) -> float:
-        """The time on the path (within ``window`` s before and a sixth of it after ``around``)
-        whose state is nearest ``positions`` (the trajectory's joints, max-norm): where a
-        controller that started late or runs behind really is."""
+    def locate(self, positions: np.ndarray, around: float, window: float = 0.3, ahead: float | None = None) -> float:
+        """The time on the path (within ``window`` s before and ``ahead`` s, by default a sixth
+        of the window, after ``around``) whose state is nearest ``positions`` (the trajectory's
+        joints, max-norm): where a controller that started late or runs behind really is."""
         lo = np.searchsorted(self.times, around - window)
-        hi = np.searchsorted(self.times, around + window / 6.0, side="right")
+        hi = np.searchsorted(self.times, around + (window / 6.0 if ahead is None else ahead), side="right")
         if hi <= lo:
             return float(min(max(around, 0.0), self.duration))
         error = np.max(np.abs(self.positions[lo:hi] - np.asarray(positions, dtype=float)), axis=1)
