@@ -156,10 +156,7 @@ class ContainerBase(Stage):
             raise InitStageException(self, "no children (an empty container cannot produce solutions)")
         errors = InitStageException()
         for child in self._children:
-            try:
-                child.init(robot_model)
-            except InitStageException as exc:
-                errors.append(exc)
+            errors.collect(child.init, robot_model)
         if errors:
             raise errors
 

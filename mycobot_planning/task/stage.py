@@ -295,6 +295,17 @@ class Stage:
             return False
         return True
 
+    def _check_eef(self, eef: Any, robot_model: "RobotModel", errors: InitStageException) -> bool:
+        """Whether ``eef`` (the property 'eef') names an end effector of the model; an unknown one
+        is reported in ``errors``, an undefined one (None) is not."""
+        if eef is None:
+            return False
+        if eef not in robot_model.end_effectors:
+            errors.push_back(self, f"property 'eef': unknown end effector '{eef}'; known: "
+                                   f"{', '.join(robot_model.end_effectors) or 'none'}")
+            return False
+        return True
+
     def timeout_or(self, default: float) -> float:
         value = self._properties.get("timeout")
         return default if value is None else float(value)
@@ -526,11 +537,7 @@ class MonitoringGenerator(Generator):
         return self._monitored if isinstance(self._monitored, Stage) else None
 
     def init(self, robot_model: "RobotModel") -> None:
-        errors = InitStageException()
-        try:
-            super().init(robot_model)
-        except InitStageException as exc:
-            errors.append(exc)
+        errors = InitStageException().collect(super().init, robot_model)
         monitored = self._monitored
         if isinstance(monitored, str):
             root = self._context.root if self._context is not None else None

@@ -80,16 +80,10 @@ class ComputeIK(WrapperBase):
         self._upstream.clear()
 
     def init(self, robot_model) -> None:
-        errors = InitStageException()
-        try:
-            super().init(robot_model)
-        except InitStageException as exc:
-            errors.append(exc)
+        errors = InitStageException().collect(super().init, robot_model)
         p = self._properties
         eef, group = p["eef"], p["group"]
-        if eef is not None and eef not in robot_model.end_effectors:
-            errors.push_back(self, f"property 'eef': unknown end effector '{eef}'; known: "
-                                   f"{', '.join(robot_model.end_effectors) or 'none'}")
+        self._check_eef(eef, robot_model, errors)
         if group is not None:
             self._check_group("group", group, robot_model, errors)
         if eef is None and group is None and not (p.property("eef").initsFrom(self.INTERFACE)

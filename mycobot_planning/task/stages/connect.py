@@ -61,11 +61,7 @@ class Connect(Connecting):
         super().reset()
 
     def init(self, robot_model) -> None:
-        errors = InitStageException()
-        try:
-            super().init(robot_model)
-        except InitStageException as exc:
-            errors.append(exc)
+        errors = InitStageException().collect(super().init, robot_model)
         if not self._planners:
             errors.push_back(self, "empty set of groups (give (group, planner) pairs)")
         groups = []

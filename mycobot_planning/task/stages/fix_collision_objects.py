@@ -71,11 +71,7 @@ class FixCollisionObjects(PropagatingEitherWay):
         self._properties.set("direction", direction)
 
     def init(self, robot_model) -> None:
-        errors = InitStageException()
-        try:
-            super().init(robot_model)
-        except InitStageException as exc:
-            errors.append(exc)
+        errors = InitStageException().collect(super().init, robot_model)
         value = self._require_property("max_penetration", errors)
         if value is not None and value < 0.0:
             errors.push_back(self, f"property 'max_penetration' must be >= 0, got {value:g}")

@@ -43,11 +43,7 @@ class FixedState(Generator):
         self._ran = False
 
     def init(self, robot_model) -> None:
-        errors = InitStageException()
-        try:
-            super().init(robot_model)
-        except InitStageException as exc:
-            errors.append(exc)
+        errors = InitStageException().collect(super().init, robot_model)
         if self._scene_msg is not None:
             try:
                 self._scene = PlanningScene.from_msg(robot_model, self._scene_msg)

@@ -74,29 +74,21 @@ class GenerateGraspPose(GeneratePose):
         self._properties.set("grasp", posture)
 
     def init(self, robot_model) -> None:
-        errors = InitStageException()
-        try:
-            super().init(robot_model)
-        except InitStageException as exc:
-            errors.append(exc)
+        errors = InitStageException().collect(super().init, robot_model)
         p = self._properties
         if p["angle_delta"] == 0.0:
             errors.push_back(self, "property 'angle_delta' must be non-zero")
         self._require_property("object", errors)
         eef = self._require_property("eef", errors)
-        if eef is not None:
-            if eef not in robot_model.end_effectors:
-                errors.push_back(self, f"property 'eef': unknown end effector '{eef}'; known: "
-                                       f"{', '.join(robot_model.end_effectors) or 'none'}")
+        if self._check_eef(eef, robot_model, errors):
+            posture = p["pregrasp"]
+            if posture is None:
+                errors.push_back(self, self._describe_undefined("pregrasp"))
             else:
-                posture = p["pregrasp"]
-                if posture is None:
-                    errors.push_back(self, self._describe_undefined("pregrasp"))
-                else:
-                    try:
-                        _apply_posture(PlanningScene(robot_model), robot_model.end_effectors[eef].group, posture)
-                    except ValueError as exc:
-                        errors.push_back(self, f"property 'pregrasp': invalid pregrasp: {exc}")
+                try:
+                    _apply_posture(PlanningScene(robot_model), robot_model.end_effectors[eef].group, posture)
+                except ValueError as exc:
+                    errors.push_back(self, f"property 'pregrasp': invalid pregrasp: {exc}")
         if errors:
             raise errors
 

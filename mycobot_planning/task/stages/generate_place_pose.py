@@ -26,11 +26,7 @@ class GeneratePlacePose(GeneratePose):
         self._properties.set("object", name)
 
     def init(self, robot_model) -> None:
-        errors = InitStageException()
-        try:
-            super().init(robot_model)
-        except InitStageException as exc:
-            errors.append(exc)
+        errors = InitStageException().collect(super().init, robot_model)
         self._require_property("object", errors)
         if errors:
             raise errors

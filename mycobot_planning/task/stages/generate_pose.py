@@ -37,11 +37,7 @@ class GeneratePose(MonitoringGenerator):
         self._upstream.clear()
 
     def init(self, robot_model) -> None:
-        errors = InitStageException()
-        try:
-            super().init(robot_model)
-        except InitStageException as exc:
-            errors.append(exc)
+        errors = InitStageException().collect(super().init, robot_model)
         if self._needs_pose:
             self._require_property("pose", errors)
         if errors:

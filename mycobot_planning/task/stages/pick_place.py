@@ -126,11 +126,7 @@ class PickPlaceBase(SerialContainer):
 
     # ------------------------------------------------------------------ life cycle
     def init(self, robot_model: RobotModel) -> None:
-        errors = InitStageException()
-        try:
-            Stage.init(self, robot_model)
-        except InitStageException as exc:
-            errors.append(exc)
+        errors = InitStageException().collect(Stage.init, self, robot_model)
         p = self._properties
         eef = p["eef"]
         eef_reported = True

@@ -44,11 +44,7 @@ class PlanningStage(PropagatingEitherWay):
 
     def _init_planner(self, robot_model: Any) -> InitStageException:
         """The base stage's init and the planner's, their errors collected (not raised)."""
-        errors = InitStageException()
-        try:
-            super().init(robot_model)
-        except InitStageException as exc:
-            errors.append(exc)
+        errors = InitStageException().collect(super().init, robot_model)
         if not isinstance(self._planner, PlannerInterface):
             errors.push_back(self, f"needs a planner (a PlannerInterface), got {type(self._planner).__name__}")
         else:

@@ -31,11 +31,7 @@ class PredicateFilter(WrapperBase):
         self._properties.set("ignore_filter", ignore)
 
     def init(self, robot_model) -> None:
-        errors = InitStageException()
-        try:
-            super().init(robot_model)
-        except InitStageException as exc:
-            errors.append(exc)
+        errors = InitStageException().collect(super().init, robot_model)
         if self._properties["predicate"] is None:
             errors.push_back(self, "property 'predicate' is not specified")
         if errors:

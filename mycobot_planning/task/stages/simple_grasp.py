@@ -200,28 +200,20 @@ class SimpleGraspBase(SerialContainer):
     # ------------------------------------------------------------------ life cycle
     def init(self, robot_model: RobotModel) -> None:
         self._model = robot_model
-        errors = InitStageException()
-        try:
-            Stage.init(self, robot_model)
-        except InitStageException as exc:
-            errors.append(exc)
+        errors = InitStageException().collect(Stage.init, self, robot_model)
         p = self._properties
         eef = p["eef"]
         if eef is None:
             if "eef" not in getattr(self, "_bad_properties", ()):
                 errors.push_back(self, "property 'eef' is undefined: set the end effector (setEndEffector) here or "
                                        "on the enclosing Pick / Place")
-        elif eef not in robot_model.end_effectors:
-            errors.push_back(self, f"property 'eef': unknown end effector '{eef}'; known: "
-                                   f"{', '.join(robot_model.end_effectors) or 'none'}")
+        else:
+            self._check_eef(eef, robot_model, errors)
         if p["object"] is None and "object" not in getattr(self, "_bad_properties", ()):
             errors.push_back(self, "property 'object' is undefined: set the object (setObject) here or on the "
                                    "enclosing Pick / Place")
         for child in self._children:
-            try:
-                child.init(robot_model)
-            except InitStageException as exc:
-                errors.append(exc)
+            errors.collect(child.init, robot_model)
         if errors:
             raise errors
 
