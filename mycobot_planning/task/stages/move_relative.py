@@ -22,7 +22,6 @@ from ..geometry import TwistStamped, Vector3Stamped, as_twist_stamped, as_vector
 from ..path_constraints import check_path_constraints
 from ..solvers import PlannerInterface
 from ..storage import BACKWARD, InterfaceState, SubTrajectory
-from ..trajectories import reverse_trajectory
 from .planning_stage import PlanningStage
 from .common import robot_tip_for_frame
 
@@ -88,15 +87,13 @@ class MoveRelative(PlanningStage):
             raise errors
 
     def _propagate(self, state: InterfaceState, direction: int):
-        scene = state.scene.diff()
+        scene, failure = self._start_propagation(state, "direction")
+        if failure is not None:
+            return False, scene, failure
         model = scene.robot_model
         props = self._properties
         group = props["group"]
-        if group is None or not model.has_group(group):
-            return False, scene, SubTrajectory.failure(f"invalid joint model group: {group}")
         motion = props["direction"]
-        if motion is None:
-            return False, scene, SubTrajectory.failure("undefined direction")
         jmg = model.group(group)
         timeout = self.timeout_or(1.0)
         max_distance = float(props["max_distance"])
@@ -105,8 +102,7 @@ class MoveRelative(PlanningStage):
             min_distance = -1.0  # equal bounds: move the full distance
         sign = 1.0 if direction != BACKWARD else -1.0
         context = self._context
-        constraints = props["path_constraints"]
-        extra = {"path_constraints": constraints} if constraints else {}
+        extra = self._planning_extras()
         solution = SubTrajectory(None, group, planner_id=self._planner.planner_id)
         if isinstance(motion, dict):
             target = scene.current_state.copy()
@@ -176,14 +172,5 @@ class MoveRelative(PlanningStage):
                     comment = f"failed to move full distance ({distance:.3g} {unit}): {result.message}"
         trajectory = self._planner.dense(result.trajectory)
         solution.planner_id = result.planner_id or solution.planner_id
-        if trajectory is None or len(trajectory) == 0:
-            solution.comment = comment or "planning failed"
-            return False, scene, solution
-        positions = state.scene.current_state.positions.copy()
-        positions[jmg.variable_indices] = trajectory.positions[-1]
-        scene.set_current_state(positions)
-        solution.trajectory = reverse_trajectory(trajectory) if direction == BACKWARD else trajectory
-        if not success:
-            solution.comment = comment or "planning failed"
-            return False, scene, solution
-        return True, scene, solution
+        return self._finish_propagation(state, scene, solution, trajectory, direction, success,
+                                        comment or "planning failed", comment or "planning failed")

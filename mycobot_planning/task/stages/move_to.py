@@ -20,8 +20,7 @@ from ...core.transforms import inverse
 from ..geometry import PointStamped, PoseStamped, as_point_stamped, as_pose_stamped, frame_transform
 from ..path_constraints import check_path_constraints
 from ..solvers import PlannerInterface
-from ..storage import BACKWARD, InterfaceState, SubTrajectory
-from ..trajectories import reverse_trajectory
+from ..storage import InterfaceState, SubTrajectory
 from .planning_stage import PlanningStage
 from .common import joint_goal_values, robot_tip_for_frame
 
@@ -65,20 +64,16 @@ class MoveTo(PlanningStage):
             raise errors
 
     def _propagate(self, state: InterfaceState, direction: int):
-        scene = state.scene.diff()
+        scene, failure = self._start_propagation(state, "goal")
+        if failure is not None:
+            return False, scene, failure
         model = scene.robot_model
         props = self._properties
         group = props["group"]
-        if group is None or not model.has_group(group):
-            return False, scene, SubTrajectory.failure(f"invalid joint model group: {group}")
         goal = props["goal"]
-        if goal is None:
-            return False, scene, SubTrajectory.failure("undefined goal")
         timeout = self.timeout_or(1.0)
         context = self._context
-        constraints = props["path_constraints"]
-        extra = {"path_constraints": constraints} if constraints else {}
-        jmg = model.group(group)
+        extra = self._planning_extras()
         values = joint_goal_values(model, group, goal) if not isinstance(goal, RobotState) else None
         if isinstance(goal, RobotState) or values is not None:
             target = scene.current_state.copy()
@@ -100,14 +95,5 @@ class MoveTo(PlanningStage):
             result = self._planner.plan_pose(state.scene, link, offset, target_pose, group, timeout, context, **extra)
         trajectory = self._planner.dense(result.trajectory)
         solution = SubTrajectory(None, group, planner_id=result.planner_id or self._planner.planner_id)
-        if trajectory is None or len(trajectory) == 0:
-            solution.comment = result.message or "planning failed"
-            return False, scene, solution
-        positions = state.scene.current_state.positions.copy()
-        positions[jmg.variable_indices] = trajectory.positions[-1]
-        scene.set_current_state(positions)
-        solution.trajectory = reverse_trajectory(trajectory) if direction == BACKWARD else trajectory
-        if not result.success:
-            solution.comment = result.message
-            return False, scene, solution
-        return True, scene, solution
+        return self._finish_propagation(state, scene, solution, trajectory, direction, result.success,
+                                        result.message or "planning failed", result.message)

@@ -5,12 +5,16 @@ from __future__ import annotations
 
 from typing import Any
 
+from ...core.planning_scene.planning_scene import PlanningScene
+
 from ..cost_terms import PathLength
 from ..errors import InitStageException
 from ..geometry import PoseStamped, as_pose_stamped
 from ..path_constraints import declare_path_constraints
 from ..solvers import PlannerInterface
 from ..stage import PropagatingEitherWay
+from ..storage import BACKWARD, InterfaceState, SubTrajectory
+from ..trajectories import reverse_trajectory
 
 
 class PlanningStage(PropagatingEitherWay):
@@ -53,3 +57,37 @@ class PlanningStage(PropagatingEitherWay):
             except (ValueError, TypeError) as exc:
                 errors.push_back(self, f"planner {type(self._planner).__name__}: {exc}")
         return errors
+
+    def _start_propagation(self, state: InterfaceState, motion: str) -> tuple[PlanningScene, SubTrajectory | None]:
+        """The scene to plan in (a diff of the state's), and the failure to report when the group
+        or the property ``motion`` (what to move to or by) is not usable (else None)."""
+        scene = state.scene.diff()
+        group = self._properties["group"]
+        if group is None or not scene.robot_model.has_group(group):
+            return scene, SubTrajectory.failure(f"invalid joint model group: {group}")
+        if self._properties[motion] is None:
+            return scene, SubTrajectory.failure(f"undefined {motion}")
+        return scene, None
+
+    def _planning_extras(self) -> dict[str, Any]:
+        """The keyword arguments of the planner's questions: the path constraints, when there are any."""
+        constraints = self._properties["path_constraints"]
+        return {"path_constraints": constraints} if constraints else {}
+
+    def _finish_propagation(self, state: InterfaceState, scene: PlanningScene, solution: SubTrajectory,
+                            trajectory: Any, direction: int, success: bool, empty_comment: str,
+                            failure_comment: str) -> tuple[bool, PlanningScene, SubTrajectory]:
+        """The propagation's answer from the planned group ``trajectory``: ``scene`` moved to its
+        end and the solution carrying it (reversed when planning backward), failed with
+        ``empty_comment`` when there is no trajectory, with ``failure_comment`` when not ``success``."""
+        if trajectory is None or len(trajectory) == 0:
+            solution.comment = empty_comment
+            return False, scene, solution
+        positions = state.scene.current_state.positions.copy()
+        positions[scene.robot_model.group(solution.group).variable_indices] = trajectory.positions[-1]
+        scene.set_current_state(positions)
+        solution.trajectory = reverse_trajectory(trajectory) if direction == BACKWARD else trajectory
+        if not success:
+            solution.comment = failure_comment
+            return False, scene, solution
+        return True, scene, solution
