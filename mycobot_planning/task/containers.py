@@ -428,6 +428,16 @@ class ParallelContainerBase(ContainerBase):
             if target is not None:
                 self._copy_state(external, target, updated, direction)
 
+    def _can_compute(self) -> bool:
+        """Whether any child can compute (the children work side by side)."""
+        return any(child._can_compute() for child in self._children)
+
+    def _compute(self) -> None:
+        """One compute step of every child that can compute."""
+        for child in self._children:
+            if child._can_compute():
+                child._run_compute()
+
     def _lift_wrapped(self, solution: SolutionBase, cost: float | None = None, comment: str | None = None) -> None:
         self._lift_solution(WrappedSolution(self, solution, cost, comment), solution.start, solution.end)  # type: ignore[arg-type]
 
@@ -444,14 +454,6 @@ class ParallelContainerBase(ContainerBase):
 
 class Alternatives(ParallelContainerBase):
     """All children get every state; every child solution is a solution of the container."""
-
-    def _can_compute(self) -> bool:
-        return any(child._can_compute() for child in self._children)
-
-    def _compute(self) -> None:
-        for child in self._children:
-            if child._can_compute():
-                child._run_compute()
 
     def _on_new_solution(self, solution: SolutionBase) -> None:
         self._lift_wrapped(solution)
@@ -629,14 +631,6 @@ class Merger(ParallelContainerBase):
         if self._required == CONNECT:
             raise InitStageException(self, "cannot merge connecting stages; use Connect with several groups")
         raise InitStageException(self, f"children's interface {interface_text(self._required)} is not supported")
-
-    def _can_compute(self) -> bool:
-        return any(child._can_compute() for child in self._children)
-
-    def _compute(self) -> None:
-        for child in self._children:
-            if child._can_compute():
-                child._run_compute()
 
     def _on_new_solution(self, solution: SolutionBase) -> None:
         if not isinstance(solution, SubTrajectory) or solution.trajectory is None:

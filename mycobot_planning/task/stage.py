@@ -17,7 +17,7 @@ from ..core.errors import PlanningError
 from ..core.planning_scene.planning_scene import PlanningScene
 from .errors import InitStageException, PropertyError, TaskError
 from .cost_terms import CostTerm, LambdaCostTerm
-from .properties import PropertyInitializerSource, PropertyMap
+from .properties import PropertyAttributes, PropertyInitializerSource, PropertyMap
 from .storage import (  # re-exported: these names were importable from here
     UNKNOWN,
     READS_START,
@@ -70,7 +70,7 @@ __all__ = [
     "WrappedSolution",
 ]
 
-class Stage:
+class Stage(PropertyAttributes):
     """Base of all stages. Properties read and write as attributes (``stage.group = "arm"``)
     or through ``stage.properties["group"]``, as in MTC's Python bindings."""
 
@@ -141,16 +141,6 @@ class Stage:
         return "/".join(reversed(names))
 
     # ------------------------------------------------------------------ properties
-    @property
-    def properties(self) -> PropertyMap:
-        return self._properties
-
-    def setProperty(self, name: str, value: Any) -> None:
-        self._properties.set(name, value)
-
-    def setTimeout(self, timeout: float) -> None:
-        self._properties.set("timeout", timeout)
-
     def setMarkerNS(self, ns: str) -> None:
         self._properties.set("marker_ns", ns)
 
@@ -160,27 +150,11 @@ class Stage:
     def setTrajectoryExecutionInfo(self, info: TrajectoryExecutionInfo | Iterable[str]) -> None:
         self._properties.set("trajectory_execution_info", info)
 
-    def __getattr__(self, name: str) -> Any:
-        # Only called when normal lookup fails: expose declared properties as attributes.
-        if name.startswith("_"):
-            raise AttributeError(name)
-        props = self.__dict__.get("_properties")
-        if props is not None and name in props:
-            return props[name]
-        raise AttributeError(f"{type(self).__name__} '{self.__dict__.get('_name', '?')}' has no attribute or "
-                             f"property '{name}'")
+    def _attribute_owner(self) -> str:
+        return f"{type(self).__name__} '{self.__dict__.get('_name', '?')}'"
 
-    def __setattr__(self, name: str, value: Any) -> None:
-        if name.startswith("_") or hasattr(type(self), name):
-            object.__setattr__(self, name, value)
-            return
-        props = self.__dict__.get("_properties")
-        if props is not None and name in props:
-            props.set(name, value)
-            return
-        known = ", ".join(sorted(props)) if props is not None else ""
-        raise AttributeError(f"{type(self).__name__} '{self._name}' has no property '{name}' (declared: {known}); "
-                             f"use stage.properties.set('{name}', value) to declare a new one")
+    def _undeclared_hint(self, name: str) -> str:
+        return f"; use stage.properties.set('{name}', value) to declare a new one"
 
     # ------------------------------------------------------------------ cost
     def setCostTerm(self, term: "CostTerm | Callable | None") -> None:
