@@ -366,29 +366,26 @@ class Stage(PropertyAttributes):
                 dest.properties[name] = source.properties[name]
 
     def _send_forward(self, from_state: InterfaceState, to_state: InterfaceState, solution: SolutionBase) -> None:
-        self._compute_cost(from_state, to_state, solution)
-        if not self._store_solution(solution, from_state, None):
-            return
-        self.forwardProperties(from_state, to_state)
-        to_state.lineage_depth = max(to_state.lineage_depth, from_state.lineage_depth)
-        self._states.append(to_state)
-        solution.set_start_state(from_state)
-        solution.set_end_state(to_state)
-        if not solution.is_failure:
-            self._next_starts.add(to_state)  # type: ignore[union-attr]
-        self._new_solution(solution)
+        self._send(from_state, to_state, solution, True)
 
     def _send_backward(self, from_state: InterfaceState, to_state: InterfaceState, solution: SolutionBase) -> None:
+        self._send(from_state, to_state, solution, False)
+
+    def _send(self, from_state: InterfaceState, to_state: InterfaceState, solution: SolutionBase, forward: bool) -> None:
+        """Store a propagated solution. The new state (``to_state`` when ``forward``, else
+        ``from_state``) takes the forwarded properties and the lineage of the other and, unless
+        the solution failed, goes to the next stage's starts (the previous stage's ends)."""
         self._compute_cost(from_state, to_state, solution)
-        if not self._store_solution(solution, None, to_state):
+        if not self._store_solution(solution, from_state if forward else None, None if forward else to_state):
             return
-        self.forwardProperties(to_state, from_state)
-        from_state.lineage_depth = max(from_state.lineage_depth, to_state.lineage_depth)
-        self._states.append(from_state)
+        source, new = (from_state, to_state) if forward else (to_state, from_state)
+        self.forwardProperties(source, new)
+        new.lineage_depth = max(new.lineage_depth, source.lineage_depth)
+        self._states.append(new)
         solution.set_start_state(from_state)
         solution.set_end_state(to_state)
         if not solution.is_failure:
-            self._prev_ends.add(from_state)  # type: ignore[union-attr]
+            (self._next_starts if forward else self._prev_ends).add(new)  # type: ignore[union-attr]
         self._new_solution(solution)
 
     def _spawn(self, from_state: InterfaceState, to_state: InterfaceState, solution: SolutionBase) -> None:
