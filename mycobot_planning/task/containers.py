@@ -231,6 +231,9 @@ class ContainerBase(Stage):
         """A child failed on a state (MTC prunes here; pruning is off by default in a Task)."""
 
     # ------------------------------------------------------------------ introspection
+    #: Whether the failure explanation names every child that failed (Alternatives), not only the first.
+    _explains_every_failed_child = False
+
     def _explain_failure(self) -> str:
         """MTC's ContainerBase::explainFailure: the first child without solutions that failed,
         with its first failure's comment; descend into children that neither succeeded nor
@@ -243,6 +246,8 @@ class ContainerBase(Stage):
                 continue
             if child._num_failures:
                 lines.append(f"{child.name} (0/{child._num_failures}){child._explain_failure()}")
+                if self._explains_every_failed_child:
+                    continue
                 break
             inner = child._explain_failure()
             if inner:
@@ -455,23 +460,10 @@ class ParallelContainerBase(ContainerBase):
 class Alternatives(ParallelContainerBase):
     """All children get every state; every child solution is a solution of the container."""
 
+    _explains_every_failed_child = True
+
     def _on_new_solution(self, solution: SolutionBase) -> None:
         self._lift_wrapped(solution)
-
-    def _explain_failure(self) -> str:
-        if self._failures:
-            return ": " + self._failures[0].comment
-        lines = []
-        for child in self._children:
-            if child._solutions:
-                continue
-            if child._num_failures:
-                lines.append(f"{child.name} (0/{child._num_failures}){child._explain_failure()}")
-            else:
-                inner = child._explain_failure()
-                if inner:
-                    lines.append(inner.lstrip(": "))
-        return "\n".join(lines)
 
 
 class Fallbacks(ParallelContainerBase):
