@@ -23,7 +23,7 @@ from ..path_constraints import check_path_constraints
 from ..solvers import PlannerInterface
 from ..storage import BACKWARD, InterfaceState, SubTrajectory
 from .planning_stage import PlanningStage
-from .common import robot_tip_for_frame
+from .common import first_conversion, robot_tip_for_frame
 
 _EPS = np.finfo(float).eps
 
@@ -38,12 +38,8 @@ def _as_direction(value: Any) -> Any:
                 raise ValueError("a joint-offset direction maps joint names to numbers")
             out[name] = float(offset)
         return out
-    for convert in (as_twist_stamped, as_vector3_stamped):
-        try:
-            return convert(value)
-        except (TypeError, ValueError):
-            pass
-    raise TypeError("expected a Vector3Stamped, a TwistStamped or a joint map of offsets")
+    return first_conversion(value, (as_twist_stamped, as_vector3_stamped),
+                            "expected a Vector3Stamped, a TwistStamped or a joint map of offsets")
 
 
 class MoveRelative(PlanningStage):

@@ -22,7 +22,7 @@ from ..path_constraints import check_path_constraints
 from ..solvers import PlannerInterface
 from ..storage import InterfaceState, SubTrajectory
 from .planning_stage import PlanningStage
-from .common import joint_goal_values, robot_tip_for_frame
+from .common import first_conversion, joint_goal_values, robot_tip_for_frame
 
 
 def _as_goal(value: Any) -> Any:
@@ -32,12 +32,8 @@ def _as_goal(value: Any) -> Any:
         if not value.is_diff:
             raise ValueError("a RobotState message goal must be a diff (is_diff=True)")
         return dict(value.joint_positions())
-    for convert in (as_pose_stamped, as_point_stamped):
-        try:
-            return convert(value)
-        except (TypeError, ValueError):
-            pass
-    raise TypeError("expected a named state, a joint map, a RobotState, a PoseStamped or a PointStamped")
+    return first_conversion(value, (as_pose_stamped, as_point_stamped),
+                            "expected a named state, a joint map, a RobotState, a PoseStamped or a PointStamped")
 
 
 class MoveTo(PlanningStage):
