@@ -18,8 +18,8 @@ import numpy as np
 import pinocchio as pin
 
 from ...core.transforms import inverse
+from ..errors import InitStageException
 from ..geometry import TwistStamped, Vector3Stamped, as_twist_stamped, as_vector3_stamped, frame_transform
-from ..path_constraints import check_path_constraints
 from ..solvers import PlannerInterface
 from ..storage import BACKWARD, InterfaceState, SubTrajectory
 from .planning_stage import PlanningStage
@@ -43,6 +43,8 @@ def _as_direction(value: Any) -> Any:
 
 
 class MoveRelative(PlanningStage):
+    _motion = "direction"
+
     def __init__(self, name: str = "move relative", planner: PlannerInterface | None = None) -> None:
         super().__init__(name, planner, "frame to be moved in Cartesian direction")
         p = self._properties
@@ -64,10 +66,7 @@ class MoveRelative(PlanningStage):
         self.setMinDistance(min_distance)
         self.setMaxDistance(max_distance)
 
-    def init(self, robot_model) -> None:
-        errors = self._init_planner(robot_model)
-        group = self._require_property("group", errors)
-        direction = self._require_property("direction", errors)
+    def _check_motion(self, robot_model: Any, group: Any, direction: Any, errors: InitStageException) -> None:
         if self._check_group("group", group, robot_model, errors) and isinstance(direction, dict):
             joints = robot_model.group(group).joint_names
             unknown = [name for name in direction if name not in joints]
@@ -78,12 +77,9 @@ class MoveRelative(PlanningStage):
                 and p["min_distance"] > p["max_distance"]:
             errors.push_back(self, f"property 'min_distance' ({p['min_distance']:g}) exceeds 'max_distance' "
                                    f"({p['max_distance']:g}): the motion can never succeed")
-        check_path_constraints(self, robot_model, errors)
-        if errors:
-            raise errors
 
     def _propagate(self, state: InterfaceState, direction: int):
-        scene, failure = self._start_propagation(state, "direction")
+        scene, failure = self._start_propagation(state)
         if failure is not None:
             return False, scene, failure
         model = scene.robot_model

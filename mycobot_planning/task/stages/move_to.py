@@ -17,8 +17,8 @@ from interfaces_py.msgs import RobotState as RobotStateMsg
 
 from ...core.robot_state.robot_state import RobotState
 from ...core.transforms import inverse
+from ..errors import InitStageException
 from ..geometry import PointStamped, PoseStamped, as_point_stamped, as_pose_stamped, frame_transform
-from ..path_constraints import check_path_constraints
 from ..solvers import PlannerInterface
 from ..storage import InterfaceState, SubTrajectory
 from .planning_stage import PlanningStage
@@ -37,6 +37,8 @@ def _as_goal(value: Any) -> Any:
 
 
 class MoveTo(PlanningStage):
+    _motion = "goal"
+
     def __init__(self, name: str = "move to", planner: PlannerInterface | None = None) -> None:
         super().__init__(name, planner, "frame to be moved towards the goal pose")
         p = self._properties
@@ -46,21 +48,15 @@ class MoveTo(PlanningStage):
     def setGoal(self, goal: Any) -> None:
         self._properties.set("goal", goal)
 
-    def init(self, robot_model) -> None:
-        errors = self._init_planner(robot_model)
-        group = self._require_property("group", errors)
-        goal = self._require_property("goal", errors)
-        if self._check_group("group", group, robot_model, errors) and goal is not None:
+    def _check_motion(self, robot_model: Any, group: Any, motion: Any, errors: InitStageException) -> None:
+        if self._check_group("group", group, robot_model, errors) and motion is not None:
             try:
-                joint_goal_values(robot_model, group, goal)
+                joint_goal_values(robot_model, group, motion)
             except ValueError as exc:
                 errors.push_back(self, f"property 'goal': {exc}")
-        check_path_constraints(self, robot_model, errors)
-        if errors:
-            raise errors
 
     def _propagate(self, state: InterfaceState, direction: int):
-        scene, failure = self._start_propagation(state, "goal")
+        scene, failure = self._start_propagation(state)
         if failure is not None:
             return False, scene, failure
         model = scene.robot_model

@@ -10,7 +10,7 @@ from ...core.planning_scene.planning_scene import PlanningScene
 from ..cost_terms import PathLength
 from ..errors import InitStageException
 from ..geometry import PoseStamped, as_pose_stamped
-from ..path_constraints import declare_path_constraints
+from ..path_constraints import check_path_constraints, declare_path_constraints
 from ..solvers import PlannerInterface
 from ..stage import PropagatingEitherWay
 from ..storage import BACKWARD, InterfaceState, SubTrajectory
@@ -19,6 +19,9 @@ from ..trajectories import reverse_trajectory
 
 class PlanningStage(PropagatingEitherWay):
     """``ik_frame_description`` says what the ik frame is moved to (the property's description)."""
+
+    #: The property that says where to move ("goal", "direction").
+    _motion = ""
 
     def __init__(self, name: str, planner: PlannerInterface | None, ik_frame_description: str) -> None:
         super().__init__(name)
@@ -46,6 +49,18 @@ class PlanningStage(PropagatingEitherWay):
     def setPathConstraints(self, path_constraints: Any) -> None:
         self._properties.set("path_constraints", path_constraints)
 
+    def init(self, robot_model: Any) -> None:
+        errors = self._init_planner(robot_model)
+        group = self._require_property("group", errors)
+        motion = self._require_property(self._motion, errors)
+        self._check_motion(robot_model, group, motion, errors)
+        check_path_constraints(self, robot_model, errors)
+        if errors:
+            raise errors
+
+    def _check_motion(self, robot_model: Any, group: Any, motion: Any, errors: InitStageException) -> None:
+        """The subclass's checks of the group and the motion at init, reported in ``errors``."""
+
     def _init_planner(self, robot_model: Any) -> InitStageException:
         """The base stage's init and the planner's, their errors collected (not raised)."""
         errors = InitStageException().collect(super().init, robot_model)
@@ -58,15 +73,15 @@ class PlanningStage(PropagatingEitherWay):
                 errors.push_back(self, f"planner {type(self._planner).__name__}: {exc}")
         return errors
 
-    def _start_propagation(self, state: InterfaceState, motion: str) -> tuple[PlanningScene, SubTrajectory | None]:
+    def _start_propagation(self, state: InterfaceState) -> tuple[PlanningScene, SubTrajectory | None]:
         """The scene to plan in (a diff of the state's), and the failure to report when the group
-        or the property ``motion`` (what to move to or by) is not usable (else None)."""
+        or the motion is not usable (else None)."""
         scene = state.scene.diff()
         group = self._properties["group"]
         if group is None or not scene.robot_model.has_group(group):
             return scene, SubTrajectory.failure(f"invalid joint model group: {group}")
-        if self._properties[motion] is None:
-            return scene, SubTrajectory.failure(f"undefined {motion}")
+        if self._properties[self._motion] is None:
+            return scene, SubTrajectory.failure(f"undefined {self._motion}")
         return scene, None
 
     def _planning_extras(self) -> dict[str, Any]:
