@@ -31,6 +31,23 @@ def scene_at(model: RobotModel, named: str = "ready", **joints: float) -> Planni
     return scene
 
 
+def current_state_task(model: RobotModel, name: str, named: str = "home") -> Task:
+    """A task that starts from the current state ("current") of the arm at ``named``."""
+    task = Task(name, model, scene_at(model, named))
+    task.add(stages.CurrentState("current"))
+    return task
+
+
+def panda_start_scene(model: RobotModel, arm: str = "panda_arm", hand: str = "hand") -> PlanningScene:
+    """The start of MTC's Panda demos: the arm at 'ready', the hand 'open'."""
+    scene = PlanningScene(model)
+    state = scene.current_state.copy()
+    state.set_named("ready", arm)
+    state.set_named("open", hand)
+    scene.set_current_state(state)
+    return scene
+
+
 def table_scene(model: RobotModel, named: str = "home") -> PlanningScene:
     """The seeds' pick-and-place table (0.10 x 0.20 x 0.03, top at z=0, centred (0.22, 0.12))
     with the cylinder 'object' (h 0.35, r 0.0125) standing on it."""
@@ -118,6 +135,36 @@ PLACE = make_pose([-0.183, -0.14, 0.185])
 CONTROLLERS = ["arm_controller", "grip_action_controller"]
 
 
+def _arm_container(task: Task, name: str) -> SerialContainer:
+    """A serial container that takes the task's eef, group and ik_frame (the seed's pick and place)."""
+    container = SerialContainer(name)
+    task.properties.exposeTo(container.properties, ["eef", "group", "ik_frame"])
+    container.properties.configureInitFrom(Stage.PARENT, ["eef", "group", "ik_frame"])
+    return container
+
+
+def _cartesian_move(name: str, planner: CartesianPath, min_distance: float, max_distance: float,
+                    direction: Vector3Stamped, ik_frame: str | None = None) -> stages.MoveRelative:
+    """A MoveRelative of the parent's group along ``direction`` (of the ik frame, when given)."""
+    stage = stages.MoveRelative(name, planner)
+    stage.properties.configureInitFrom(Stage.PARENT, ["group"])
+    stage.setMinMaxDistance(min_distance, max_distance)
+    if ik_frame is not None:
+        stage.setIKFrame(ik_frame)
+    stage.setDirection(direction)
+    return stage
+
+
+def _grasp_frame_ik(name: str, generator: Stage, max_solutions: int) -> stages.ComputeIK:
+    """IK of the grasp frame for the poses of ``generator``, eef and group from the parent."""
+    ik = stages.ComputeIK(name, generator)
+    ik.setMaxIKSolutions(max_solutions)
+    ik.setIKFrame(GRASP_FRAME, GRIPPER_FRAME)
+    ik.properties.configureInitFrom(Stage.PARENT, ["eef", "group"])
+    ik.properties.configureInitFrom(Stage.INTERFACE, ["target_pose"])
+    return ik
+
+
 def build_pick_place(model) -> Task:
     task = Task("pick_place_task", model, table_scene(model), seed=3)
     ompl = PipelinePlanner({"ompl": "arm[RRTConnectkConfigDefault]"})
@@ -141,27 +188,17 @@ def build_pick_place(model) -> Task:
     stage.properties.configureInitFrom(Stage.PARENT)
     task.add(stage)
 
-    grasp = SerialContainer("pick object")
-    task.properties.exposeTo(grasp.properties, ["eef", "group", "ik_frame"])
-    grasp.properties.configureInitFrom(Stage.PARENT, ["eef", "group", "ik_frame"])
-    stage = stages.MoveRelative("approach object", cartesian)
-    stage.properties.configureInitFrom(Stage.PARENT, ["group"])
-    stage.setMinMaxDistance(0.0015, 0.3)
-    stage.setDirection(Vector3Stamped(GRIPPER_FRAME, [0.0, 0.0, 1.0]))
-    grasp.insert(stage)
+    grasp = _arm_container(task, "pick object")
+    grasp.insert(_cartesian_move("approach object", cartesian, 0.0015, 0.3, Vector3Stamped(GRIPPER_FRAME, [0.0, 0.0, 1.0])))
     generator = stages.GenerateGraspPose("generate grasp pose")
     generator.properties.configureInitFrom(Stage.PARENT)
     generator.setPreGraspPose("open")
     generator.setObject("object")
     generator.setAngleDelta(0.2618)  # the seed's grasp_pose_angle_delta
     generator.setMonitoredStage(current)
-    ik = stages.ComputeIK("grasp pose IK", generator)
-    ik.setMaxIKSolutions(8)
+    ik = _grasp_frame_ik("grasp pose IK", generator, 8)
     ik.setMinSolutionDistance(1.0)
     ik.setTimeout(0.2)  # robust under load; the search usually saturates well before
-    ik.setIKFrame(GRASP_FRAME, GRIPPER_FRAME)
-    ik.properties.configureInitFrom(Stage.PARENT, ["eef", "group"])
-    ik.properties.configureInitFrom(Stage.INTERFACE, ["target_pose"])
     grasp.insert(ik)
     stage = stages.ModifyPlanningScene("allow collision (gripper,object)")
     stage.allowCollisions("object", model.group("gripper"), True)
@@ -176,12 +213,8 @@ def build_pick_place(model) -> Task:
     stage = stages.ModifyPlanningScene("allow collision (object,support)")
     stage.allowCollisions(["object"], ["table"], True)
     grasp.insert(stage)
-    stage = stages.MoveRelative("lift object", cartesian)
-    stage.properties.configureInitFrom(Stage.PARENT, ["group"])
-    stage.setMinMaxDistance(0.005, 0.3)
-    stage.setIKFrame(GRIPPER_FRAME)
-    stage.setDirection(Vector3Stamped("base_link", [0.0, 0.0, 1.0]))
-    grasp.insert(stage)
+    grasp.insert(_cartesian_move("lift object", cartesian, 0.005, 0.3, Vector3Stamped("base_link", [0.0, 0.0, 1.0]),
+                                 GRIPPER_FRAME))
     stage = stages.ModifyPlanningScene("forbid collision (object,surface)")
     stage.allowCollisions(["object"], ["table"], False)
     grasp.insert(stage)
@@ -192,25 +225,14 @@ def build_pick_place(model) -> Task:
     stage.properties.configureInitFrom(Stage.PARENT)
     task.add(stage)
 
-    place = SerialContainer("place object")
-    task.properties.exposeTo(place.properties, ["eef", "group", "ik_frame"])
-    place.properties.configureInitFrom(Stage.PARENT, ["eef", "group", "ik_frame"])
-    stage = stages.MoveRelative("lower object", cartesian)
-    stage.properties.configureInitFrom(Stage.PARENT, ["group"])
-    stage.setMinMaxDistance(0.005, 0.4)
-    stage.setDirection(Vector3Stamped("base_link", [0.0, 0.0, -1.0]))
-    place.insert(stage)
+    place = _arm_container(task, "place object")
+    place.insert(_cartesian_move("lower object", cartesian, 0.005, 0.4, Vector3Stamped("base_link", [0.0, 0.0, -1.0])))
     generator = stages.GeneratePlacePose("generate place pose")
     generator.properties.configureInitFrom(Stage.PARENT, ["ik_frame"])
     generator.setObject("object")
     generator.setPose(PoseStamped("base_link", PLACE))
     generator.setMonitoredStage(attach)
-    ik = stages.ComputeIK("place pose IK", generator)
-    ik.setMaxIKSolutions(2)
-    ik.setIKFrame(GRASP_FRAME, GRIPPER_FRAME)
-    ik.properties.configureInitFrom(Stage.PARENT, ["eef", "group"])
-    ik.properties.configureInitFrom(Stage.INTERFACE, ["target_pose"])
-    place.insert(ik)
+    place.insert(_grasp_frame_ik("place pose IK", generator, 2))
     stage = stages.MoveTo("open gripper", interpolation)
     stage.setGroup("gripper")
     stage.setGoal("open")
@@ -221,12 +243,8 @@ def build_pick_place(model) -> Task:
     stage = stages.ModifyPlanningScene("detach object")
     stage.detachObject("object", GRIPPER_FRAME)
     place.insert(stage)
-    stage = stages.MoveRelative("retreat after place", cartesian)
-    stage.properties.configureInitFrom(Stage.PARENT, ["group"])
-    stage.setMinMaxDistance(0.025, 0.25)
-    stage.setIKFrame(GRIPPER_FRAME)
-    stage.setDirection(Vector3Stamped(GRIPPER_FRAME, [0.0, 0.0, -1.0]))
-    place.insert(stage)
+    place.insert(_cartesian_move("retreat after place", cartesian, 0.025, 0.25,
+                                 Vector3Stamped(GRIPPER_FRAME, [0.0, 0.0, -1.0]), GRIPPER_FRAME))
     task.add(place)
 
     stage = stages.MoveTo("move home", ompl)
