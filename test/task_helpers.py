@@ -1,6 +1,8 @@
 """Shared helpers for the task-constructor tests (scenes, validation of whole solutions)."""
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from interfaces_py.msgs import CollisionObject, TaskSolution
@@ -155,6 +157,29 @@ def _cartesian_move(name: str, planner: CartesianPath, min_distance: float, max_
     return stage
 
 
+def _connect(name: str, ompl: PipelinePlanner, interpolation: JointInterpolationPlanner, timeout: float) -> stages.Connect:
+    """A Connect that plans the arm with OMPL and the gripper by interpolation, properties from the parent."""
+    stage = stages.Connect(name, [("arm", ompl), ("gripper", interpolation)])
+    stage.setTimeout(timeout)
+    stage.properties.configureInitFrom(Stage.PARENT)
+    return stage
+
+
+def _gripper_move(name: str, planner: JointInterpolationPlanner, goal: str) -> stages.MoveTo:
+    """A MoveTo of the gripper to its named state ``goal``."""
+    stage = stages.MoveTo(name, planner)
+    stage.setGroup("gripper")
+    stage.setGoal(goal)
+    return stage
+
+
+def _collisions(name: str, first: Any, second: Any, allow: bool) -> stages.ModifyPlanningScene:
+    """A ModifyPlanningScene that allows (or forbids) collisions between ``first`` and ``second``."""
+    stage = stages.ModifyPlanningScene(name)
+    stage.allowCollisions(first, second, allow)
+    return stage
+
+
 def _grasp_frame_ik(name: str, generator: Stage, max_solutions: int) -> stages.ComputeIK:
     """IK of the grasp frame for the poses of ``generator``, eef and group from the parent."""
     ik = stages.ComputeIK(name, generator)
@@ -178,15 +203,10 @@ def build_pick_place(model) -> Task:
 
     current = stages.CurrentState("current state")
     task.add(current)
-    stage = stages.MoveTo("open gripper", interpolation)
-    stage.setGroup("gripper")
-    stage.setGoal("open")
+    stage = _gripper_move("open gripper", interpolation, "open")
     stage.setTrajectoryExecutionInfo(CONTROLLERS)
     task.add(stage)
-    stage = stages.Connect("move to pick", [("arm", ompl), ("gripper", interpolation)])
-    stage.setTimeout(5.0)
-    stage.properties.configureInitFrom(Stage.PARENT)
-    task.add(stage)
+    task.add(_connect("move to pick", ompl, interpolation, 5.0))
 
     grasp = _arm_container(task, "pick object")
     grasp.insert(_cartesian_move("approach object", cartesian, 0.0015, 0.3, Vector3Stamped(GRIPPER_FRAME, [0.0, 0.0, 1.0])))
@@ -200,30 +220,18 @@ def build_pick_place(model) -> Task:
     ik.setMinSolutionDistance(1.0)
     ik.setTimeout(0.2)  # robust under load; the search usually saturates well before
     grasp.insert(ik)
-    stage = stages.ModifyPlanningScene("allow collision (gripper,object)")
-    stage.allowCollisions("object", model.group("gripper"), True)
-    grasp.insert(stage)
-    stage = stages.MoveTo("close gripper", interpolation)
-    stage.setGroup("gripper")
-    stage.setGoal("half_closed")
-    grasp.insert(stage)
+    grasp.insert(_collisions("allow collision (gripper,object)", "object", model.group("gripper"), True))
+    grasp.insert(_gripper_move("close gripper", interpolation, "half_closed"))
     attach = stages.ModifyPlanningScene("attach object")
     attach.attachObject("object", GRIPPER_FRAME)
     grasp.insert(attach)
-    stage = stages.ModifyPlanningScene("allow collision (object,support)")
-    stage.allowCollisions(["object"], ["table"], True)
-    grasp.insert(stage)
+    grasp.insert(_collisions("allow collision (object,support)", ["object"], ["table"], True))
     grasp.insert(_cartesian_move("lift object", cartesian, 0.005, 0.3, Vector3Stamped("base_link", [0.0, 0.0, 1.0]),
                                  GRIPPER_FRAME))
-    stage = stages.ModifyPlanningScene("forbid collision (object,surface)")
-    stage.allowCollisions(["object"], ["table"], False)
-    grasp.insert(stage)
+    grasp.insert(_collisions("forbid collision (object,surface)", ["object"], ["table"], False))
     task.add(grasp)
 
-    stage = stages.Connect("move to place", [("arm", ompl), ("gripper", interpolation)])
-    stage.setTimeout(10.0)
-    stage.properties.configureInitFrom(Stage.PARENT)
-    task.add(stage)
+    task.add(_connect("move to place", ompl, interpolation, 10.0))
 
     place = _arm_container(task, "place object")
     place.insert(_cartesian_move("lower object", cartesian, 0.005, 0.4, Vector3Stamped("base_link", [0.0, 0.0, -1.0])))
@@ -233,13 +241,8 @@ def build_pick_place(model) -> Task:
     generator.setPose(PoseStamped("base_link", PLACE))
     generator.setMonitoredStage(attach)
     place.insert(_grasp_frame_ik("place pose IK", generator, 2))
-    stage = stages.MoveTo("open gripper", interpolation)
-    stage.setGroup("gripper")
-    stage.setGoal("open")
-    place.insert(stage)
-    stage = stages.ModifyPlanningScene("forbid collision (gripper,object)")
-    stage.allowCollisions("object", model.group("gripper"), False)
-    place.insert(stage)
+    place.insert(_gripper_move("open gripper", interpolation, "open"))
+    place.insert(_collisions("forbid collision (gripper,object)", "object", model.group("gripper"), False))
     stage = stages.ModifyPlanningScene("detach object")
     stage.detachObject("object", GRIPPER_FRAME)
     place.insert(stage)
