@@ -338,6 +338,26 @@ class PropertyMap:
         return "PropertyMap(" + ", ".join(f"{k}={v!r}" for k, v in self.items()) + ")"
 
 
+class PropertySetter:
+    """MTC's one-line setter of a declared property, as a method: ``setGroup = PropertySetter("group",
+    str)`` gives ``stage.setGroup(value)``, which sets the property 'group' of its PropertyMap."""
+
+    def __init__(self, name: str, value_type: Any = Any) -> None:
+        def setter(self: Any, value: Any) -> None:  # (this self: the object the setter is called on)
+            self._properties.set(name, value)
+
+        setter.__annotations__ = {"value": value_type, "return": None}
+        setter.__doc__ = f"Set the property '{name}'."
+        self._setter = setter
+
+    def __set_name__(self, owner: type, attribute: str) -> None:
+        self._setter.__name__ = attribute
+        self._setter.__qualname__ = f"{owner.__qualname__}.{attribute}"
+
+    def __get__(self, obj: Any, owner: type | None = None) -> Callable[..., None]:
+        return self._setter.__get__(obj, owner)
+
+
 class PropertyAttributes:
     """Declared properties read and written as attributes (``stage.group = "arm"``) or through
     ``properties``, as in MTC's Python bindings: the base of the stages and the solvers, which
@@ -352,8 +372,7 @@ class PropertyAttributes:
     def setProperty(self, name: str, value: Any) -> None:
         self._properties.set(name, value)
 
-    def setTimeout(self, timeout: float) -> None:
-        self._properties.set("timeout", timeout)
+    setTimeout = PropertySetter("timeout", float)
 
     def _attribute_owner(self) -> str:
         """How the attribute errors name this object."""

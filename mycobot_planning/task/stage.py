@@ -17,7 +17,7 @@ from ..core.errors import PlanningError
 from ..core.planning_scene.planning_scene import PlanningScene
 from .errors import InitStageException, PropertyError, TaskError
 from .cost_terms import CostTerm, LambdaCostTerm
-from .properties import PropertyAttributes, PropertyInitializerSource, PropertyMap
+from .properties import PropertyAttributes, PropertyInitializerSource, PropertyMap, PropertySetter
 from .storage import (  # re-exported: these names were importable from here
     UNKNOWN,
     READS_START,
@@ -141,14 +141,9 @@ class Stage(PropertyAttributes):
         return "/".join(reversed(names))
 
     # ------------------------------------------------------------------ properties
-    def setMarkerNS(self, ns: str) -> None:
-        self._properties.set("marker_ns", ns)
-
-    def setForwardedProperties(self, names: Iterable[str]) -> None:
-        self._properties.set("forwarded_properties", names)
-
-    def setTrajectoryExecutionInfo(self, info: TrajectoryExecutionInfo | Iterable[str]) -> None:
-        self._properties.set("trajectory_execution_info", info)
+    setMarkerNS = PropertySetter("marker_ns", str)
+    setForwardedProperties = PropertySetter("forwarded_properties", Iterable[str])
+    setTrajectoryExecutionInfo = PropertySetter("trajectory_execution_info", TrajectoryExecutionInfo | Iterable[str])
 
     def _attribute_owner(self) -> str:
         return f"{type(self).__name__} '{self.__dict__.get('_name', '?')}'"

@@ -16,7 +16,7 @@ from ...core.planning_scene.planning_scene import PlanningScene
 from ...core.robot_trajectory.robot_trajectory import DEFAULT_MAX_WAYPOINT_DISTANCE, TimedTrajectory, limit_waypoint_distance
 from ..errors import PropertyError
 from ..path_constraints import PathConstraintsSpec, as_path_constraints
-from ..properties import PropertyAttributes, PropertyMap
+from ..properties import PropertyAttributes, PropertyMap, PropertySetter
 
 if TYPE_CHECKING:  # pragma: no cover
     from ...core.robot_model.robot_model import RobotModel
@@ -66,11 +66,8 @@ class PlannerInterface(PropertyAttributes):
                   "gives a stage (MTC's JointInterpolationPlanner max_step, 0.1): sparser ones get exact samples "
                   "of their own timing in between", type=float)
 
-    def setMaxVelocityScalingFactor(self, factor: float) -> None:
-        self._properties.set("max_velocity_scaling_factor", factor)
-
-    def setMaxAccelerationScalingFactor(self, factor: float) -> None:
-        self._properties.set("max_acceleration_scaling_factor", factor)
+    setMaxVelocityScalingFactor = PropertySetter("max_velocity_scaling_factor", float)
+    setMaxAccelerationScalingFactor = PropertySetter("max_acceleration_scaling_factor", float)
 
     def _scaling(self) -> tuple[float, float]:
         values = []

@@ -10,6 +10,7 @@ from ...core.errors import PlanningError
 from ...core.planning_scene.planning_scene import PlanningScene
 from ..cost_terms import Constant
 from ..errors import InitStageException, TaskError
+from ..properties import PropertySetter
 from ..stage import Generator
 from ..storage import InterfaceState, SubTrajectory
 
@@ -35,8 +36,7 @@ class FixedState(Generator):
             raise TaskError(f"stage '{self._name}': expected a PlanningScene or a planning-scene message, "
                             f"got {type(scene).__name__}")
 
-    def setIgnoreCollisions(self, ignore: bool) -> None:
-        self._properties.set("ignore_collisions", ignore)
+    setIgnoreCollisions = PropertySetter("ignore_collisions", bool)
 
     def reset(self) -> None:
         super().reset()

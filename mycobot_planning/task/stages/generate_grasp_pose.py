@@ -12,6 +12,7 @@ import pinocchio as pin
 from ...core.planning_scene.planning_scene import PlanningScene
 from ..errors import InitStageException
 from ..geometry import PoseStamped
+from ..properties import PropertySetter
 from ..storage import InterfaceState, SolutionBase, SubTrajectory
 from .generate_pose import GeneratePose
 
@@ -55,23 +56,12 @@ class GenerateGraspPose(GeneratePose):
         p.declare("pregrasp", description="pregrasp posture (named state or joint map)")
         p.declare("grasp", description="grasp posture (named state or joint map)")
 
-    def setEndEffector(self, eef: str) -> None:
-        self._properties.set("eef", eef)
-
-    def setObject(self, name: str) -> None:
-        self._properties.set("object", name)
-
-    def setAngleDelta(self, delta: float) -> None:
-        self._properties.set("angle_delta", delta)
-
-    def setRotationAxis(self, axis) -> None:
-        self._properties.set("rotation_axis", axis)
-
-    def setPreGraspPose(self, posture: Any) -> None:
-        self._properties.set("pregrasp", posture)
-
-    def setGraspPose(self, posture: Any) -> None:
-        self._properties.set("grasp", posture)
+    setEndEffector = PropertySetter("eef", str)
+    setObject = PropertySetter("object", str)
+    setAngleDelta = PropertySetter("angle_delta", float)
+    setRotationAxis = PropertySetter("rotation_axis", Any)
+    setPreGraspPose = PropertySetter("pregrasp", Any)
+    setGraspPose = PropertySetter("grasp", Any)
 
     def init(self, robot_model) -> None:
         errors = InitStageException().collect(super().init, robot_model)

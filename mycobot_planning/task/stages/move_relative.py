@@ -20,6 +20,7 @@ import pinocchio as pin
 from ...core.transforms import inverse
 from ..errors import InitStageException
 from ..geometry import TwistStamped, Vector3Stamped, as_twist_stamped, as_vector3_stamped, frame_transform
+from ..properties import PropertySetter
 from ..solvers import PlannerInterface
 from ..storage import BACKWARD, InterfaceState, SubTrajectory
 from .planning_stage import PlanningStage
@@ -53,14 +54,9 @@ class MoveRelative(PlanningStage):
         p.declare("max_distance", 0.0, "maximum distance to move", type=float)
         self._declare_path_constraints()
 
-    def setDirection(self, direction: Any) -> None:
-        self._properties.set("direction", direction)
-
-    def setMinDistance(self, distance: float) -> None:
-        self._properties.set("min_distance", distance)
-
-    def setMaxDistance(self, distance: float) -> None:
-        self._properties.set("max_distance", distance)
+    setDirection = PropertySetter("direction", Any)
+    setMinDistance = PropertySetter("min_distance", float)
+    setMaxDistance = PropertySetter("max_distance", float)
 
     def setMinMaxDistance(self, min_distance: float, max_distance: float) -> None:
         self.setMinDistance(min_distance)

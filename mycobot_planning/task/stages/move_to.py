@@ -19,6 +19,7 @@ from ...core.robot_state.robot_state import RobotState
 from ...core.transforms import inverse
 from ..errors import InitStageException
 from ..geometry import PointStamped, PoseStamped, as_point_stamped, as_pose_stamped, frame_transform
+from ..properties import PropertySetter
 from ..solvers import PlannerInterface
 from ..storage import InterfaceState, SubTrajectory
 from .planning_stage import PlanningStage
@@ -45,8 +46,7 @@ class MoveTo(PlanningStage):
         p.declare("goal", description="goal specification", coerce=_as_goal)
         self._declare_path_constraints()
 
-    def setGoal(self, goal: Any) -> None:
-        self._properties.set("goal", goal)
+    setGoal = PropertySetter("goal", Any)
 
     def _check_motion(self, robot_model: Any, group: Any, motion: Any, errors: InitStageException) -> None:
         if self._check_group("group", group, robot_model, errors) and motion is not None:

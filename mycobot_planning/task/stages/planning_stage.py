@@ -11,6 +11,7 @@ from ..cost_terms import PathLength
 from ..errors import InitStageException
 from ..geometry import PoseStamped, as_pose_stamped
 from ..path_constraints import check_path_constraints, declare_path_constraints
+from ..properties import PropertySetter
 from ..solvers import PlannerInterface
 from ..stage import PropagatingEitherWay
 from ..storage import BACKWARD, InterfaceState, SubTrajectory
@@ -40,14 +41,12 @@ class PlanningStage(PropagatingEitherWay):
     def planner(self) -> PlannerInterface | None:
         return self._planner
 
-    def setGroup(self, group: str) -> None:
-        self._properties.set("group", group)
+    setGroup = PropertySetter("group", str)
 
     def setIKFrame(self, pose_or_link: Any, link: str | None = None) -> None:
         self._properties.set("ik_frame", pose_or_link if link is None else PoseStamped(link, pose_or_link))
 
-    def setPathConstraints(self, path_constraints: Any) -> None:
-        self._properties.set("path_constraints", path_constraints)
+    setPathConstraints = PropertySetter("path_constraints", Any)
 
     def init(self, robot_model: Any) -> None:
         errors = self._init_planner(robot_model)

@@ -26,7 +26,7 @@ from ...core.planning_scene.planning_scene import PlanningScene
 from ...core.robot_model.robot_model import RobotModel
 from ..errors import InitStageException, TaskError
 from ..geometry import PoseStamped, as_pose_stamped
-from ..properties import PropertyMap
+from ..properties import PropertyMap, PropertySetter
 from ..solvers import JointInterpolationPlanner
 from ..containers import SerialContainer
 from ..stage import Stage
@@ -174,11 +174,8 @@ class SimpleGraspBase(SerialContainer):
         return model.end_effectors[eef].group
 
     # ------------------------------------------------------------------ MTC's setters
-    def setEndEffector(self, eef: str) -> None:
-        self._properties.set("eef", eef)
-
-    def setObject(self, name: str) -> None:
-        self._properties.set("object", name)
+    setEndEffector = PropertySetter("eef", str)
+    setObject = PropertySetter("object", str)
 
     def setIKFrame(self, pose_or_link: Any, link: str | None = None) -> None:
         """The frame placed at the generated poses: a PoseStamped, a (pose, link) offset from a
@@ -194,8 +191,7 @@ class SimpleGraspBase(SerialContainer):
                 raise TaskError(f"stage '{self._name}': setIKFrame: {exc}") from None
             self._properties.set("ik_frame", frame)
 
-    def setMaxIKSolutions(self, max_ik_solutions: int) -> None:
-        self._properties.set("max_ik_solutions", max_ik_solutions)
+    setMaxIKSolutions = PropertySetter("max_ik_solutions", int)
 
     # ------------------------------------------------------------------ life cycle
     def init(self, robot_model: RobotModel) -> None:
