@@ -1,6 +1,8 @@
 """Shared helpers for the task-constructor tests (scenes, validation of whole solutions)."""
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from interfaces_py.msgs import CollisionObject, TaskSolution
@@ -27,6 +29,23 @@ def scene_at(model: RobotModel, named: str = "ready", **joints: float) -> Planni
     state.set_named(named, "arm")
     if joints:
         state.set_joint_positions(joints)
+    scene.set_current_state(state)
+    return scene
+
+
+def current_state_task(model: RobotModel, name: str, named: str = "home") -> Task:
+    """A task that starts from the current state ("current") of the arm at ``named``."""
+    task = Task(name, model, scene_at(model, named))
+    task.add(stages.CurrentState("current"))
+    return task
+
+
+def panda_start_scene(model: RobotModel, arm: str = "panda_arm", hand: str = "hand") -> PlanningScene:
+    """The start of MTC's Panda demos: the arm at 'ready', the hand 'open'."""
+    scene = PlanningScene(model)
+    state = scene.current_state.copy()
+    state.set_named("ready", arm)
+    state.set_named("open", hand)
     scene.set_current_state(state)
     return scene
 
@@ -118,6 +137,59 @@ PLACE = make_pose([-0.183, -0.14, 0.185])
 CONTROLLERS = ["arm_controller", "grip_action_controller"]
 
 
+def _arm_container(task: Task, name: str) -> SerialContainer:
+    """A serial container that takes the task's eef, group and ik_frame (the seed's pick and place)."""
+    container = SerialContainer(name)
+    task.properties.exposeTo(container.properties, ["eef", "group", "ik_frame"])
+    container.properties.configureInitFrom(Stage.PARENT, ["eef", "group", "ik_frame"])
+    return container
+
+
+def _cartesian_move(name: str, planner: CartesianPath, min_distance: float, max_distance: float,
+                    direction: Vector3Stamped, ik_frame: str | None = None) -> stages.MoveRelative:
+    """A MoveRelative of the parent's group along ``direction`` (of the ik frame, when given)."""
+    stage = stages.MoveRelative(name, planner)
+    stage.properties.configureInitFrom(Stage.PARENT, ["group"])
+    stage.setMinMaxDistance(min_distance, max_distance)
+    if ik_frame is not None:
+        stage.setIKFrame(ik_frame)
+    stage.setDirection(direction)
+    return stage
+
+
+def _connect(name: str, ompl: PipelinePlanner, interpolation: JointInterpolationPlanner, timeout: float) -> stages.Connect:
+    """A Connect that plans the arm with OMPL and the gripper by interpolation, properties from the parent."""
+    stage = stages.Connect(name, [("arm", ompl), ("gripper", interpolation)])
+    stage.setTimeout(timeout)
+    stage.properties.configureInitFrom(Stage.PARENT)
+    return stage
+
+
+def _gripper_move(name: str, planner: JointInterpolationPlanner, goal: str) -> stages.MoveTo:
+    """A MoveTo of the gripper to its named state ``goal``."""
+    stage = stages.MoveTo(name, planner)
+    stage.setGroup("gripper")
+    stage.setGoal(goal)
+    return stage
+
+
+def _collisions(name: str, first: Any, second: Any, allow: bool) -> stages.ModifyPlanningScene:
+    """A ModifyPlanningScene that allows (or forbids) collisions between ``first`` and ``second``."""
+    stage = stages.ModifyPlanningScene(name)
+    stage.allowCollisions(first, second, allow)
+    return stage
+
+
+def _grasp_frame_ik(name: str, generator: Stage, max_solutions: int) -> stages.ComputeIK:
+    """IK of the grasp frame for the poses of ``generator``, eef and group from the parent."""
+    ik = stages.ComputeIK(name, generator)
+    ik.setMaxIKSolutions(max_solutions)
+    ik.setIKFrame(GRASP_FRAME, GRIPPER_FRAME)
+    ik.properties.configureInitFrom(Stage.PARENT, ["eef", "group"])
+    ik.properties.configureInitFrom(Stage.INTERFACE, ["target_pose"])
+    return ik
+
+
 def build_pick_place(model) -> Task:
     task = Task("pick_place_task", model, table_scene(model), seed=3)
     ompl = PipelinePlanner({"ompl": "arm[RRTConnectkConfigDefault]"})
@@ -131,102 +203,51 @@ def build_pick_place(model) -> Task:
 
     current = stages.CurrentState("current state")
     task.add(current)
-    stage = stages.MoveTo("open gripper", interpolation)
-    stage.setGroup("gripper")
-    stage.setGoal("open")
+    stage = _gripper_move("open gripper", interpolation, "open")
     stage.setTrajectoryExecutionInfo(CONTROLLERS)
     task.add(stage)
-    stage = stages.Connect("move to pick", [("arm", ompl), ("gripper", interpolation)])
-    stage.setTimeout(5.0)
-    stage.properties.configureInitFrom(Stage.PARENT)
-    task.add(stage)
+    task.add(_connect("move to pick", ompl, interpolation, 5.0))
 
-    grasp = SerialContainer("pick object")
-    task.properties.exposeTo(grasp.properties, ["eef", "group", "ik_frame"])
-    grasp.properties.configureInitFrom(Stage.PARENT, ["eef", "group", "ik_frame"])
-    stage = stages.MoveRelative("approach object", cartesian)
-    stage.properties.configureInitFrom(Stage.PARENT, ["group"])
-    stage.setMinMaxDistance(0.0015, 0.3)
-    stage.setDirection(Vector3Stamped(GRIPPER_FRAME, [0.0, 0.0, 1.0]))
-    grasp.insert(stage)
+    grasp = _arm_container(task, "pick object")
+    grasp.insert(_cartesian_move("approach object", cartesian, 0.0015, 0.3, Vector3Stamped(GRIPPER_FRAME, [0.0, 0.0, 1.0])))
     generator = stages.GenerateGraspPose("generate grasp pose")
     generator.properties.configureInitFrom(Stage.PARENT)
     generator.setPreGraspPose("open")
     generator.setObject("object")
     generator.setAngleDelta(0.2618)  # the seed's grasp_pose_angle_delta
     generator.setMonitoredStage(current)
-    ik = stages.ComputeIK("grasp pose IK", generator)
-    ik.setMaxIKSolutions(8)
+    ik = _grasp_frame_ik("grasp pose IK", generator, 8)
     ik.setMinSolutionDistance(1.0)
     ik.setTimeout(0.2)  # robust under load; the search usually saturates well before
-    ik.setIKFrame(GRASP_FRAME, GRIPPER_FRAME)
-    ik.properties.configureInitFrom(Stage.PARENT, ["eef", "group"])
-    ik.properties.configureInitFrom(Stage.INTERFACE, ["target_pose"])
     grasp.insert(ik)
-    stage = stages.ModifyPlanningScene("allow collision (gripper,object)")
-    stage.allowCollisions("object", model.group("gripper"), True)
-    grasp.insert(stage)
-    stage = stages.MoveTo("close gripper", interpolation)
-    stage.setGroup("gripper")
-    stage.setGoal("half_closed")
-    grasp.insert(stage)
+    grasp.insert(_collisions("allow collision (gripper,object)", "object", model.group("gripper"), True))
+    grasp.insert(_gripper_move("close gripper", interpolation, "half_closed"))
     attach = stages.ModifyPlanningScene("attach object")
     attach.attachObject("object", GRIPPER_FRAME)
     grasp.insert(attach)
-    stage = stages.ModifyPlanningScene("allow collision (object,support)")
-    stage.allowCollisions(["object"], ["table"], True)
-    grasp.insert(stage)
-    stage = stages.MoveRelative("lift object", cartesian)
-    stage.properties.configureInitFrom(Stage.PARENT, ["group"])
-    stage.setMinMaxDistance(0.005, 0.3)
-    stage.setIKFrame(GRIPPER_FRAME)
-    stage.setDirection(Vector3Stamped("base_link", [0.0, 0.0, 1.0]))
-    grasp.insert(stage)
-    stage = stages.ModifyPlanningScene("forbid collision (object,surface)")
-    stage.allowCollisions(["object"], ["table"], False)
-    grasp.insert(stage)
+    grasp.insert(_collisions("allow collision (object,support)", ["object"], ["table"], True))
+    grasp.insert(_cartesian_move("lift object", cartesian, 0.005, 0.3, Vector3Stamped("base_link", [0.0, 0.0, 1.0]),
+                                 GRIPPER_FRAME))
+    grasp.insert(_collisions("forbid collision (object,surface)", ["object"], ["table"], False))
     task.add(grasp)
 
-    stage = stages.Connect("move to place", [("arm", ompl), ("gripper", interpolation)])
-    stage.setTimeout(10.0)
-    stage.properties.configureInitFrom(Stage.PARENT)
-    task.add(stage)
+    task.add(_connect("move to place", ompl, interpolation, 10.0))
 
-    place = SerialContainer("place object")
-    task.properties.exposeTo(place.properties, ["eef", "group", "ik_frame"])
-    place.properties.configureInitFrom(Stage.PARENT, ["eef", "group", "ik_frame"])
-    stage = stages.MoveRelative("lower object", cartesian)
-    stage.properties.configureInitFrom(Stage.PARENT, ["group"])
-    stage.setMinMaxDistance(0.005, 0.4)
-    stage.setDirection(Vector3Stamped("base_link", [0.0, 0.0, -1.0]))
-    place.insert(stage)
+    place = _arm_container(task, "place object")
+    place.insert(_cartesian_move("lower object", cartesian, 0.005, 0.4, Vector3Stamped("base_link", [0.0, 0.0, -1.0])))
     generator = stages.GeneratePlacePose("generate place pose")
     generator.properties.configureInitFrom(Stage.PARENT, ["ik_frame"])
     generator.setObject("object")
     generator.setPose(PoseStamped("base_link", PLACE))
     generator.setMonitoredStage(attach)
-    ik = stages.ComputeIK("place pose IK", generator)
-    ik.setMaxIKSolutions(2)
-    ik.setIKFrame(GRASP_FRAME, GRIPPER_FRAME)
-    ik.properties.configureInitFrom(Stage.PARENT, ["eef", "group"])
-    ik.properties.configureInitFrom(Stage.INTERFACE, ["target_pose"])
-    place.insert(ik)
-    stage = stages.MoveTo("open gripper", interpolation)
-    stage.setGroup("gripper")
-    stage.setGoal("open")
-    place.insert(stage)
-    stage = stages.ModifyPlanningScene("forbid collision (gripper,object)")
-    stage.allowCollisions("object", model.group("gripper"), False)
-    place.insert(stage)
+    place.insert(_grasp_frame_ik("place pose IK", generator, 2))
+    place.insert(_gripper_move("open gripper", interpolation, "open"))
+    place.insert(_collisions("forbid collision (gripper,object)", "object", model.group("gripper"), False))
     stage = stages.ModifyPlanningScene("detach object")
     stage.detachObject("object", GRIPPER_FRAME)
     place.insert(stage)
-    stage = stages.MoveRelative("retreat after place", cartesian)
-    stage.properties.configureInitFrom(Stage.PARENT, ["group"])
-    stage.setMinMaxDistance(0.025, 0.25)
-    stage.setIKFrame(GRIPPER_FRAME)
-    stage.setDirection(Vector3Stamped(GRIPPER_FRAME, [0.0, 0.0, -1.0]))
-    place.insert(stage)
+    place.insert(_cartesian_move("retreat after place", cartesian, 0.025, 0.25,
+                                 Vector3Stamped(GRIPPER_FRAME, [0.0, 0.0, -1.0]), GRIPPER_FRAME))
     task.add(place)
 
     stage = stages.MoveTo("move home", ompl)

@@ -156,10 +156,7 @@ class ContainerBase(Stage):
             raise InitStageException(self, "no children (an empty container cannot produce solutions)")
         errors = InitStageException()
         for child in self._children:
-            try:
-                child.init(robot_model)
-            except InitStageException as exc:
-                errors.append(exc)
+            errors.collect(child.init, robot_model)
         if errors:
             raise errors
 
@@ -234,6 +231,9 @@ class ContainerBase(Stage):
         """A child failed on a state (MTC prunes here; pruning is off by default in a Task)."""
 
     # ------------------------------------------------------------------ introspection
+    #: Whether the failure explanation names every child that failed (Alternatives), not only the first.
+    _explains_every_failed_child = False
+
     def _explain_failure(self) -> str:
         """MTC's ContainerBase::explainFailure: the first child without solutions that failed,
         with its first failure's comment; descend into children that neither succeeded nor
@@ -246,6 +246,8 @@ class ContainerBase(Stage):
                 continue
             if child._num_failures:
                 lines.append(f"{child.name} (0/{child._num_failures}){child._explain_failure()}")
+                if self._explains_every_failed_child:
+                    continue
                 break
             inner = child._explain_failure()
             if inner:
@@ -431,6 +433,16 @@ class ParallelContainerBase(ContainerBase):
             if target is not None:
                 self._copy_state(external, target, updated, direction)
 
+    def _can_compute(self) -> bool:
+        """Whether any child can compute (the children work side by side)."""
+        return any(child._can_compute() for child in self._children)
+
+    def _compute(self) -> None:
+        """One compute step of every child that can compute."""
+        for child in self._children:
+            if child._can_compute():
+                child._run_compute()
+
     def _lift_wrapped(self, solution: SolutionBase, cost: float | None = None, comment: str | None = None) -> None:
         self._lift_solution(WrappedSolution(self, solution, cost, comment), solution.start, solution.end)  # type: ignore[arg-type]
 
@@ -448,31 +460,10 @@ class ParallelContainerBase(ContainerBase):
 class Alternatives(ParallelContainerBase):
     """All children get every state; every child solution is a solution of the container."""
 
-    def _can_compute(self) -> bool:
-        return any(child._can_compute() for child in self._children)
-
-    def _compute(self) -> None:
-        for child in self._children:
-            if child._can_compute():
-                child._run_compute()
+    _explains_every_failed_child = True
 
     def _on_new_solution(self, solution: SolutionBase) -> None:
         self._lift_wrapped(solution)
-
-    def _explain_failure(self) -> str:
-        if self._failures:
-            return ": " + self._failures[0].comment
-        lines = []
-        for child in self._children:
-            if child._solutions:
-                continue
-            if child._num_failures:
-                lines.append(f"{child.name} (0/{child._num_failures}){child._explain_failure()}")
-            else:
-                inner = child._explain_failure()
-                if inner:
-                    lines.append(inner.lstrip(": "))
-        return "\n".join(lines)
 
 
 class Fallbacks(ParallelContainerBase):
@@ -632,14 +623,6 @@ class Merger(ParallelContainerBase):
         if self._required == CONNECT:
             raise InitStageException(self, "cannot merge connecting stages; use Connect with several groups")
         raise InitStageException(self, f"children's interface {interface_text(self._required)} is not supported")
-
-    def _can_compute(self) -> bool:
-        return any(child._can_compute() for child in self._children)
-
-    def _compute(self) -> None:
-        for child in self._children:
-            if child._can_compute():
-                child._run_compute()
 
     def _on_new_solution(self, solution: SolutionBase) -> None:
         if not isinstance(solution, SubTrajectory) or solution.trajectory is None:

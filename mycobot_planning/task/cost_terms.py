@@ -139,39 +139,50 @@ def _link_frames(s: "SubTrajectory", link: str, cost_name: str) -> tuple[list[np
     return frames, ""
 
 
-class LinkMotion(TrajectoryCostTerm):
-    """Length (m) of the path of a link's origin along the trajectory."""
+class _LinkPathCost(TrajectoryCostTerm):
+    """The sum over consecutive waypoints of ``_step`` between a link's poses along the
+    trajectory; ``_label`` names the cost term in its messages."""
+
+    _label = ""
 
     def __init__(self, link: str) -> None:
         if not isinstance(link, str) or not link:
-            raise TaskError(f"LinkMotion needs a link name, got {link!r}")
+            raise TaskError(f"{self._label} needs a link name, got {link!r}")
         self.link_name = link
+
+    @staticmethod
+    def _step(a: np.ndarray, b: np.ndarray) -> float:
+        """The measure between two consecutive poses (4x4) of the link."""
+        raise NotImplementedError
 
     def subtrajectory_cost(self, s):
         if s.trajectory is None or len(s.trajectory) == 0:
             return 0.0, ""
-        frames, comment = _link_frames(s, self.link_name, "LinkMotionCost")
+        frames, comment = _link_frames(s, self.link_name, f"{self._label}Cost")
         if frames is None:
             return math.inf, comment
-        return sum(float(np.linalg.norm(b[:3, 3] - a[:3, 3])) for a, b in zip(frames, frames[1:])), ""
+        return sum(self._step(a, b) for a, b in zip(frames, frames[1:])), ""
 
 
-class LinkRotation(TrajectoryCostTerm):
+class LinkMotion(_LinkPathCost):
+    """Length (m) of the path of a link's origin along the trajectory."""
+
+    _label = "LinkMotion"
+
+    @staticmethod
+    def _step(a: np.ndarray, b: np.ndarray) -> float:
+        return float(np.linalg.norm(b[:3, 3] - a[:3, 3]))
+
+
+class LinkRotation(_LinkPathCost):
     """Total orientation change (rad) of a link along the trajectory: the sum of the angles
     between the link's orientations at consecutive waypoints (MTC's cost::LinkRotation)."""
 
-    def __init__(self, link: str) -> None:
-        if not isinstance(link, str) or not link:
-            raise TaskError(f"LinkRotation needs a link name, got {link!r}")
-        self.link_name = link
+    _label = "LinkRotation"
 
-    def subtrajectory_cost(self, s):
-        if s.trajectory is None or len(s.trajectory) == 0:
-            return 0.0, ""
-        frames, comment = _link_frames(s, self.link_name, "LinkRotationCost")
-        if frames is None:
-            return math.inf, comment
-        return sum(float(np.linalg.norm(pin.log3(a[:3, :3].T @ b[:3, :3]))) for a, b in zip(frames, frames[1:])), ""
+    @staticmethod
+    def _step(a: np.ndarray, b: np.ndarray) -> float:
+        return float(np.linalg.norm(pin.log3(a[:3, :3].T @ b[:3, :3])))
 
 
 class Clearance(TrajectoryCostTerm):

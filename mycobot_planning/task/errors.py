@@ -8,7 +8,7 @@ monitored stage, an empty container, a property of the wrong type) is collected 
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Iterator
+from typing import TYPE_CHECKING, Any, Callable, Iterator
 
 from ..core.errors import PlanningError
 
@@ -42,6 +42,15 @@ class InitStageException(TaskError, ValueError):
     def append(self, other: "InitStageException") -> None:
         self.errors.extend(other.errors)
         self.args = (str(self),)
+
+    def collect(self, init: Callable[..., Any], *args: Any) -> "InitStageException":
+        """Call ``init(*args)`` (a stage's or a base class's init), its InitStageException
+        appended here rather than raised; returns self."""
+        try:
+            init(*args)
+        except InitStageException as exc:
+            self.append(exc)
+        return self
 
     @property
     def stage_names(self) -> list[str]:

@@ -10,7 +10,7 @@ Poses are 4x4 homogeneous matrices, as everywhere in ``mycobot_planning.core``.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any, Sequence
 
 import numpy as np
@@ -77,50 +77,43 @@ class PoseStamped:
         return f"PoseStamped(frame_id={self.frame_id!r}, xyz=({xyz}))"
 
 
+class _StampedVectors:
+    """A ``frame_id`` and 3-vectors (every other dataclass field): checked and converted when
+    made, compared by value."""
+
+    def __post_init__(self) -> None:
+        kind = type(self).__name__
+        object.__setattr__(self, "frame_id", _frame(self.frame_id, kind))  # type: ignore[attr-defined]
+        for vector in fields(self)[1:]:  # type: ignore[arg-type]
+            object.__setattr__(self, vector.name, _vec3(getattr(self, vector.name), f"{kind}.{vector.name}"))
+
+    def __eq__(self, other: object) -> bool:
+        return (isinstance(other, type(self)) and other.frame_id == self.frame_id  # type: ignore[attr-defined]
+                and all(np.array_equal(getattr(other, vector.name), getattr(self, vector.name))
+                        for vector in fields(self)[1:]))  # type: ignore[arg-type]
+
+
 @dataclass(frozen=True, eq=False)
-class PointStamped:
+class PointStamped(_StampedVectors):
     frame_id: str = ""
     point: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "frame_id", _frame(self.frame_id, "PointStamped"))
-        object.__setattr__(self, "point", _vec3(self.point, "PointStamped.point"))
-
-    def __eq__(self, other: object) -> bool:
-        return isinstance(other, PointStamped) and other.frame_id == self.frame_id and np.array_equal(other.point, self.point)
-
 
 @dataclass(frozen=True, eq=False)
-class Vector3Stamped:
+class Vector3Stamped(_StampedVectors):
     """A translation (m) expressed in ``frame_id``'s axes (MoveRelative's direction)."""
 
     frame_id: str = ""
     vector: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "frame_id", _frame(self.frame_id, "Vector3Stamped"))
-        object.__setattr__(self, "vector", _vec3(self.vector, "Vector3Stamped.vector"))
-
-    def __eq__(self, other: object) -> bool:
-        return isinstance(other, Vector3Stamped) and other.frame_id == self.frame_id and np.array_equal(other.vector, self.vector)
-
 
 @dataclass(frozen=True, eq=False)
-class TwistStamped:
+class TwistStamped(_StampedVectors):
     """A linear (m) and angular (rad, axis * angle) motion in ``frame_id``'s axes."""
 
     frame_id: str = ""
     linear: np.ndarray = field(default_factory=lambda: np.zeros(3))
     angular: np.ndarray = field(default_factory=lambda: np.zeros(3))
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "frame_id", _frame(self.frame_id, "TwistStamped"))
-        object.__setattr__(self, "linear", _vec3(self.linear, "TwistStamped.linear"))
-        object.__setattr__(self, "angular", _vec3(self.angular, "TwistStamped.angular"))
-
-    def __eq__(self, other: object) -> bool:
-        return (isinstance(other, TwistStamped) and other.frame_id == self.frame_id
-                and np.array_equal(other.linear, self.linear) and np.array_equal(other.angular, self.angular))
 
 
 # ------------------------------------------------------------------ converters (property coercion)
@@ -139,26 +132,25 @@ def as_pose_stamped(value: Any) -> PoseStamped:
     raise TypeError("expected a PoseStamped, a frame name or (frame_id, 4x4 pose)")
 
 
-def as_point_stamped(value: Any) -> PointStamped:
-    if isinstance(value, PointStamped):
+def _as_stamped_vector(value: Any, kind: type, vector: str, expected: str) -> Any:
+    """A ``kind`` (PointStamped, Vector3Stamped) from itself, ``(frame_id, xyz)``, or a
+    geometry_msgs message with a header and the field ``vector``; TypeError ``expected``."""
+    if isinstance(value, kind):
         return value
     if isinstance(value, tuple) and len(value) == 2 and isinstance(value[0], str):
-        return PointStamped(value[0], value[1])
+        return kind(value[0], value[1])
     header = getattr(value, "header", None)
-    if header is not None and hasattr(value, "point"):
-        return PointStamped(header.frame_id, value.point)
-    raise TypeError("expected a PointStamped or (frame_id, xyz)")
+    if header is not None and hasattr(value, vector):
+        return kind(header.frame_id, getattr(value, vector))
+    raise TypeError(expected)
+
+
+def as_point_stamped(value: Any) -> PointStamped:
+    return _as_stamped_vector(value, PointStamped, "point", "expected a PointStamped or (frame_id, xyz)")
 
 
 def as_vector3_stamped(value: Any) -> Vector3Stamped:
-    if isinstance(value, Vector3Stamped):
-        return value
-    if isinstance(value, tuple) and len(value) == 2 and isinstance(value[0], str):
-        return Vector3Stamped(value[0], value[1])
-    header = getattr(value, "header", None)
-    if header is not None and hasattr(value, "vector"):
-        return Vector3Stamped(header.frame_id, value.vector)
-    raise TypeError("expected a Vector3Stamped or (frame_id, xyz)")
+    return _as_stamped_vector(value, Vector3Stamped, "vector", "expected a Vector3Stamped or (frame_id, xyz)")
 
 
 def as_twist_stamped(value: Any) -> TwistStamped:

@@ -336,3 +336,69 @@ class PropertyMap:
 
     def __repr__(self) -> str:
         return "PropertyMap(" + ", ".join(f"{k}={v!r}" for k, v in self.items()) + ")"
+
+
+class PropertySetter:
+    """MTC's one-line setter of a declared property, as a method: ``setGroup = PropertySetter("group",
+    str)`` gives ``stage.setGroup(value)``, which sets the property 'group' of its PropertyMap."""
+
+    def __init__(self, name: str, value_type: Any = Any) -> None:
+        def setter(self: Any, value: Any) -> None:  # (this self: the object the setter is called on)
+            self._properties.set(name, value)
+
+        setter.__annotations__ = {"value": value_type, "return": None}
+        setter.__doc__ = f"Set the property '{name}'."
+        self._setter = setter
+
+    def __set_name__(self, owner: type, attribute: str) -> None:
+        self._setter.__name__ = attribute
+        self._setter.__qualname__ = f"{owner.__qualname__}.{attribute}"
+
+    def __get__(self, obj: Any, owner: type | None = None) -> Callable[..., None]:
+        return self._setter.__get__(obj, owner)
+
+
+class PropertyAttributes:
+    """Declared properties read and written as attributes (``stage.group = "arm"``) or through
+    ``properties``, as in MTC's Python bindings: the base of the stages and the solvers, which
+    keep their PropertyMap in ``_properties``."""
+
+    _properties: PropertyMap
+
+    @property
+    def properties(self) -> PropertyMap:
+        return self._properties
+
+    def setProperty(self, name: str, value: Any) -> None:
+        self._properties.set(name, value)
+
+    setTimeout = PropertySetter("timeout", float)
+
+    def _attribute_owner(self) -> str:
+        """How the attribute errors name this object."""
+        return type(self).__name__
+
+    def _undeclared_hint(self, name: str) -> str:
+        """Appended to the error for setting the undeclared property ``name``."""
+        return ""
+
+    def __getattr__(self, name: str) -> Any:
+        # Only called when normal lookup fails: expose declared properties as attributes.
+        if name.startswith("_"):
+            raise AttributeError(name)
+        props = self.__dict__.get("_properties")
+        if props is not None and name in props:
+            return props[name]
+        raise AttributeError(f"{self._attribute_owner()} has no attribute or property '{name}'")
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if name.startswith("_") or hasattr(type(self), name):
+            object.__setattr__(self, name, value)
+            return
+        props = self.__dict__.get("_properties")
+        if props is not None and name in props:
+            props.set(name, value)
+            return
+        known = ", ".join(sorted(props)) if props is not None else ""
+        raise AttributeError(f"{self._attribute_owner()} has no property '{name}' (declared: {known})"
+                             f"{self._undeclared_hint(name)}")

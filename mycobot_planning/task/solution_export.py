@@ -12,7 +12,7 @@ diff, as MTC's ExecuteTaskSolution does.
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, Callable, Iterable
 
 import numpy as np
 
@@ -42,6 +42,19 @@ if TYPE_CHECKING:  # pragma: no cover
 __all__ = ["scene_diff_msg", "solution_joint_trajectory", "solution_to_msg", "timed_to_joint_trajectory"]
 
 
+def _new_or_changed(start_ids: Iterable[str], end_ids: Iterable[str], start_object: Callable[[str], Any],
+                    end_object: Callable[[str], Any]) -> list[Any]:
+    """The end scene's objects (``end_object(id)`` of each of ``end_ids``) that the start scene
+    has not, or has with other contents."""
+    start_set = set(start_ids)
+    changed = []
+    for object_id in end_ids:
+        msg = end_object(object_id)
+        if object_id not in start_set or start_object(object_id).to_dict() != msg.to_dict():
+            changed.append(msg)
+    return changed
+
+
 def scene_diff_msg(start: PlanningScene, end: PlanningScene) -> PlanningSceneMsg:
     """The changes from ``start`` to ``end`` other than joint values, as a diff message.
 
@@ -50,25 +63,16 @@ def scene_diff_msg(start: PlanningScene, end: PlanningScene) -> PlanningSceneMsg
     changed come as ADD in the world frame, vanished ones (neither in the world nor attached)
     as REMOVE. The ACM is included in full when it changed.
     """
-    attached = []
-    start_attached = set(start.attached_object_ids())
     end_attached = set(end.attached_object_ids())
-    for object_id in end.attached_object_ids():
-        msg = end.get_attached_object(object_id)
-        if object_id not in start_attached or start.get_attached_object(object_id).to_dict() != msg.to_dict():
-            attached.append(msg)
+    attached = _new_or_changed(start.attached_object_ids(), end.attached_object_ids(), start.get_attached_object,
+                               end.get_attached_object)
     for object_id in start.attached_object_ids():
         if object_id not in end_attached:
             link = start.get_attached_object(object_id).link_name
             attached.append(AttachedCollisionObject(
                 link_name=link, object=CollisionObject(id=object_id, frame_id=link, operation=CollisionObject.REMOVE)))
-    world = []
-    start_world = set(start.world_object_ids())
     end_world = set(end.world_object_ids())
-    for object_id in end.world_object_ids():
-        msg = end.get_object(object_id)
-        if object_id not in start_world or start.get_object(object_id).to_dict() != msg.to_dict():
-            world.append(msg)
+    world = _new_or_changed(start.world_object_ids(), end.world_object_ids(), start.get_object, end.get_object)
     for object_id in start.world_object_ids():
         if object_id not in end_world and object_id not in end_attached:
             world.append(CollisionObject(id=object_id, frame_id="world", operation=CollisionObject.REMOVE))

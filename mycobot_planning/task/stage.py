@@ -17,7 +17,7 @@ from ..core.errors import PlanningError
 from ..core.planning_scene.planning_scene import PlanningScene
 from .errors import InitStageException, PropertyError, TaskError
 from .cost_terms import CostTerm, LambdaCostTerm
-from .properties import PropertyInitializerSource, PropertyMap
+from .properties import PropertyAttributes, PropertyInitializerSource, PropertyMap, PropertySetter
 from .storage import (  # re-exported: these names were importable from here
     UNKNOWN,
     READS_START,
@@ -70,7 +70,7 @@ __all__ = [
     "WrappedSolution",
 ]
 
-class Stage:
+class Stage(PropertyAttributes):
     """Base of all stages. Properties read and write as attributes (``stage.group = "arm"``)
     or through ``stage.properties["group"]``, as in MTC's Python bindings."""
 
@@ -141,46 +141,15 @@ class Stage:
         return "/".join(reversed(names))
 
     # ------------------------------------------------------------------ properties
-    @property
-    def properties(self) -> PropertyMap:
-        return self._properties
+    setMarkerNS = PropertySetter("marker_ns", str)
+    setForwardedProperties = PropertySetter("forwarded_properties", Iterable[str])
+    setTrajectoryExecutionInfo = PropertySetter("trajectory_execution_info", TrajectoryExecutionInfo | Iterable[str])
 
-    def setProperty(self, name: str, value: Any) -> None:
-        self._properties.set(name, value)
+    def _attribute_owner(self) -> str:
+        return f"{type(self).__name__} '{self.__dict__.get('_name', '?')}'"
 
-    def setTimeout(self, timeout: float) -> None:
-        self._properties.set("timeout", timeout)
-
-    def setMarkerNS(self, ns: str) -> None:
-        self._properties.set("marker_ns", ns)
-
-    def setForwardedProperties(self, names: Iterable[str]) -> None:
-        self._properties.set("forwarded_properties", names)
-
-    def setTrajectoryExecutionInfo(self, info: TrajectoryExecutionInfo | Iterable[str]) -> None:
-        self._properties.set("trajectory_execution_info", info)
-
-    def __getattr__(self, name: str) -> Any:
-        # Only called when normal lookup fails: expose declared properties as attributes.
-        if name.startswith("_"):
-            raise AttributeError(name)
-        props = self.__dict__.get("_properties")
-        if props is not None and name in props:
-            return props[name]
-        raise AttributeError(f"{type(self).__name__} '{self.__dict__.get('_name', '?')}' has no attribute or "
-                             f"property '{name}'")
-
-    def __setattr__(self, name: str, value: Any) -> None:
-        if name.startswith("_") or hasattr(type(self), name):
-            object.__setattr__(self, name, value)
-            return
-        props = self.__dict__.get("_properties")
-        if props is not None and name in props:
-            props.set(name, value)
-            return
-        known = ", ".join(sorted(props)) if props is not None else ""
-        raise AttributeError(f"{type(self).__name__} '{self._name}' has no property '{name}' (declared: {known}); "
-                             f"use stage.properties.set('{name}', value) to declare a new one")
+    def _undeclared_hint(self, name: str) -> str:
+        return f"; use stage.properties.set('{name}', value) to declare a new one"
 
     # ------------------------------------------------------------------ cost
     def setCostTerm(self, term: "CostTerm | Callable | None") -> None:
@@ -295,6 +264,17 @@ class Stage:
             return False
         return True
 
+    def _check_eef(self, eef: Any, robot_model: "RobotModel", errors: InitStageException) -> bool:
+        """Whether ``eef`` (the property 'eef') names an end effector of the model; an unknown one
+        is reported in ``errors``, an undefined one (None) is not."""
+        if eef is None:
+            return False
+        if eef not in robot_model.end_effectors:
+            errors.push_back(self, f"property 'eef': unknown end effector '{eef}'; known: "
+                                   f"{', '.join(robot_model.end_effectors) or 'none'}")
+            return False
+        return True
+
     def timeout_or(self, default: float) -> float:
         value = self._properties.get("timeout")
         return default if value is None else float(value)
@@ -381,29 +361,26 @@ class Stage:
                 dest.properties[name] = source.properties[name]
 
     def _send_forward(self, from_state: InterfaceState, to_state: InterfaceState, solution: SolutionBase) -> None:
-        self._compute_cost(from_state, to_state, solution)
-        if not self._store_solution(solution, from_state, None):
-            return
-        self.forwardProperties(from_state, to_state)
-        to_state.lineage_depth = max(to_state.lineage_depth, from_state.lineage_depth)
-        self._states.append(to_state)
-        solution.set_start_state(from_state)
-        solution.set_end_state(to_state)
-        if not solution.is_failure:
-            self._next_starts.add(to_state)  # type: ignore[union-attr]
-        self._new_solution(solution)
+        self._send(from_state, to_state, solution, True)
 
     def _send_backward(self, from_state: InterfaceState, to_state: InterfaceState, solution: SolutionBase) -> None:
+        self._send(from_state, to_state, solution, False)
+
+    def _send(self, from_state: InterfaceState, to_state: InterfaceState, solution: SolutionBase, forward: bool) -> None:
+        """Store a propagated solution. The new state (``to_state`` when ``forward``, else
+        ``from_state``) takes the forwarded properties and the lineage of the other and, unless
+        the solution failed, goes to the next stage's starts (the previous stage's ends)."""
         self._compute_cost(from_state, to_state, solution)
-        if not self._store_solution(solution, None, to_state):
+        if not self._store_solution(solution, from_state if forward else None, None if forward else to_state):
             return
-        self.forwardProperties(to_state, from_state)
-        from_state.lineage_depth = max(from_state.lineage_depth, to_state.lineage_depth)
-        self._states.append(from_state)
+        source, new = (from_state, to_state) if forward else (to_state, from_state)
+        self.forwardProperties(source, new)
+        new.lineage_depth = max(new.lineage_depth, source.lineage_depth)
+        self._states.append(new)
         solution.set_start_state(from_state)
         solution.set_end_state(to_state)
         if not solution.is_failure:
-            self._prev_ends.add(from_state)  # type: ignore[union-attr]
+            (self._next_starts if forward else self._prev_ends).add(new)  # type: ignore[union-attr]
         self._new_solution(solution)
 
     def _spawn(self, from_state: InterfaceState, to_state: InterfaceState, solution: SolutionBase) -> None:
@@ -526,11 +503,7 @@ class MonitoringGenerator(Generator):
         return self._monitored if isinstance(self._monitored, Stage) else None
 
     def init(self, robot_model: "RobotModel") -> None:
-        errors = InitStageException()
-        try:
-            super().init(robot_model)
-        except InitStageException as exc:
-            errors.append(exc)
+        errors = InitStageException().collect(super().init, robot_model)
         monitored = self._monitored
         if isinstance(monitored, str):
             root = self._context.root if self._context is not None else None

@@ -51,28 +51,18 @@ def invert(flags: int) -> int:
     return out
 
 
+_START_SYMBOLS = {READS_START: "→", WRITES_PREV_END: "←", UNKNOWN: "?"}
+_END_SYMBOLS = {READS_END: "←", WRITES_NEXT_START: "→", UNKNOWN: "?"}
+
+
 def flow_symbol_start(flags: int) -> str:
     """MTC's arrow for the start side: → reads, ← writes, ? unknown, ↔ both."""
-    f = flags & START_IF_MASK
-    if f == READS_START:
-        return "→"
-    if f == WRITES_PREV_END:
-        return "←"
-    if f == UNKNOWN:
-        return "?"
-    return "↔"
+    return _START_SYMBOLS.get(flags & START_IF_MASK, "↔")
 
 
 def flow_symbol_end(flags: int) -> str:
     """MTC's arrow for the end side: ← reads, → writes, ? unknown, ↔ both."""
-    f = flags & END_IF_MASK
-    if f == READS_END:
-        return "←"
-    if f == WRITES_NEXT_START:
-        return "→"
-    if f == UNKNOWN:
-        return "?"
-    return "↔"
+    return _END_SYMBOLS.get(flags & END_IF_MASK, "↔")
 
 
 def interface_text(flags: int) -> str:

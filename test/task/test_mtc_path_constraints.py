@@ -35,7 +35,7 @@ from mycobot_planning.core.robot_state.robot_state import RobotState
 from mycobot_planning.core.transforms import make_pose
 from mycobot_planning.task import InitStageException, PropertyError, Task, core, stages
 from mycobot_planning.task.path_constraints import PathConstraintsSpec
-from task_helpers import assert_solution_valid
+from task_helpers import assert_solution_valid, panda_start_scene
 
 ARM = "panda_arm"
 FLANGE = "panda_link8"
@@ -50,12 +50,7 @@ def panda() -> RobotModel:
 
 # ----------------------------------------------------------------------------- builders
 def start_scene(model: RobotModel) -> PlanningScene:
-    scene = PlanningScene(model)
-    state = scene.current_state.copy()
-    state.set_named("ready", ARM)
-    state.set_named("open", "hand")
-    scene.set_current_state(state)
-    return scene
+    return panda_start_scene(model, ARM)
 
 
 def orientation_constraint(link: str = "object", quat_xyzw=(0.70711, 0.0, 0.0, 0.70711), tolerances=(0.1, 0.1, 3.14),

@@ -13,7 +13,7 @@ from mycobot_planning.core import PlanningScene, RobotModel
 from mycobot_planning.core.transforms import make_pose
 from mycobot_planning.task import (InitStageException, PoseStamped, PropertyTypeError, Task, TaskError, TwistStamped,
                                    Vector3Stamped, core, stages)
-from task_helpers import assert_solution_valid, replay_task_solution
+from task_helpers import assert_solution_valid, panda_start_scene, replay_task_solution
 
 ARM, EEF, OBJECT = "panda_arm", "hand", "object"
 OBJECT_POSE = make_pose([0.30702, 0.0, 0.285])
@@ -28,11 +28,7 @@ def panda() -> RobotModel:
 
 def demo_scene(model: RobotModel) -> PlanningScene:
     """The demo's start: the box 'object' in front of the Panda, arm 'ready', hand 'open'."""
-    scene = PlanningScene(model)
-    state = scene.current_state.copy()
-    state.set_named("ready", ARM)
-    state.set_named("open", EEF)
-    scene.set_current_state(state)
+    scene = panda_start_scene(model, ARM, EEF)
     scene.add_object(CollisionObject.box(OBJECT, [0.1, 0.05, 0.03], OBJECT_POSE, frame_id="world"))
     return scene
 

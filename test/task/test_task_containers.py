@@ -20,7 +20,7 @@ from mycobot_planning.task import (
     Vector3Stamped,
     stages,
 )
-from task_helpers import assert_solution_valid, chain_is_continuous, scene_at
+from task_helpers import assert_solution_valid, chain_is_continuous, current_state_task, scene_at
 
 
 def _move(name, goal, planner=None, group=None):
@@ -65,8 +65,7 @@ def test_nested_serial_containers_inherit_the_group(mycobot):
 
 
 def test_alternatives_pass_on_every_child_solution_sorted_by_cost(mycobot):
-    task = Task("alternatives", mycobot, scene_at(mycobot, "home"))
-    task.add(stages.CurrentState("current"))
+    task = current_state_task(mycobot, "alternatives")
     choices = Alternatives("targets")
     choices.add(_move("far", "ready", group="arm"), _move("near", {"link1_to_link2": 0.2}, group="arm"),
                 _move("gripper", "closed", group="gripper"))
@@ -163,8 +162,7 @@ def test_fallbacks_of_connect_stages(mycobot):
 
 
 def test_merger_moves_arm_and_gripper_together(mycobot):
-    task = Task("merge", mycobot, scene_at(mycobot, "home"))
-    task.add(stages.CurrentState("current"))
+    task = current_state_task(mycobot, "merge")
     merger = Merger("arm and gripper")
     merger.add(_move("arm to ready", "ready", group="arm"), _move("close gripper", "closed", group="gripper"))
     task.add(merger)
@@ -239,8 +237,7 @@ def test_task_level_properties_reach_stages_configured_to_inherit(mycobot):
 
 
 def test_description_statistics_and_summary(mycobot):
-    task = Task("intro", mycobot, scene_at(mycobot, "home"))
-    task.add(stages.CurrentState("current"))
+    task = current_state_task(mycobot, "intro")
     module = SerialContainer("module")
     module.add(_move("to ready", "ready", group="arm"), _move("to home", "home", group="arm"))
     task.add(module)

@@ -27,7 +27,7 @@ from mycobot_planning.task import (
     Vector3Stamped,
     stages,
 )
-from task_helpers import assert_solution_valid, chain_is_continuous, scene_at
+from task_helpers import assert_solution_valid, chain_is_continuous, current_state_task, scene_at
 
 
 def _lines(task: Task) -> list[str]:
@@ -35,8 +35,7 @@ def _lines(task: Task) -> list[str]:
 
 
 def test_forward_move_to_from_the_current_state(mycobot):
-    task = Task("forward", mycobot, scene_at(mycobot, "home"))
-    task.add(stages.CurrentState("current"))
+    task = current_state_task(mycobot, "forward")
     move = stages.MoveTo("move to ready", JointInterpolationPlanner())
     move.group = "arm"
     move.setGoal("ready")
@@ -245,8 +244,7 @@ def test_modify_planning_scene_forward_and_inverted_backward(mycobot):
 
 
 def test_modify_planning_scene_reports_a_new_collision(mycobot):
-    task = Task("add", mycobot, scene_at(mycobot, "home"))
-    task.add(stages.CurrentState("current"))
+    task = current_state_task(mycobot, "add")
     modify = stages.ModifyPlanningScene("add box on the arm")
     modify.addObject(CollisionObject.box("box", [0.1, 0.1, 0.1], make_pose([0.0, 0.0, 0.2])))
     task.add(modify)
@@ -338,8 +336,7 @@ def test_generate_pose_feeds_compute_ik_and_connect(mycobot):
 
 def test_predicate_filter_turns_rejected_solutions_into_failures(mycobot):
     def build(limit):
-        task = Task("filter", mycobot, scene_at(mycobot, "home"))
-        task.add(stages.CurrentState("current"))
+        task = current_state_task(mycobot, "filter")
         move = stages.MoveTo("move", JointInterpolationPlanner())
         move.group = "arm"
         move.setGoal("ready")
@@ -448,8 +445,7 @@ def test_pipeline_planner_ompl_and_ptp(mycobot):
 
 
 def test_print_state_writes_to_a_stream(mycobot):
-    task = Task("stream", mycobot, scene_at(mycobot, "home"))
-    task.add(stages.CurrentState("current"))
+    task = current_state_task(mycobot, "stream")
     task.plan()
     out = io.StringIO()
     text = task.printState(out)

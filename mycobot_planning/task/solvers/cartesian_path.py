@@ -10,6 +10,7 @@ from ...core.planners.cartesian.cartesian_precision import CartesianPrecision
 from ...core.trajectory_processing.cartesian_speed_limit import limit_cartesian_link_speed
 from ...core.transforms import inverse
 from ..geometry import PoseStamped, as_pose_stamped, robot_tip_for_frame
+from ..properties import PropertySetter
 from .planner_interface import PlannerInterface, PlanResult, constraint_failure, constraints_key
 
 
@@ -31,17 +32,10 @@ class CartesianPath(PlannerInterface):
         p.declare("cartesian_speed_limited_link", "", "link whose speed max_cartesian_speed limits (empty: the "
                   "link the ik_frame is on)", type=str)
 
-    def setStepSize(self, step_size: float) -> None:
-        self._properties.set("step_size", step_size)
-
-    def setJumpThreshold(self, threshold: float) -> None:
-        self._properties.set("jump_threshold", threshold)
-
-    def setMinFraction(self, fraction: float) -> None:
-        self._properties.set("min_fraction", fraction)
-
-    def setPrecision(self, precision: CartesianPrecision) -> None:
-        self._properties.set("precision", precision)
+    setStepSize = PropertySetter("step_size", float)
+    setJumpThreshold = PropertySetter("jump_threshold", float)
+    setMinFraction = PropertySetter("min_fraction", float)
+    setPrecision = PropertySetter("precision", CartesianPrecision)
 
     def setIKFrame(self, pose_or_link: Any, link: str | None = None) -> None:
         self._properties.set("ik_frame", pose_or_link if link is None else PoseStamped(link, pose_or_link))

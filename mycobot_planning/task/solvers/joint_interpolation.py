@@ -6,6 +6,7 @@ import numpy as np
 from ...core.errors import PlanningError
 from ...core.planners.joint_interpolation.joint_interpolation import DEFAULT_MAX_STEP, interpolate_joint_path
 from ...core.planning_interface.planning_interface import PlanningFailure, PoseGoal, goal_states
+from ..properties import PropertySetter
 from ..trajectories import time_path
 from .planner_interface import (PlannerInterface, PlanResult, check_path, constraint_failure, constraints_key,
                                 plan_seed)
@@ -19,8 +20,7 @@ class JointInterpolationPlanner(PlannerInterface):
         self._properties.declare("max_step", max_step, "max joint step between checked states (rad)", type=float)
         self._properties.declare("max_effort", None, "max_effort for gripper commands (passed through)", type=float)
 
-    def setMaxStep(self, max_step: float) -> None:
-        self._properties.set("max_step", max_step)
+    setMaxStep = PropertySetter("max_step", float)
 
     @property
     def planner_id(self) -> str:

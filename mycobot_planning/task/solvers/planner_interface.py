@@ -16,7 +16,7 @@ from ...core.planning_scene.planning_scene import PlanningScene
 from ...core.robot_trajectory.robot_trajectory import DEFAULT_MAX_WAYPOINT_DISTANCE, TimedTrajectory, limit_waypoint_distance
 from ..errors import PropertyError
 from ..path_constraints import PathConstraintsSpec, as_path_constraints
-from ..properties import PropertyMap
+from ..properties import PropertyAttributes, PropertyMap, PropertySetter
 
 if TYPE_CHECKING:  # pragma: no cover
     from ...core.robot_model.robot_model import RobotModel
@@ -51,7 +51,7 @@ class PlanResult:
         return self.success
 
 
-class PlannerInterface:
+class PlannerInterface(PropertyAttributes):
     """Base of the solvers: typed properties and the two planning questions."""
 
     def __init__(self) -> None:
@@ -66,39 +66,8 @@ class PlannerInterface:
                   "gives a stage (MTC's JointInterpolationPlanner max_step, 0.1): sparser ones get exact samples "
                   "of their own timing in between", type=float)
 
-    @property
-    def properties(self) -> PropertyMap:
-        return self._properties
-
-    def setProperty(self, name: str, value: Any) -> None:
-        self._properties.set(name, value)
-
-    def setMaxVelocityScalingFactor(self, factor: float) -> None:
-        self._properties.set("max_velocity_scaling_factor", factor)
-
-    def setMaxAccelerationScalingFactor(self, factor: float) -> None:
-        self._properties.set("max_acceleration_scaling_factor", factor)
-
-    def setTimeout(self, timeout: float) -> None:
-        self._properties.set("timeout", timeout)
-
-    def __getattr__(self, name: str) -> Any:
-        if name.startswith("_"):
-            raise AttributeError(name)
-        props = self.__dict__.get("_properties")
-        if props is not None and name in props:
-            return props[name]
-        raise AttributeError(f"{type(self).__name__} has no attribute or property '{name}'")
-
-    def __setattr__(self, name: str, value: Any) -> None:
-        if name.startswith("_") or hasattr(type(self), name):
-            object.__setattr__(self, name, value)
-            return
-        props = self.__dict__.get("_properties")
-        if props is not None and name in props:
-            props.set(name, value)
-            return
-        raise AttributeError(f"{type(self).__name__} has no property '{name}' (declared: {', '.join(sorted(props or []))})")
+    setMaxVelocityScalingFactor = PropertySetter("max_velocity_scaling_factor", float)
+    setMaxAccelerationScalingFactor = PropertySetter("max_acceleration_scaling_factor", float)
 
     def _scaling(self) -> tuple[float, float]:
         values = []

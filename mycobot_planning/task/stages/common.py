@@ -1,12 +1,12 @@
 """Helpers shared by the stages: ik frames, goals, and turning planner results into solutions."""
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Callable, Iterable
 
 from ...core.robot_model.robot_model import RobotModel
 from ..geometry import default_tip, robot_tip_for_frame
 
-__all__ = ["default_tip", "group_of_eef", "joint_goal_values", "robot_tip_for_frame"]
+__all__ = ["default_tip", "first_conversion", "group_of_eef", "joint_goal_values", "robot_tip_for_frame"]
 
 
 def group_of_eef(model: RobotModel, eef: str) -> str:
@@ -27,3 +27,14 @@ def joint_goal_values(model: RobotModel, group: str, goal: Any) -> dict[str, flo
             raise ValueError(f"goal joints {unknown} are not part of group '{group}' (joints: {list(joints)})")
         return {str(k): float(v) for k, v in goal.items()}
     return None
+
+
+def first_conversion(value: Any, converters: Iterable[Callable[[Any], Any]], expected: str) -> Any:
+    """What the first of ``converters`` makes of ``value`` (one that raises TypeError or
+    ValueError does not accept it); TypeError saying ``expected`` when none accepts it."""
+    for convert in converters:
+        try:
+            return convert(value)
+        except (TypeError, ValueError):
+            pass
+    raise TypeError(expected)

@@ -15,6 +15,7 @@ from ...core.robot_state.robot_state import RobotState
 from ...core.transforms import inverse
 from ..errors import InitStageException
 from ..geometry import PoseStamped, as_pose_stamped, frame_transform
+from ..properties import PropertySetter
 from ..stage import Stage
 from ..storage import InterfaceState, SolutionBase, SubTrajectory
 from ..containers import WrapperBase
@@ -50,11 +51,8 @@ class ComputeIK(WrapperBase):
         self._upstream: deque[SolutionBase] = deque()  # in the order they will be solved
 
     # MTC's setters
-    def setEndEffector(self, eef: str) -> None:
-        self._properties.set("eef", eef)
-
-    def setGroup(self, group: str) -> None:
-        self._properties.set("group", group)
+    setEndEffector = PropertySetter("eef", str)
+    setGroup = PropertySetter("group", str)
 
     def setIKFrame(self, pose_or_link: Any, link: str | None = None) -> None:
         self._properties.set("ik_frame", pose_or_link if link is None else PoseStamped(link, pose_or_link))
@@ -65,14 +63,9 @@ class ComputeIK(WrapperBase):
         else:
             self._properties.set("target_pose", PoseStamped(frame, pose))
 
-    def setMaxIKSolutions(self, n: int) -> None:
-        self._properties.set("max_ik_solutions", n)
-
-    def setMinSolutionDistance(self, distance: float) -> None:
-        self._properties.set("min_solution_distance", distance)
-
-    def setIgnoreCollisions(self, ignore: bool) -> None:
-        self._properties.set("ignore_collisions", ignore)
+    setMaxIKSolutions = PropertySetter("max_ik_solutions", int)
+    setMinSolutionDistance = PropertySetter("min_solution_distance", float)
+    setIgnoreCollisions = PropertySetter("ignore_collisions", bool)
 
     def reset(self) -> None:
         super().reset()
@@ -80,16 +73,10 @@ class ComputeIK(WrapperBase):
         self._upstream.clear()
 
     def init(self, robot_model) -> None:
-        errors = InitStageException()
-        try:
-            super().init(robot_model)
-        except InitStageException as exc:
-            errors.append(exc)
+        errors = InitStageException().collect(super().init, robot_model)
         p = self._properties
         eef, group = p["eef"], p["group"]
-        if eef is not None and eef not in robot_model.end_effectors:
-            errors.push_back(self, f"property 'eef': unknown end effector '{eef}'; known: "
-                                   f"{', '.join(robot_model.end_effectors) or 'none'}")
+        self._check_eef(eef, robot_model, errors)
         if group is not None:
             self._check_group("group", group, robot_model, errors)
         if eef is None and group is None and not (p.property("eef").initsFrom(self.INTERFACE)

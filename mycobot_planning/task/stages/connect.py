@@ -21,6 +21,7 @@ from ...core.kinematic_constraints.kinematic_constraints import dense_violation
 from ..cost_terms import PathLength
 from ..errors import InitStageException
 from ..path_constraints import check_path_constraints, declare_path_constraints
+from ..properties import PropertySetter
 from ..solvers import PlannerInterface
 from ..stage import Connecting
 from ..storage import InterfaceState, SolutionSequence, SubTrajectory
@@ -54,18 +55,13 @@ class Connect(Connecting):
     def planners(self) -> list[tuple[str, PlannerInterface]]:
         return list(self._planners)
 
-    def setPathConstraints(self, path_constraints: Any) -> None:
-        self._properties.set("path_constraints", path_constraints)
+    setPathConstraints = PropertySetter("path_constraints", Any)
 
     def reset(self) -> None:
         super().reset()
 
     def init(self, robot_model) -> None:
-        errors = InitStageException()
-        try:
-            super().init(robot_model)
-        except InitStageException as exc:
-            errors.append(exc)
+        errors = InitStageException().collect(super().init, robot_model)
         if not self._planners:
             errors.push_back(self, "empty set of groups (give (group, planner) pairs)")
         groups = []

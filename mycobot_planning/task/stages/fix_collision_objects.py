@@ -29,6 +29,7 @@ from ...core.collision_detection.collision import OBJECT, SECURITY_MARGIN
 from ...core.planning_scene.planning_scene import PlanningScene
 from ..cost_terms import Constant
 from ..errors import InitStageException
+from ..properties import PropertySetter
 from ..stage import PropagatingEitherWay
 from ..storage import InterfaceState, SubTrajectory
 
@@ -64,18 +65,11 @@ class FixCollisionObjects(PropagatingEitherWay):
         p.declare("direction", type=np.ndarray, coerce=_as_vector,
                   description="direction vector to use for corrections (planning frame; default: contact normal)")
 
-    def setMaxPenetration(self, penetration: float) -> None:
-        self._properties.set("max_penetration", penetration)
-
-    def setDirection(self, direction: Any) -> None:
-        self._properties.set("direction", direction)
+    setMaxPenetration = PropertySetter("max_penetration", float)
+    setDirection = PropertySetter("direction", Any)
 
     def init(self, robot_model) -> None:
-        errors = InitStageException()
-        try:
-            super().init(robot_model)
-        except InitStageException as exc:
-            errors.append(exc)
+        errors = InitStageException().collect(super().init, robot_model)
         value = self._require_property("max_penetration", errors)
         if value is not None and value < 0.0:
             errors.push_back(self, f"property 'max_penetration' must be >= 0, got {value:g}")

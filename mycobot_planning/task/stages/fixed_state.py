@@ -10,6 +10,7 @@ from ...core.errors import PlanningError
 from ...core.planning_scene.planning_scene import PlanningScene
 from ..cost_terms import Constant
 from ..errors import InitStageException, TaskError
+from ..properties import PropertySetter
 from ..stage import Generator
 from ..storage import InterfaceState, SubTrajectory
 
@@ -35,19 +36,14 @@ class FixedState(Generator):
             raise TaskError(f"stage '{self._name}': expected a PlanningScene or a planning-scene message, "
                             f"got {type(scene).__name__}")
 
-    def setIgnoreCollisions(self, ignore: bool) -> None:
-        self._properties.set("ignore_collisions", ignore)
+    setIgnoreCollisions = PropertySetter("ignore_collisions", bool)
 
     def reset(self) -> None:
         super().reset()
         self._ran = False
 
     def init(self, robot_model) -> None:
-        errors = InitStageException()
-        try:
-            super().init(robot_model)
-        except InitStageException as exc:
-            errors.append(exc)
+        errors = InitStageException().collect(super().init, robot_model)
         if self._scene_msg is not None:
             try:
                 self._scene = PlanningScene.from_msg(robot_model, self._scene_msg)

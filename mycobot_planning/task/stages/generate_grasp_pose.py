@@ -12,6 +12,7 @@ import pinocchio as pin
 from ...core.planning_scene.planning_scene import PlanningScene
 from ..errors import InitStageException
 from ..geometry import PoseStamped
+from ..properties import PropertySetter
 from ..storage import InterfaceState, SolutionBase, SubTrajectory
 from .generate_pose import GeneratePose
 
@@ -55,48 +56,29 @@ class GenerateGraspPose(GeneratePose):
         p.declare("pregrasp", description="pregrasp posture (named state or joint map)")
         p.declare("grasp", description="grasp posture (named state or joint map)")
 
-    def setEndEffector(self, eef: str) -> None:
-        self._properties.set("eef", eef)
-
-    def setObject(self, name: str) -> None:
-        self._properties.set("object", name)
-
-    def setAngleDelta(self, delta: float) -> None:
-        self._properties.set("angle_delta", delta)
-
-    def setRotationAxis(self, axis) -> None:
-        self._properties.set("rotation_axis", axis)
-
-    def setPreGraspPose(self, posture: Any) -> None:
-        self._properties.set("pregrasp", posture)
-
-    def setGraspPose(self, posture: Any) -> None:
-        self._properties.set("grasp", posture)
+    setEndEffector = PropertySetter("eef", str)
+    setObject = PropertySetter("object", str)
+    setAngleDelta = PropertySetter("angle_delta", float)
+    setRotationAxis = PropertySetter("rotation_axis", Any)
+    setPreGraspPose = PropertySetter("pregrasp", Any)
+    setGraspPose = PropertySetter("grasp", Any)
 
     def init(self, robot_model) -> None:
-        errors = InitStageException()
-        try:
-            super().init(robot_model)
-        except InitStageException as exc:
-            errors.append(exc)
+        errors = InitStageException().collect(super().init, robot_model)
         p = self._properties
         if p["angle_delta"] == 0.0:
             errors.push_back(self, "property 'angle_delta' must be non-zero")
         self._require_property("object", errors)
         eef = self._require_property("eef", errors)
-        if eef is not None:
-            if eef not in robot_model.end_effectors:
-                errors.push_back(self, f"property 'eef': unknown end effector '{eef}'; known: "
-                                       f"{', '.join(robot_model.end_effectors) or 'none'}")
+        if self._check_eef(eef, robot_model, errors):
+            posture = p["pregrasp"]
+            if posture is None:
+                errors.push_back(self, self._describe_undefined("pregrasp"))
             else:
-                posture = p["pregrasp"]
-                if posture is None:
-                    errors.push_back(self, self._describe_undefined("pregrasp"))
-                else:
-                    try:
-                        _apply_posture(PlanningScene(robot_model), robot_model.end_effectors[eef].group, posture)
-                    except ValueError as exc:
-                        errors.push_back(self, f"property 'pregrasp': invalid pregrasp: {exc}")
+                try:
+                    _apply_posture(PlanningScene(robot_model), robot_model.end_effectors[eef].group, posture)
+                except ValueError as exc:
+                    errors.push_back(self, f"property 'pregrasp': invalid pregrasp: {exc}")
         if errors:
             raise errors
 

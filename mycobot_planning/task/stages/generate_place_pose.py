@@ -11,6 +11,7 @@ from interfaces_py.msgs import SolidPrimitive
 
 from ..errors import InitStageException
 from ..geometry import PoseStamped, frame_transform
+from ..properties import PropertySetter
 from ..storage import InterfaceState, SolutionBase, SubTrajectory
 from .generate_pose import GeneratePose
 
@@ -22,15 +23,10 @@ class GeneratePlacePose(GeneratePose):
         p.declare("object", type=str, description="attached object to place")
         p.declare("allow_z_flip", False, "allow placing objects upside down", type=bool)
 
-    def setObject(self, name: str) -> None:
-        self._properties.set("object", name)
+    setObject = PropertySetter("object", str)
 
     def init(self, robot_model) -> None:
-        errors = InitStageException()
-        try:
-            super().init(robot_model)
-        except InitStageException as exc:
-            errors.append(exc)
+        errors = InitStageException().collect(super().init, robot_model)
         self._require_property("object", errors)
         if errors:
             raise errors

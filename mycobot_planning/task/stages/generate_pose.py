@@ -15,6 +15,7 @@ from ...core.planning_scene.planning_scene import PlanningScene
 from ..cost_terms import Constant
 from ..errors import InitStageException
 from ..geometry import PoseStamped, as_pose_stamped, frame_transform
+from ..properties import PropertySetter
 from ..stage import MonitoringGenerator
 from ..storage import InterfaceState, SolutionBase, SubTrajectory
 
@@ -29,19 +30,14 @@ class GeneratePose(MonitoringGenerator):
                                  description="target pose to pass on in spawned states")
         self._upstream: deque[SolutionBase] = deque()
 
-    def setPose(self, pose: Any) -> None:
-        self._properties.set("pose", pose)
+    setPose = PropertySetter("pose", Any)
 
     def reset(self) -> None:
         super().reset()
         self._upstream.clear()
 
     def init(self, robot_model) -> None:
-        errors = InitStageException()
-        try:
-            super().init(robot_model)
-        except InitStageException as exc:
-            errors.append(exc)
+        errors = InitStageException().collect(super().init, robot_model)
         if self._needs_pose:
             self._require_property("pose", errors)
         if errors:

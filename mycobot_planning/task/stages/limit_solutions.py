@@ -27,11 +27,7 @@ class LimitSolutions(WrapperBase):
         self._forwarded = 0
 
     def init(self, robot_model) -> None:
-        errors = InitStageException()
-        try:
-            super().init(robot_model)
-        except InitStageException as exc:
-            errors.append(exc)
+        errors = InitStageException().collect(super().init, robot_model)
         limit = self._properties["max_solutions"]
         if limit is None or limit < 0:
             errors.push_back(self, f"property 'max_solutions' must be a number >= 0, got {limit!r}")

@@ -18,13 +18,13 @@ import numpy as np
 import pinocchio as pin
 
 from ...core.transforms import inverse
+from ..errors import InitStageException
 from ..geometry import TwistStamped, Vector3Stamped, as_twist_stamped, as_vector3_stamped, frame_transform
-from ..path_constraints import check_path_constraints
+from ..properties import PropertySetter
 from ..solvers import PlannerInterface
 from ..storage import BACKWARD, InterfaceState, SubTrajectory
-from ..trajectories import reverse_trajectory
 from .planning_stage import PlanningStage
-from .common import robot_tip_for_frame
+from .common import first_conversion, robot_tip_for_frame
 
 _EPS = np.finfo(float).eps
 
@@ -39,15 +39,13 @@ def _as_direction(value: Any) -> Any:
                 raise ValueError("a joint-offset direction maps joint names to numbers")
             out[name] = float(offset)
         return out
-    for convert in (as_twist_stamped, as_vector3_stamped):
-        try:
-            return convert(value)
-        except (TypeError, ValueError):
-            pass
-    raise TypeError("expected a Vector3Stamped, a TwistStamped or a joint map of offsets")
+    return first_conversion(value, (as_twist_stamped, as_vector3_stamped),
+                            "expected a Vector3Stamped, a TwistStamped or a joint map of offsets")
 
 
 class MoveRelative(PlanningStage):
+    _motion = "direction"
+
     def __init__(self, name: str = "move relative", planner: PlannerInterface | None = None) -> None:
         super().__init__(name, planner, "frame to be moved in Cartesian direction")
         p = self._properties
@@ -56,23 +54,15 @@ class MoveRelative(PlanningStage):
         p.declare("max_distance", 0.0, "maximum distance to move", type=float)
         self._declare_path_constraints()
 
-    def setDirection(self, direction: Any) -> None:
-        self._properties.set("direction", direction)
-
-    def setMinDistance(self, distance: float) -> None:
-        self._properties.set("min_distance", distance)
-
-    def setMaxDistance(self, distance: float) -> None:
-        self._properties.set("max_distance", distance)
+    setDirection = PropertySetter("direction", Any)
+    setMinDistance = PropertySetter("min_distance", float)
+    setMaxDistance = PropertySetter("max_distance", float)
 
     def setMinMaxDistance(self, min_distance: float, max_distance: float) -> None:
         self.setMinDistance(min_distance)
         self.setMaxDistance(max_distance)
 
-    def init(self, robot_model) -> None:
-        errors = self._init_planner(robot_model)
-        group = self._require_property("group", errors)
-        direction = self._require_property("direction", errors)
+    def _check_motion(self, robot_model: Any, group: Any, direction: Any, errors: InitStageException) -> None:
         if self._check_group("group", group, robot_model, errors) and isinstance(direction, dict):
             joints = robot_model.group(group).joint_names
             unknown = [name for name in direction if name not in joints]
@@ -83,20 +73,15 @@ class MoveRelative(PlanningStage):
                 and p["min_distance"] > p["max_distance"]:
             errors.push_back(self, f"property 'min_distance' ({p['min_distance']:g}) exceeds 'max_distance' "
                                    f"({p['max_distance']:g}): the motion can never succeed")
-        check_path_constraints(self, robot_model, errors)
-        if errors:
-            raise errors
 
     def _propagate(self, state: InterfaceState, direction: int):
-        scene = state.scene.diff()
+        scene, failure = self._start_propagation(state)
+        if failure is not None:
+            return False, scene, failure
         model = scene.robot_model
         props = self._properties
         group = props["group"]
-        if group is None or not model.has_group(group):
-            return False, scene, SubTrajectory.failure(f"invalid joint model group: {group}")
         motion = props["direction"]
-        if motion is None:
-            return False, scene, SubTrajectory.failure("undefined direction")
         jmg = model.group(group)
         timeout = self.timeout_or(1.0)
         max_distance = float(props["max_distance"])
@@ -105,8 +90,7 @@ class MoveRelative(PlanningStage):
             min_distance = -1.0  # equal bounds: move the full distance
         sign = 1.0 if direction != BACKWARD else -1.0
         context = self._context
-        constraints = props["path_constraints"]
-        extra = {"path_constraints": constraints} if constraints else {}
+        extra = self._planning_extras()
         solution = SubTrajectory(None, group, planner_id=self._planner.planner_id)
         if isinstance(motion, dict):
             target = scene.current_state.copy()
@@ -176,14 +160,5 @@ class MoveRelative(PlanningStage):
                     comment = f"failed to move full distance ({distance:.3g} {unit}): {result.message}"
         trajectory = self._planner.dense(result.trajectory)
         solution.planner_id = result.planner_id or solution.planner_id
-        if trajectory is None or len(trajectory) == 0:
-            solution.comment = comment or "planning failed"
-            return False, scene, solution
-        positions = state.scene.current_state.positions.copy()
-        positions[jmg.variable_indices] = trajectory.positions[-1]
-        scene.set_current_state(positions)
-        solution.trajectory = reverse_trajectory(trajectory) if direction == BACKWARD else trajectory
-        if not success:
-            solution.comment = comment or "planning failed"
-            return False, scene, solution
-        return True, scene, solution
+        return self._finish_propagation(state, scene, solution, trajectory, direction, success,
+                                        comment or "planning failed", comment or "planning failed")

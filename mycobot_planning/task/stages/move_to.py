@@ -17,13 +17,13 @@ from interfaces_py.msgs import RobotState as RobotStateMsg
 
 from ...core.robot_state.robot_state import RobotState
 from ...core.transforms import inverse
+from ..errors import InitStageException
 from ..geometry import PointStamped, PoseStamped, as_point_stamped, as_pose_stamped, frame_transform
-from ..path_constraints import check_path_constraints
+from ..properties import PropertySetter
 from ..solvers import PlannerInterface
-from ..storage import BACKWARD, InterfaceState, SubTrajectory
-from ..trajectories import reverse_trajectory
+from ..storage import InterfaceState, SubTrajectory
 from .planning_stage import PlanningStage
-from .common import joint_goal_values, robot_tip_for_frame
+from .common import first_conversion, joint_goal_values, robot_tip_for_frame
 
 
 def _as_goal(value: Any) -> Any:
@@ -33,52 +33,39 @@ def _as_goal(value: Any) -> Any:
         if not value.is_diff:
             raise ValueError("a RobotState message goal must be a diff (is_diff=True)")
         return dict(value.joint_positions())
-    for convert in (as_pose_stamped, as_point_stamped):
-        try:
-            return convert(value)
-        except (TypeError, ValueError):
-            pass
-    raise TypeError("expected a named state, a joint map, a RobotState, a PoseStamped or a PointStamped")
+    return first_conversion(value, (as_pose_stamped, as_point_stamped),
+                            "expected a named state, a joint map, a RobotState, a PoseStamped or a PointStamped")
 
 
 class MoveTo(PlanningStage):
+    _motion = "goal"
+
     def __init__(self, name: str = "move to", planner: PlannerInterface | None = None) -> None:
         super().__init__(name, planner, "frame to be moved towards the goal pose")
         p = self._properties
         p.declare("goal", description="goal specification", coerce=_as_goal)
         self._declare_path_constraints()
 
-    def setGoal(self, goal: Any) -> None:
-        self._properties.set("goal", goal)
+    setGoal = PropertySetter("goal", Any)
 
-    def init(self, robot_model) -> None:
-        errors = self._init_planner(robot_model)
-        group = self._require_property("group", errors)
-        goal = self._require_property("goal", errors)
-        if self._check_group("group", group, robot_model, errors) and goal is not None:
+    def _check_motion(self, robot_model: Any, group: Any, motion: Any, errors: InitStageException) -> None:
+        if self._check_group("group", group, robot_model, errors) and motion is not None:
             try:
-                joint_goal_values(robot_model, group, goal)
+                joint_goal_values(robot_model, group, motion)
             except ValueError as exc:
                 errors.push_back(self, f"property 'goal': {exc}")
-        check_path_constraints(self, robot_model, errors)
-        if errors:
-            raise errors
 
     def _propagate(self, state: InterfaceState, direction: int):
-        scene = state.scene.diff()
+        scene, failure = self._start_propagation(state)
+        if failure is not None:
+            return False, scene, failure
         model = scene.robot_model
         props = self._properties
         group = props["group"]
-        if group is None or not model.has_group(group):
-            return False, scene, SubTrajectory.failure(f"invalid joint model group: {group}")
         goal = props["goal"]
-        if goal is None:
-            return False, scene, SubTrajectory.failure("undefined goal")
         timeout = self.timeout_or(1.0)
         context = self._context
-        constraints = props["path_constraints"]
-        extra = {"path_constraints": constraints} if constraints else {}
-        jmg = model.group(group)
+        extra = self._planning_extras()
         values = joint_goal_values(model, group, goal) if not isinstance(goal, RobotState) else None
         if isinstance(goal, RobotState) or values is not None:
             target = scene.current_state.copy()
@@ -100,14 +87,5 @@ class MoveTo(PlanningStage):
             result = self._planner.plan_pose(state.scene, link, offset, target_pose, group, timeout, context, **extra)
         trajectory = self._planner.dense(result.trajectory)
         solution = SubTrajectory(None, group, planner_id=result.planner_id or self._planner.planner_id)
-        if trajectory is None or len(trajectory) == 0:
-            solution.comment = result.message or "planning failed"
-            return False, scene, solution
-        positions = state.scene.current_state.positions.copy()
-        positions[jmg.variable_indices] = trajectory.positions[-1]
-        scene.set_current_state(positions)
-        solution.trajectory = reverse_trajectory(trajectory) if direction == BACKWARD else trajectory
-        if not result.success:
-            solution.comment = result.message
-            return False, scene, solution
-        return True, scene, solution
+        return self._finish_propagation(state, scene, solution, trajectory, direction, result.success,
+                                        result.message or "planning failed", result.message)

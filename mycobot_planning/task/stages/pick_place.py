@@ -21,7 +21,7 @@ from typing import Any, Mapping
 from ...core.robot_model.robot_model import RobotModel
 from ..errors import InitStageException, PropertyError, TaskError
 from ..geometry import PoseStamped
-from ..properties import PropertyMap
+from ..properties import PropertyMap, PropertySetter
 from ..containers import SerialContainer
 from ..solvers import CartesianPath
 from ..stage import Stage
@@ -96,11 +96,8 @@ class PickPlaceBase(SerialContainer):
     def cartesianSolver(self) -> CartesianPath:
         return self._cartesian_solver
 
-    def setEndEffector(self, eef: str) -> None:
-        self._properties.set("eef", eef)
-
-    def setObject(self, name: str) -> None:
-        self._properties.set("object", name)
+    setEndEffector = PropertySetter("eef", str)
+    setObject = PropertySetter("object", str)
 
     def _set_motion(self, which: int, motion: Any, min_distance: float | None, max_distance: float | None) -> None:
         """Configure the first (0) or second (1) motion; errors name the setter the user called."""
@@ -126,11 +123,7 @@ class PickPlaceBase(SerialContainer):
 
     # ------------------------------------------------------------------ life cycle
     def init(self, robot_model: RobotModel) -> None:
-        errors = InitStageException()
-        try:
-            Stage.init(self, robot_model)
-        except InitStageException as exc:
-            errors.append(exc)
+        errors = InitStageException().collect(Stage.init, self, robot_model)
         p = self._properties
         eef = p["eef"]
         eef_reported = True

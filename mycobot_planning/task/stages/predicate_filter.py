@@ -7,6 +7,7 @@ from typing import Any, Callable
 
 from ..containers import WrapperBase
 from ..errors import InitStageException
+from ..properties import PropertySetter
 from ..stage import Stage
 from ..storage import SolutionBase
 
@@ -24,18 +25,11 @@ class PredicateFilter(WrapperBase):
         self._properties.declare("predicate", predicate, "predicate to filter wrapped solutions", coerce=_as_predicate)
         self._properties.declare("ignore_filter", False, "ignore predicate and forward all solutions", type=bool)
 
-    def setPredicate(self, predicate: Callable[[SolutionBase], Any]) -> None:
-        self._properties.set("predicate", predicate)
-
-    def setIgnoreFilter(self, ignore: bool) -> None:
-        self._properties.set("ignore_filter", ignore)
+    setPredicate = PropertySetter("predicate", Callable[[SolutionBase], Any])
+    setIgnoreFilter = PropertySetter("ignore_filter", bool)
 
     def init(self, robot_model) -> None:
-        errors = InitStageException()
-        try:
-            super().init(robot_model)
-        except InitStageException as exc:
-            errors.append(exc)
+        errors = InitStageException().collect(super().init, robot_model)
         if self._properties["predicate"] is None:
             errors.push_back(self, "property 'predicate' is not specified")
         if errors:

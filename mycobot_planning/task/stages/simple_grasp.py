@@ -26,7 +26,7 @@ from ...core.planning_scene.planning_scene import PlanningScene
 from ...core.robot_model.robot_model import RobotModel
 from ..errors import InitStageException, TaskError
 from ..geometry import PoseStamped, as_pose_stamped
-from ..properties import PropertyMap
+from ..properties import PropertyMap, PropertySetter
 from ..solvers import JointInterpolationPlanner
 from ..containers import SerialContainer
 from ..stage import Stage
@@ -174,11 +174,8 @@ class SimpleGraspBase(SerialContainer):
         return model.end_effectors[eef].group
 
     # ------------------------------------------------------------------ MTC's setters
-    def setEndEffector(self, eef: str) -> None:
-        self._properties.set("eef", eef)
-
-    def setObject(self, name: str) -> None:
-        self._properties.set("object", name)
+    setEndEffector = PropertySetter("eef", str)
+    setObject = PropertySetter("object", str)
 
     def setIKFrame(self, pose_or_link: Any, link: str | None = None) -> None:
         """The frame placed at the generated poses: a PoseStamped, a (pose, link) offset from a
@@ -194,34 +191,25 @@ class SimpleGraspBase(SerialContainer):
                 raise TaskError(f"stage '{self._name}': setIKFrame: {exc}") from None
             self._properties.set("ik_frame", frame)
 
-    def setMaxIKSolutions(self, max_ik_solutions: int) -> None:
-        self._properties.set("max_ik_solutions", max_ik_solutions)
+    setMaxIKSolutions = PropertySetter("max_ik_solutions", int)
 
     # ------------------------------------------------------------------ life cycle
     def init(self, robot_model: RobotModel) -> None:
         self._model = robot_model
-        errors = InitStageException()
-        try:
-            Stage.init(self, robot_model)
-        except InitStageException as exc:
-            errors.append(exc)
+        errors = InitStageException().collect(Stage.init, self, robot_model)
         p = self._properties
         eef = p["eef"]
         if eef is None:
             if "eef" not in getattr(self, "_bad_properties", ()):
                 errors.push_back(self, "property 'eef' is undefined: set the end effector (setEndEffector) here or "
                                        "on the enclosing Pick / Place")
-        elif eef not in robot_model.end_effectors:
-            errors.push_back(self, f"property 'eef': unknown end effector '{eef}'; known: "
-                                   f"{', '.join(robot_model.end_effectors) or 'none'}")
+        else:
+            self._check_eef(eef, robot_model, errors)
         if p["object"] is None and "object" not in getattr(self, "_bad_properties", ()):
             errors.push_back(self, "property 'object' is undefined: set the object (setObject) here or on the "
                                    "enclosing Pick / Place")
         for child in self._children:
-            try:
-                child.init(robot_model)
-            except InitStageException as exc:
-                errors.append(exc)
+            errors.collect(child.init, robot_model)
         if errors:
             raise errors
 
