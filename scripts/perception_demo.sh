@@ -38,12 +38,9 @@
 # MYCOBOT_DEMO_VIEWER=1 also starts the task viewer and prints its address.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-if [[ "${1:-}" == "-h" || "${1:-}" == "--help" ]]; then
-  sed -n '2,/^set -euo/p' "${BASH_SOURCE[0]}" | sed '$d' | sed 's/^# \{0,1\}//'
-  exit 0
-fi
-"$ROOT/scripts/setup.sh"
-cd "$ROOT"
+# shellcheck source=scripts/demo_common.sh
+source "$ROOT/scripts/demo_common.sh"
+demo_prepare "${BASH_SOURCE[0]}" "${1:-}"
 # The run itself (bring-up, mtc_node, the report, the clean-up) is Python:
 # mycobot_planning.ros.demos.robot_demos over the bring-up module mycobot_planning.ros.bringup.
 exec "$ROOT/.venv/bin/python" -m mycobot_planning.ros.demos.robot_demos perception "$@"

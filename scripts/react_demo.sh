@@ -21,10 +21,7 @@
 # $MYCOBOT_DEMO_DIR (default /tmp/mycobot_planning/react-demo-<pid>).
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-if [[ "${1:-}" == "-h" || "${1:-}" == "--help" ]]; then
-  sed -n '2,/^set -euo/p' "${BASH_SOURCE[0]}" | sed '$d' | sed 's/^# \{0,1\}//'
-  exit 0
-fi
-"$ROOT/scripts/setup.sh"
-cd "$ROOT"
+# shellcheck source=scripts/demo_common.sh
+source "$ROOT/scripts/demo_common.sh"
+demo_prepare "${BASH_SOURCE[0]}" "${1:-}"
 exec "$ROOT/.venv/bin/python" -m mycobot_planning.ros.demos.react_demo "$@"
