@@ -366,20 +366,18 @@ class TaskViewer:
         self._wake.set()
 
     def on_task_description(self, source: str, msg: TaskDescription) -> None:
-        with self._lock:
-            self.registry.on_description(source, msg)
-            self._tasks_dirty = True
-        self._wake.set()
+        self._on_task_message(self.registry.on_description, source, msg)
 
     def on_task_statistics(self, source: str, msg: TaskStatistics) -> None:
-        with self._lock:
-            self.registry.on_statistics(source, msg)
-            self._tasks_dirty = True
-        self._wake.set()
+        self._on_task_message(self.registry.on_statistics, source, msg)
 
     def on_task_solution(self, source: str, msg: TaskSolution) -> None:
+        self._on_task_message(self.registry.on_solution, source, msg)
+
+    def _on_task_message(self, update: Callable[[str, Any], None], source: str, msg: Any) -> None:
+        """Hand one task message to the registry (``update``) under the lock and wake the loop."""
         with self._lock:
-            self.registry.on_solution(source, msg)
+            update(source, msg)
             self._tasks_dirty = True
         self._wake.set()
 
