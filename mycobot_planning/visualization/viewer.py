@@ -77,7 +77,22 @@ def _node_name(text: str) -> str:
 
 
 # ---------------------------------------------------------------------------- scene pieces
-class RobotDisplay:
+class _RootFrameDisplay:
+    """A display whose scene nodes hang under one root frame (``_root``): ``visible`` shows or
+    hides them all."""
+
+    _root: Any
+
+    @property
+    def visible(self) -> bool:
+        return bool(self._root.visible)
+
+    @visible.setter
+    def visible(self, value: bool) -> None:
+        self._root.visible = bool(value)
+
+
+class RobotDisplay(_RootFrameDisplay):
     """One robot drawn from its collision shapes: a frame per link, the shapes under it."""
 
     def __init__(self, server: Any, model: RobotModel, root: str, colour: tuple[int, int, int],
@@ -99,14 +114,6 @@ class RobotDisplay:
         self.positions: np.ndarray | None = None
         self._state = RobotState(model)
 
-    @property
-    def visible(self) -> bool:
-        return bool(self._root.visible)
-
-    @visible.setter
-    def visible(self, value: bool) -> None:
-        self._root.visible = bool(value)
-
     def link_poses(self, positions: np.ndarray, extra_links: Sequence[str] = ()) -> dict[str, np.ndarray]:
         self._state.set_positions(positions)
         return self._state.frame_poses(list(dict.fromkeys([*self.links, *extra_links])))
@@ -127,7 +134,7 @@ class RobotDisplay:
         return poses
 
 
-class ObjectsDisplay:
+class ObjectsDisplay(_RootFrameDisplay):
     """Scene objects under one root: meshes re-created when an object's shapes change, poses
     updated every time (attached objects follow their link)."""
 
@@ -141,14 +148,6 @@ class ObjectsDisplay:
         self._nodes: dict[str, tuple[str, Any, list[Any]]] = {}  # id -> (signature, frame, meshes)
         self.shown: dict[str, dict[str, Any]] = {}
         self.errors: dict[str, str] = {}
-
-    @property
-    def visible(self) -> bool:
-        return bool(self._root.visible)
-
-    @visible.setter
-    def visible(self, value: bool) -> None:
-        self._root.visible = bool(value)
 
     def update(self, objects: SceneObjects, link_poses: Mapping[str, np.ndarray]) -> None:
         poses = objects.poses(link_poses)

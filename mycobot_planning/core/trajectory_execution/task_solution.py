@@ -169,11 +169,7 @@ def check_solution(manager: "TrajectoryExecutionManager", steps: Sequence[Soluti
     for k, step in enumerate(steps):
         where = f"step {k} ('{step.name}')"
         if step.scene_diff_before is not None:
-            try:
-                staged.apply_planning_scene_msg(step.scene_diff_before)
-            except (SceneError, MessageError) as exc:
-                raise ExecutionError(MoveItErrorCode.INVALID_MOTION_PLAN,
-                                     f"{where}: scene_diff_before cannot be applied: {exc}") from None
+            _stage_scene_diff(staged, step.scene_diff_before, where, "scene_diff_before")
         if step.moves:
             try:
                 prepared = prepare_trajectory(manager.model, step.trajectory,
@@ -197,11 +193,15 @@ def check_solution(manager: "TrajectoryExecutionManager", steps: Sequence[Soluti
             except (ValueError, PlanningError) as exc:
                 raise ExecutionError(MoveItErrorCode.INVALID_MOTION_PLAN, f"{where}: end state: {exc}") from None
         if step.scene_diff_after is not None:
-            try:
-                staged.apply_planning_scene_msg(step.scene_diff_after)
-            except (SceneError, MessageError) as exc:
-                raise ExecutionError(MoveItErrorCode.INVALID_MOTION_PLAN,
-                                     f"{where}: scene_diff_after cannot be applied: {exc}") from None
+            _stage_scene_diff(staged, step.scene_diff_after, where, "scene_diff_after")
+
+def _stage_scene_diff(staged: PlanningScene, diff: PlanningSceneMsg, where: str, label: str) -> None:
+    """Apply one of a step's scene diffs on the staged scene copy (ExecutionError when it cannot)."""
+    try:
+        staged.apply_planning_scene_msg(diff)
+    except (SceneError, MessageError) as exc:
+        raise ExecutionError(MoveItErrorCode.INVALID_MOTION_PLAN, f"{where}: {label} cannot be applied: {exc}") from None
+
 
 def execute_solution(
     manager: "TrajectoryExecutionManager",
