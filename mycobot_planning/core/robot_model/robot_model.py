@@ -17,9 +17,8 @@ from typing import Any, Callable, Iterable, Mapping
 
 import numpy as np
 import pinocchio as pin
-import yaml
 
-from ...paths import config_file, example_robot_data_dir, package_share_dirs
+from ...paths import config_file, example_robot_data_dir, package_share_dirs, read_yaml_file
 from ..errors import RobotModelError
 from .robot_config import RobotConfig
 from .srdf import Srdf, parse_robot_xml, parse_srdf
@@ -146,10 +145,7 @@ def _load_yaml(source: str | Path | Mapping | None, what: str) -> dict:
         return {}
     if isinstance(source, Mapping):
         return dict(source)
-    try:
-        data = yaml.safe_load(Path(source).read_text())
-    except (OSError, yaml.YAMLError) as exc:
-        raise RobotModelError(f"cannot read {what} '{source}': {exc}") from None
+    data = read_yaml_file(source, RobotModelError, f"{what} '{source}'")
     if data is None:
         return {}
     if not isinstance(data, dict):
