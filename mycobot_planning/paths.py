@@ -9,6 +9,9 @@ from __future__ import annotations
 import os
 import sys
 from pathlib import Path
+from typing import Any, Callable
+
+import yaml
 
 PACKAGE = "mycobot_planning"
 
@@ -42,6 +45,15 @@ def config_dir() -> Path:
     raise FileNotFoundError(
         f"{PACKAGE}: config folder not found (looked in {', '.join(str(c) for c in candidates)})"
     )
+
+
+def read_yaml_file(path: str | Path, error: Callable[[str], Exception], where: str | None = None) -> Any:
+    """The parsed content of the YAML file ``path``. When it cannot be read or parsed,
+    ``error("cannot read <where>: <reason>")`` is raised (``where``: the path by default)."""
+    try:
+        return yaml.safe_load(Path(path).read_text())
+    except (OSError, yaml.YAMLError) as exc:
+        raise error(f"cannot read {path if where is None else where}: {exc}") from None
 
 
 def config_file(name: str) -> Path:

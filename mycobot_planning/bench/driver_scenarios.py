@@ -39,6 +39,7 @@ from mycobot_planning.hardware.protocol import BITS_PER_BYTE
 from mycobot_planning.mock_control.joint_trajectory_follower import ControllerStatus, TrajectoryCommand
 
 from .common import emit, machine, spread
+from .pick_place_scenarios import best_solution_sub_trajectories
 
 BAUD = 115200
 ARM_JOINTS = ["link1_to_link2", "link2_to_link3", "link3_to_link4", "link4_to_link5", "link5_to_link6",
@@ -51,16 +52,8 @@ SEND_ANGLES_BYTES = 18 + 6
 
 def planned_parts(seed: int) -> list[dict[str, Any]]:
     """The best pick-and-place solution's sub-trajectories, split into arm and gripper parts."""
-    from mycobot_planning.demos.pick_place import PickPlaceParameters, build_pick_place_task, pick_place_scene
-
-    model = RobotModel.mycobot()
-    params = PickPlaceParameters()
-    task = build_pick_place_task(model, params, pick_place_scene(model, params), seed=seed)
-    task.plan(params.max_solutions)
-    if not task.solutions:
-        raise RuntimeError("benchmark set-up: the pick-and-place task found no solution")
     parts = []
-    for sub in task.solutions[0].sub_trajectories():
+    for sub in best_solution_sub_trajectories(RobotModel.mycobot(), seed):
         traj = sub.trajectory
         if traj is None or len(traj.times) < 2:
             continue

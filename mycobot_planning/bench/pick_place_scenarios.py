@@ -17,6 +17,7 @@ Register in scenarios.SCENARIOS as ``"pick_place": bench_pick_place``.
 from __future__ import annotations
 
 import time
+from typing import Any
 
 import numpy as np
 
@@ -26,6 +27,17 @@ from mycobot_planning.demos.pick_place import PickPlaceParameters, build_pick_pl
 from .common import emit, machine, spread, stats
 
 RUNS = 5
+
+
+def best_solution_sub_trajectories(model: RobotModel, seed: int) -> list[Any]:
+    """The sub-trajectories of the best solution of one pick-and-place plan with the default
+    parameters (RuntimeError when the task finds no solution)."""
+    params = PickPlaceParameters()
+    task = build_pick_place_task(model, params, pick_place_scene(model, params), seed=seed)
+    task.plan(params.max_solutions)
+    if not task.solutions:
+        raise RuntimeError("benchmark set-up: the pick-and-place task found no solution")
+    return task.solutions[0].sub_trajectories()
 
 
 def plan_once(model: RobotModel, params: PickPlaceParameters, scene, seed: int) -> dict[str, float]:

@@ -61,24 +61,14 @@ def bench_collision(repeat: int, seed: int) -> None:
     model = RobotModel.mycobot()
     scene = seeds_table_scene(model)
     rng = np.random.default_rng(seed)
-    medians = []
-    all_samples, colliding = [], 0
-    for index in range(repeat):
-        samples, hits = [], 0
-        for state in random_arm_states(model, 5000, rng):
-            positions = state.positions
-            elapsed, valid = timed(lambda: scene.is_valid_positions(positions))
-            samples.append(elapsed)
-            hits += not valid
-        record = {"scenario": "collision", "repeat": index, "states": len(samples), "invalid_fraction": hits / len(samples)}
-        record.update(stats(samples, 1e6, "us"))
-        medians.append(record["median_us"])
-        emit(record)
-        all_samples += samples
-        colliding += hits
-    summary = {"scenario": "collision", "summary": True, "invalid_fraction": colliding / len(all_samples)}
-    summary.update({k: v for k, v in stats(all_samples, 1e6, "us").items() if k in ("median_us", "p90_us")})
-    emit({**summary, **spread(medians), **machine()})
+
+    def check(state: RobotState) -> tuple[float, bool]:
+        positions = state.positions
+        elapsed, valid = timed(lambda: scene.is_valid_positions(positions))
+        return elapsed, not valid
+
+    _bench_timed_trials("collision", repeat, lambda: random_arm_states(model, 5000, rng), check,
+                        "states", "invalid_fraction", 1e6, "us")
 
 
 def bench_fk(repeat: int, seed: int) -> None:
@@ -105,22 +95,37 @@ def bench_ik(repeat: int, seed: int) -> None:
     solver = IKSolver(model, "arm")
     solver.solve(RobotState(model).frame_pose("link6_flange"))  # builds the seed table once, untimed
     rng = np.random.default_rng(seed)
-    all_samples, successes, medians = [], 0, []
+
+    def solve(state: RobotState) -> tuple[float, bool]:
+        target = state.frame_pose("link6_flange")
+        elapsed, solutions = timed(lambda: solver.solve(target, rng=rng))
+        return elapsed, bool(solutions)
+
+    _bench_timed_trials("ik", repeat, lambda: random_arm_states(model, 1000, rng, empty_scene), solve,
+                        "poses", "success_rate", 1e3, "ms")
+
+
+def _bench_timed_trials(scenario: str, repeat: int, states: Callable[[], list[RobotState]],
+                        trial: Callable[[RobotState], tuple[float, bool]], count_key: str, fraction_key: str,
+                        scale: float, unit: str) -> None:
+    """Per repeat, run ``trial`` (elapsed seconds, counted or not) on each of ``states()`` and emit
+    its timing stats and the counted fraction; then the summary over all repeats."""
+    medians = []
+    all_samples, counted = [], 0
     for index in range(repeat):
-        samples, ok = [], 0
-        for state in random_arm_states(model, 1000, rng, empty_scene):
-            target = state.frame_pose("link6_flange")
-            elapsed, solutions = timed(lambda: solver.solve(target, rng=rng))
+        samples, hits = [], 0
+        for state in states():
+            elapsed, hit = trial(state)
             samples.append(elapsed)
-            ok += bool(solutions)
-        record = {"scenario": "ik", "repeat": index, "poses": len(samples), "success_rate": ok / len(samples)}
-        record.update(stats(samples, 1e3, "ms"))
-        medians.append(record["median_ms"])
+            hits += hit
+        record = {"scenario": scenario, "repeat": index, count_key: len(samples), fraction_key: hits / len(samples)}
+        record.update(stats(samples, scale, unit))
+        medians.append(record[f"median_{unit}"])
         emit(record)
         all_samples += samples
-        successes += ok
-    summary = {"scenario": "ik", "summary": True, "success_rate": successes / len(all_samples)}
-    summary.update({k: v for k, v in stats(all_samples, 1e3, "ms").items() if k in ("median_ms", "p90_ms")})
+        counted += hits
+    summary = {"scenario": scenario, "summary": True, fraction_key: counted / len(all_samples)}
+    summary.update({k: v for k, v in stats(all_samples, scale, unit).items() if k in (f"median_{unit}", f"p90_{unit}")})
     emit({**summary, **spread(medians), **machine()})
 
 

@@ -17,6 +17,7 @@ from mycobot_planning.core.planning_interface.planning_interface import time_gro
 from mycobot_planning.core.trajectory_processing import path_deviation, time_parameterize
 
 from .common import emit, machine, timed
+from .pick_place_scenarios import best_solution_sub_trajectories
 from .peers import toppra_runner
 from .peers.venvs import PeerUnavailable, ensure_peer_venv, log
 
@@ -72,15 +73,8 @@ def is_timed_smooth(model: RobotModel, group: str, path: np.ndarray) -> bool:
 
 def pick_place_problems(model: RobotModel, seed: int) -> list[dict[str, Any]]:
     """Paths of the pick-and-place demo's best solution that our planner times as "smooth"."""
-    from mycobot_planning.demos.pick_place import PickPlaceParameters, build_pick_place_task, pick_place_scene
-
-    params = PickPlaceParameters()
-    task = build_pick_place_task(model, params, pick_place_scene(model, params), seed=seed)
-    task.plan(params.max_solutions)
-    if not task.solutions:
-        raise RuntimeError("benchmark set-up: the pick-and-place task found no solution")
     problems = []
-    for sub in task.solutions[0].sub_trajectories():
+    for sub in best_solution_sub_trajectories(model, seed):
         traj = sub.trajectory
         if traj is None or traj.path is None or len(traj.path) < 3 or sub.group is None:
             continue

@@ -490,30 +490,17 @@ def build_pick_place_task(model: RobotModel, params: PickPlaceParameters | None 
     current_state = CurrentState("current state")
     task.add(current_state)
 
-    stage = MoveTo("open gripper", interpolation_planner)
-    stage.setGroup(p.gripper_group_name)
-    stage.setGoal(p.gripper_open_pose)
-    stage.setTrajectoryExecutionInfo(controllers)
-    task.add(stage)
+    task.add(_move_gripper("open gripper", interpolation_planner, p.gripper_group_name, p.gripper_open_pose,
+                           controllers))
 
-    stage = Connect("move to pick", [(p.arm_group_name, ompl_planner_arm), (p.gripper_group_name, interpolation_planner)])
-    stage.setTimeout(p.move_to_pick_timeout)
-    stage.properties.configureInitFrom(Stage.PARENT)
-    task.add(stage)
+    connect_planners = [(p.arm_group_name, ompl_planner_arm), (p.gripper_group_name, interpolation_planner)]
+    task.add(_connect("move to pick", connect_planners, p.move_to_pick_timeout))
 
     # ---- pick object
-    grasp = SerialContainer("pick object")
-    task.properties.exposeTo(grasp.properties, ["eef", "group", "ik_frame"])
-    grasp.properties.configureInitFrom(Stage.PARENT, ["eef", "group", "ik_frame"])
-
-    stage = MoveRelative("approach object", cartesian_planner)
-    stage.setMarkerNS("approach_object")
-    stage.setIKFrame(p.gripper_frame)
-    stage.setTrajectoryExecutionInfo(controllers)
-    stage.properties.configureInitFrom(Stage.PARENT, ["group"])
-    stage.setMinMaxDistance(p.approach_object_min_dist, p.approach_object_max_dist)
-    stage.setDirection(Vector3Stamped(p.gripper_frame, [0.0, 0.0, p.approach_object_direction_z]))
-    grasp.insert(stage)
+    grasp = _serial_container(task, "pick object")
+    grasp.insert(_move_relative("approach object", cartesian_planner, controllers, "approach_object",
+                                p.gripper_frame, p.approach_object_min_dist, p.approach_object_max_dist,
+                                Vector3Stamped(p.gripper_frame, [0.0, 0.0, p.approach_object_direction_z])))
 
     generator = GenerateGraspPose("generate grasp pose")
     generator.properties.configureInitFrom(Stage.PARENT)
@@ -523,25 +510,17 @@ def build_pick_place_task(model: RobotModel, params: PickPlaceParameters | None 
     generator.setAngleDelta(p.grasp_pose_angle_delta)
     generator.setMonitoredStage(current_state)
     grasp_frame = vector_to_pose(p.grasp_frame_transform)
-    ik = ComputeIK("grasp pose IK", generator)
-    ik.setMaxIKSolutions(p.grasp_pose_max_ik_solutions)
+    ik = _compute_ik("grasp pose IK", generator, p.grasp_pose_max_ik_solutions, grasp_frame, p.gripper_frame,
+                     grasp_ik_timeout)
     ik.setMinSolutionDistance(p.grasp_pose_min_solution_distance)
-    ik.setIKFrame(grasp_frame, p.gripper_frame)
-    if grasp_ik_timeout is not None:
-        ik.setTimeout(grasp_ik_timeout)
-    ik.properties.configureInitFrom(Stage.PARENT, ["eef", "group"])
-    ik.properties.configureInitFrom(Stage.INTERFACE, ["target_pose"])
     grasp.insert(ik)
 
     stage = ModifyPlanningScene("allow collision (gripper,object)")
     stage.allowCollisions(p.object_name, _collision_links(model, p.gripper_group_name), True)
     grasp.insert(stage)
 
-    stage = MoveTo("close gripper", interpolation_planner)
-    stage.setGroup(p.gripper_group_name)
-    stage.setGoal(p.gripper_close_pose)
-    stage.setTrajectoryExecutionInfo(controllers)
-    grasp.insert(stage)
+    grasp.insert(_move_gripper("close gripper", interpolation_planner, p.gripper_group_name, p.gripper_close_pose,
+                               controllers))
 
     attach_object_stage = ModifyPlanningScene("attach object")
     attach_object_stage.attachObject(p.object_name, p.gripper_frame)
@@ -551,14 +530,9 @@ def build_pick_place_task(model: RobotModel, params: PickPlaceParameters | None 
     stage.allowCollisions([p.object_name], [p.support_surface], True)
     grasp.insert(stage)
 
-    stage = MoveRelative("lift object", cartesian_planner)
-    stage.properties.configureInitFrom(Stage.PARENT, ["group"])
-    stage.setMinMaxDistance(p.lift_object_min_dist, p.lift_object_max_dist)
-    stage.setIKFrame(p.gripper_frame)
-    stage.setMarkerNS("lift_object")
-    stage.setTrajectoryExecutionInfo(controllers)
-    stage.setDirection(Vector3Stamped(p.world_frame, [0.0, 0.0, p.lift_object_direction_z]))
-    grasp.insert(stage)
+    grasp.insert(_move_relative("lift object", cartesian_planner, controllers, "lift_object", p.gripper_frame,
+                                p.lift_object_min_dist, p.lift_object_max_dist,
+                                Vector3Stamped(p.world_frame, [0.0, 0.0, p.lift_object_direction_z])))
 
     stage = ModifyPlanningScene("forbid collision (object,surface)")
     stage.allowCollisions([p.object_name], [p.support_surface], False)
@@ -566,24 +540,13 @@ def build_pick_place_task(model: RobotModel, params: PickPlaceParameters | None 
     task.add(grasp)
 
     # ---- move to place
-    stage = Connect("move to place", [(p.arm_group_name, ompl_planner_arm), (p.gripper_group_name, interpolation_planner)])
-    stage.setTimeout(p.move_to_place_timeout)
-    stage.properties.configureInitFrom(Stage.PARENT)
-    task.add(stage)
+    task.add(_connect("move to place", connect_planners, p.move_to_place_timeout))
 
     # ---- place object
-    place = SerialContainer("place object")
-    task.properties.exposeTo(place.properties, ["eef", "group", "ik_frame"])
-    place.properties.configureInitFrom(Stage.PARENT, ["eef", "group", "ik_frame"])
-
-    stage = MoveRelative("lower object", cartesian_planner)
-    stage.setMarkerNS("lower_object")
-    stage.setIKFrame(p.gripper_frame)
-    stage.setTrajectoryExecutionInfo(controllers)
-    stage.properties.configureInitFrom(Stage.PARENT, ["group"])
-    stage.setMinMaxDistance(p.lower_object_min_dist, p.lower_object_max_dist)
-    stage.setDirection(Vector3Stamped(p.world_frame, [0.0, 0.0, p.lower_object_direction_z]))
-    place.insert(stage)
+    place = _serial_container(task, "place object")
+    place.insert(_move_relative("lower object", cartesian_planner, controllers, "lower_object", p.gripper_frame,
+                                p.lower_object_min_dist, p.lower_object_max_dist,
+                                Vector3Stamped(p.world_frame, [0.0, 0.0, p.lower_object_direction_z])))
 
     generator = GeneratePlacePose("generate place pose")
     generator.properties.configureInitFrom(Stage.PARENT, ["ik_frame"])
@@ -591,20 +554,10 @@ def build_pick_place_task(model: RobotModel, params: PickPlaceParameters | None 
     generator.setObject(p.object_name)
     generator.setPose(PoseStamped(p.world_frame, expected_place_pose(p)))
     generator.setMonitoredStage(attach_object_stage)  # hook into successful pick solutions
-    ik = ComputeIK("place pose IK", generator)
-    ik.setMaxIKSolutions(p.place_pose_max_ik_solutions)
-    ik.setIKFrame(grasp_frame, p.gripper_frame)
-    if place_ik_timeout is not None:
-        ik.setTimeout(place_ik_timeout)
-    ik.properties.configureInitFrom(Stage.PARENT, ["eef", "group"])
-    ik.properties.configureInitFrom(Stage.INTERFACE, ["target_pose"])
-    place.insert(ik)
-
-    stage = MoveTo("open gripper", interpolation_planner)
-    stage.setGroup(p.gripper_group_name)
-    stage.setGoal(p.gripper_open_pose)
-    stage.setTrajectoryExecutionInfo(controllers)
-    place.insert(stage)
+    place.insert(_compute_ik("place pose IK", generator, p.place_pose_max_ik_solutions, grasp_frame, p.gripper_frame,
+                             place_ik_timeout))
+    place.insert(_move_gripper("open gripper", interpolation_planner, p.gripper_group_name, p.gripper_open_pose,
+                               controllers))
 
     stage = ModifyPlanningScene("forbid collision (gripper,object)")
     stage.allowCollisions(p.object_name, model.group(p.gripper_group_name), False)
@@ -614,14 +567,9 @@ def build_pick_place_task(model: RobotModel, params: PickPlaceParameters | None 
     stage.detachObject(p.object_name, p.gripper_frame)
     place.insert(stage)
 
-    stage = MoveRelative("retreat after place", cartesian_planner)
-    stage.setTrajectoryExecutionInfo(controllers)
-    stage.properties.configureInitFrom(Stage.PARENT, ["group"])
-    stage.setMinMaxDistance(p.retreat_min_distance, p.retreat_max_distance)
-    stage.setIKFrame(p.gripper_frame)
-    stage.setMarkerNS("retreat")
-    stage.setDirection(Vector3Stamped(p.gripper_frame, [0.0, 0.0, p.retreat_direction_z]))
-    place.insert(stage)
+    place.insert(_move_relative("retreat after place", cartesian_planner, controllers, "retreat", p.gripper_frame,
+                                p.retreat_min_distance, p.retreat_max_distance,
+                                Vector3Stamped(p.gripper_frame, [0.0, 0.0, p.retreat_direction_z])))
     task.add(place)
 
     # ---- move home
@@ -638,3 +586,55 @@ def _collision_links(model: RobotModel, group: str) -> list[str]:
     getLinkModelNamesWithCollisionGeometry)."""
     with_geometry = set(model.links_with_collision_geometry())
     return [link for link in model.group(group).link_names if link in with_geometry]
+
+
+def _move_gripper(name: str, planner: JointInterpolationPlanner, group: str, goal: str,
+                  controllers: list[str]) -> MoveTo:
+    """A MoveTo of the gripper group to a named pose."""
+    stage = MoveTo(name, planner)
+    stage.setGroup(group)
+    stage.setGoal(goal)
+    stage.setTrajectoryExecutionInfo(controllers)
+    return stage
+
+
+def _connect(name: str, planners: list[tuple[str, Any]], timeout: float) -> Connect:
+    """A Connect stage with the given per-group planners, initialised from its parent."""
+    stage = Connect(name, planners)
+    stage.setTimeout(timeout)
+    stage.properties.configureInitFrom(Stage.PARENT)
+    return stage
+
+
+def _serial_container(task: Task, name: str) -> SerialContainer:
+    """A SerialContainer that gets the task's eef, group and ik_frame."""
+    container = SerialContainer(name)
+    task.properties.exposeTo(container.properties, ["eef", "group", "ik_frame"])
+    container.properties.configureInitFrom(Stage.PARENT, ["eef", "group", "ik_frame"])
+    return container
+
+
+def _move_relative(name: str, planner: CartesianPath, controllers: list[str], marker_ns: str, ik_frame: str,
+                   min_distance: float, max_distance: float, direction: Vector3Stamped) -> MoveRelative:
+    """A Cartesian MoveRelative of the group inherited from the parent."""
+    stage = MoveRelative(name, planner)
+    stage.setMarkerNS(marker_ns)
+    stage.setIKFrame(ik_frame)
+    stage.setTrajectoryExecutionInfo(controllers)
+    stage.properties.configureInitFrom(Stage.PARENT, ["group"])
+    stage.setMinMaxDistance(min_distance, max_distance)
+    stage.setDirection(direction)
+    return stage
+
+
+def _compute_ik(name: str, generator: Stage, max_solutions: int, ik_frame: np.ndarray, link: str,
+                timeout: float | None) -> ComputeIK:
+    """A ComputeIK wrapping a pose generator (timeout None: the group's kinematics timeout)."""
+    ik = ComputeIK(name, generator)
+    ik.setMaxIKSolutions(max_solutions)
+    ik.setIKFrame(ik_frame, link)
+    if timeout is not None:
+        ik.setTimeout(timeout)
+    ik.properties.configureInitFrom(Stage.PARENT, ["eef", "group"])
+    ik.properties.configureInitFrom(Stage.INTERFACE, ["target_pose"])
+    return ik

@@ -21,8 +21,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
 
-import yaml
-
+from ..paths import read_yaml_file
 from .errors import ParameterError
 
 NODE_NAME = "perception_server"
@@ -268,10 +267,7 @@ class PerceptionParameters:
         """Parameters from a ROS 2 parameter file (``<node>: ros__parameters: {...}``, with node
         ``perception_server``, ``get_planning_scene_server`` or ``/**``) or from a flat mapping."""
         path = Path(path)
-        try:
-            data = yaml.safe_load(path.read_text())
-        except (OSError, yaml.YAMLError) as err:
-            raise ParameterError(f"cannot read perception parameters from {path}: {err}") from None
+        data = read_yaml_file(path, ParameterError, f"perception parameters from {path}")
         return cls.from_dict(_ros_parameters_section(data, str(path)), strict=strict)
 
     @classmethod

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any, Callable
 
 import numpy as np
 
@@ -111,26 +112,20 @@ def ransac_line(xy: np.ndarray, threshold: float, max_iterations: int,
 
     Hypotheses are scored on at most _RANSAC_EVAL_POINTS points, in batches, stopping as soon
     as the standard RANSAC bound says an all-inlier sample has almost surely been drawn."""
-    n = xy.shape[0]
-    if n < 2:
+    if xy.shape[0] < 2:
         return None
-    ev = xy if n <= _RANSAC_EVAL_POINTS else xy[rng.choice(n, _RANSAC_EVAL_POINTS, replace=False)]
-    best, best_count, done, needed = None, 0, 0, float(max_iterations)
-    while done < min(max_iterations, needed):
-        b = int(min(_RANSAC_BATCH if done else _RANSAC_FIRST_BATCH, max_iterations - done))
-        i, j = rng.integers(0, n, size=(2, b))
+
+    def hypotheses(ev: np.ndarray, idx: np.ndarray) -> tuple[np.ndarray, Callable[[int], Any]]:
+        i, j = idx
         d = xy[j] - xy[i]
         length = np.hypot(d[:, 0], d[:, 1])
         ok = length > 1e-9
         normals = np.stack([-d[:, 1], d[:, 0]], axis=1) / np.where(ok, length, 1.0)[:, None]
         rho = np.einsum("bd,bd->b", normals, xy[i])
         counts = (np.abs(ev @ normals.T - rho) < threshold).sum(axis=0)
-        counts = np.where(ok, counts, -1)
-        k = int(np.argmax(counts))
-        if counts[k] > best_count:
-            best_count, best = int(counts[k]), (normals[k], float(rho[k]))
-            needed = _needed_iterations(best_count / ev.shape[0], 2)
-        done += b
+        return np.where(ok, counts, -1), lambda k: (normals[k], float(rho[k]))
+
+    best = _ransac(xy, max_iterations, rng, 2, hypotheses)
     if best is None:
         return None
     normal, rho = best
@@ -158,24 +153,41 @@ def _circles_through(p1: np.ndarray, p2: np.ndarray, p3: np.ndarray) -> tuple[np
 def ransac_circle(xy: np.ndarray, threshold: float, max_iterations: int, rng: np.random.Generator,
                   r_min: float, r_max: float) -> tuple[np.ndarray, float] | None:
     """Best 2D circle (centre (2,), radius) with r_min <= radius <= r_max, or None."""
-    n = xy.shape[0]
-    if n < 3:
+    if xy.shape[0] < 3:
         return None
+
+    def hypotheses(ev: np.ndarray, idx: np.ndarray) -> tuple[np.ndarray, Callable[[int], Any]] | None:
+        centres, radii = _circles_through(xy[idx[0]], xy[idx[1]], xy[idx[2]])
+        ok = (radii >= r_min) & (radii <= r_max)
+        if not np.any(ok):
+            return None
+        c, r = centres[ok], radii[ok]
+        dist = np.sqrt((ev[:, None, 0] - c[None, :, 0]) ** 2 + (ev[:, None, 1] - c[None, :, 1]) ** 2)
+        return (np.abs(dist - r) < threshold).sum(axis=0), lambda k: (c[k], float(r[k]))
+
+    return _ransac(xy, max_iterations, rng, 3, hypotheses)
+
+
+def _ransac(xy: np.ndarray, max_iterations: int, rng: np.random.Generator, sample_size: int,
+            hypotheses: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, Callable[[int], Any]] | None]) -> Any:
+    """Batched RANSAC with adaptive stopping; the best model, or None.
+
+    ``hypotheses(ev, idx)`` fits one model per column of ``idx`` ((sample_size, b) indices into
+    ``xy``) and returns their inlier counts on the evaluation points ``ev`` (at most
+    _RANSAC_EVAL_POINTS of ``xy``) with a function giving the k-th counted model, or None when
+    no model of the batch is usable."""
+    n = xy.shape[0]
     ev = xy if n <= _RANSAC_EVAL_POINTS else xy[rng.choice(n, _RANSAC_EVAL_POINTS, replace=False)]
     best, best_count, done, needed = None, 0, 0, float(max_iterations)
     while done < min(max_iterations, needed):
         b = int(min(_RANSAC_BATCH if done else _RANSAC_FIRST_BATCH, max_iterations - done))
-        idx = rng.integers(0, n, size=(3, b))
-        centres, radii = _circles_through(xy[idx[0]], xy[idx[1]], xy[idx[2]])
-        ok = (radii >= r_min) & (radii <= r_max)
-        if np.any(ok):
-            c, r = centres[ok], radii[ok]
-            dist = np.sqrt((ev[:, None, 0] - c[None, :, 0]) ** 2 + (ev[:, None, 1] - c[None, :, 1]) ** 2)
-            counts = (np.abs(dist - r) < threshold).sum(axis=0)
+        scored = hypotheses(ev, rng.integers(0, n, size=(sample_size, b)))
+        if scored is not None:
+            counts, model = scored
             k = int(np.argmax(counts))
             if counts[k] > best_count:
-                best_count, best = int(counts[k]), (c[k], float(r[k]))
-                needed = _needed_iterations(best_count / ev.shape[0], 3)
+                best_count, best = int(counts[k]), model(k)
+                needed = _needed_iterations(best_count / ev.shape[0], sample_size)
         done += b
     return best
 

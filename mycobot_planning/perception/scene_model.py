@@ -23,11 +23,11 @@ from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 import numpy as np
-import yaml
 
 from interfaces_py.msgs import CollisionObject
 from interfaces_py.pose_conversion import PoseError, pose_matrix
 
+from ..paths import read_yaml_file
 from .errors import PerceptionError
 
 DEFAULT_COLORS = {
@@ -234,10 +234,7 @@ class GroundTruthScene:
 
 
 def _load_yaml(path: str | Path) -> Mapping[str, Any]:
-    try:
-        data = yaml.safe_load(Path(path).read_text())
-    except (OSError, yaml.YAMLError) as err:
-        raise PerceptionError(f"cannot read {path}: {err}") from None
+    data = read_yaml_file(path, PerceptionError)
     if not isinstance(data, Mapping):
         raise PerceptionError(f"{path}: expected a mapping at the top level")
     return data

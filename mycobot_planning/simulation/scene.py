@@ -23,10 +23,10 @@ from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 import numpy as np
-import yaml
 
 from interfaces_py.pose_conversion import PoseError, pose_matrix
 
+from ..paths import read_yaml_file
 from ..perception.depth_camera import DepthCameraConfig
 from ..perception.errors import PerceptionError
 from .errors import SimulationModelError
@@ -212,10 +212,7 @@ class SimScene:
 
 
 def _camera_from_file(path: Path) -> DepthCameraConfig:
-    try:
-        data = yaml.safe_load(path.read_text()) or {}
-    except (OSError, yaml.YAMLError) as exc:
-        raise SimulationModelError(f"cannot read camera_file '{path}': {exc}") from None
+    data = read_yaml_file(path, SimulationModelError, f"camera_file '{path}'") or {}
     if not isinstance(data, Mapping) or "camera" not in data:
         raise SimulationModelError(f"camera_file '{path}' has no camera: section")
     return DepthCameraConfig.from_dict(data["camera"])
@@ -224,10 +221,7 @@ def _camera_from_file(path: Path) -> DepthCameraConfig:
 def load_scene(path: str | Path) -> SimScene:
     """The scene of a YAML file; every problem is a SimulationModelError naming the file."""
     path = Path(path)
-    try:
-        data = yaml.safe_load(path.read_text())
-    except (OSError, yaml.YAMLError) as exc:
-        raise SimulationModelError(f"cannot read scene file '{path}': {exc}") from None
+    data = read_yaml_file(path, SimulationModelError, f"scene file '{path}'")
     try:
         return SimScene.from_dict(data or {}, path.parent, str(path))
     except SimulationModelError as exc:

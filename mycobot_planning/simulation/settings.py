@@ -12,8 +12,8 @@ from pathlib import Path
 from typing import Any, Mapping
 
 import numpy as np
-import yaml
 
+from ..paths import read_yaml_file
 from .errors import SimulationModelError
 
 NODE_NAME = "mujoco_sim"
@@ -204,10 +204,7 @@ def _build(kind: type, data: Any, where: str) -> Any:
 
 def load_settings(path: str | Path) -> SimulationSettings:
     """Settings from a parameter file (``mujoco_sim: ros__parameters: {...}`` or a plain map)."""
-    try:
-        data = yaml.safe_load(Path(path).read_text()) or {}
-    except (OSError, yaml.YAMLError) as exc:
-        raise SimulationModelError(f"cannot read simulation settings '{path}': {exc}") from None
+    data = read_yaml_file(path, SimulationModelError, f"simulation settings '{path}'") or {}
     if isinstance(data, Mapping) and NODE_NAME in data:
         data = data[NODE_NAME]
     if isinstance(data, Mapping) and "ros__parameters" in data:

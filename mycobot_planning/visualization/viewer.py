@@ -80,7 +80,22 @@ def _node_name(text: str) -> str:
 
 
 # ---------------------------------------------------------------------------- scene pieces
-class RobotDisplay:
+class _RootFrameDisplay:
+    """A display whose scene nodes hang under one root frame (``_root``): ``visible`` shows or
+    hides them all."""
+
+    _root: Any
+
+    @property
+    def visible(self) -> bool:
+        return bool(self._root.visible)
+
+    @visible.setter
+    def visible(self, value: bool) -> None:
+        self._root.visible = bool(value)
+
+
+class RobotDisplay(_RootFrameDisplay):
     """One robot drawn from its collision shapes: a frame per link, the shapes under it."""
 
     def __init__(self, server: Any, model: RobotModel, root: str, colour: tuple[int, int, int],
@@ -102,14 +117,6 @@ class RobotDisplay:
         self.positions: np.ndarray | None = None
         self._state = RobotState(model)
 
-    @property
-    def visible(self) -> bool:
-        return bool(self._root.visible)
-
-    @visible.setter
-    def visible(self, value: bool) -> None:
-        self._root.visible = bool(value)
-
     def link_poses(self, positions: np.ndarray, extra_links: Sequence[str] = ()) -> dict[str, np.ndarray]:
         self._state.set_positions(positions)
         return self._state.frame_poses(list(dict.fromkeys([*self.links, *extra_links])))
@@ -130,7 +137,7 @@ class RobotDisplay:
         return poses
 
 
-class ObjectsDisplay:
+class ObjectsDisplay(_RootFrameDisplay):
     """Scene objects under one root: meshes re-created when an object's shapes change, poses
     updated every time (attached objects follow their link)."""
 
@@ -144,14 +151,6 @@ class ObjectsDisplay:
         self._nodes: dict[str, tuple[str, Any, list[Any]]] = {}  # id -> (signature, frame, meshes)
         self.shown: dict[str, dict[str, Any]] = {}
         self.errors: dict[str, str] = {}
-
-    @property
-    def visible(self) -> bool:
-        return bool(self._root.visible)
-
-    @visible.setter
-    def visible(self, value: bool) -> None:
-        self._root.visible = bool(value)
 
     def update(self, objects: SceneObjects, link_poses: Mapping[str, np.ndarray]) -> None:
         poses = objects.poses(link_poses)
@@ -398,20 +397,18 @@ class TaskViewer:
         self._wake.set()
 
     def on_task_description(self, source: str, msg: TaskDescription) -> None:
-        with self._lock:
-            self.registry.on_description(source, msg)
-            self._tasks_dirty = True
-        self._wake.set()
+        self._on_task_message(self.registry.on_description, source, msg)
 
     def on_task_statistics(self, source: str, msg: TaskStatistics) -> None:
-        with self._lock:
-            self.registry.on_statistics(source, msg)
-            self._tasks_dirty = True
-        self._wake.set()
+        self._on_task_message(self.registry.on_statistics, source, msg)
 
     def on_task_solution(self, source: str, msg: TaskSolution) -> None:
+        self._on_task_message(self.registry.on_solution, source, msg)
+
+    def _on_task_message(self, update: Callable[[str, Any], None], source: str, msg: Any) -> None:
+        """Hand one task message to the registry (``update``) under the lock and wake the loop."""
         with self._lock:
-            self.registry.on_solution(source, msg)
+            update(source, msg)
             self._tasks_dirty = True
         self._wake.set()
 

@@ -25,12 +25,6 @@ def model() -> RobotModel:
     return RobotModel.mycobot()
 
 
-@pytest.fixture(scope="module")
-def panda() -> RobotModel:
-    d = example_robot_data_dir() / "panda_description"
-    return RobotModel.from_files(d / "urdf" / "panda.urdf", d / "srdf" / "panda.srdf")
-
-
 def named(model: RobotModel, name: str) -> RobotState:
     state = RobotState(model)
     state.set_joint_positions(model.named_state(name, "arm"))

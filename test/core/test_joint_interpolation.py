@@ -223,19 +223,14 @@ def test_interpolate_joint_path_bad_calls(mycobot):
         interpolate_joint_path(scene, "arm", start, np.zeros(6), max_step=0.0)
 
 
-def test_goal_in_collision(mycobot):
+@pytest.mark.parametrize("box_at, code", [(RIGHT, MoveItErrorCode.GOAL_IN_COLLISION),
+                                           (LEFT, MoveItErrorCode.START_STATE_IN_COLLISION)],
+                         ids=["goal", "start"])
+def test_goal_or_start_in_collision(mycobot, box_at, code):
     scene = PlanningScene(mycobot, arm_state(mycobot, LEFT))
-    scene.add_object(box_at_flange(mycobot, RIGHT))
+    scene.add_object(box_at_flange(mycobot, box_at))
     response = plan_joint_interpolation(scene, MotionPlanRequest("arm", JointGoal(RIGHT)))
-    assert response.error_code.val == MoveItErrorCode.GOAL_IN_COLLISION
-    assert "'box' (Object)" in response.message
-
-
-def test_start_in_collision(mycobot):
-    scene = PlanningScene(mycobot, arm_state(mycobot, LEFT))
-    scene.add_object(box_at_flange(mycobot, LEFT))
-    response = plan_joint_interpolation(scene, MotionPlanRequest("arm", JointGoal(RIGHT)))
-    assert response.error_code.val == MoveItErrorCode.START_STATE_IN_COLLISION
+    assert response.error_code.val == code
     assert "'box' (Object)" in response.message
 
 

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import math
 import re
+from typing import Any, Callable
 
 import numpy as np
 import pytest
@@ -23,21 +24,32 @@ def random_reachable_poses(model: RobotModel, group: str, count: int, seed: int)
     return poses
 
 
+def round_trips(solver: IKSolver, poses: list[np.ndarray], rng: np.random.Generator,
+                check: Callable[[RobotState, np.ndarray], None], **solve_options: Any) -> int:
+    """How many of ``poses`` the solver solves; ``check(first solution, pose)`` on each solved one."""
+    solved = 0
+    for pose in poses:
+        solutions = solver.solve(pose, rng=rng, **solve_options)
+        if solutions:
+            solved += 1
+            check(solutions[0], pose)
+    return solved
+
+
 def test_round_trip_success_rate_on_1000_poses(mycobot: RobotModel):
     solver = IKSolver(mycobot, "arm")
     rng = np.random.default_rng(7)
     poses = random_reachable_poses(mycobot, "arm", 1000, seed=11)
-    solved = 0
-    for pose in poses:
-        # Bounded by descents, not by the 50 ms kinematics.yaml timeout, so that a loaded machine
-        # cannot turn this into a timing test (the bench measures the timeout-bound solver).
-        solutions = solver.solve(pose, rng=rng, timeout=2.0, attempts=60)
-        if solutions:
-            solved += 1
-            reached = solutions[0].frame_pose("link6_flange")
-            assert np.allclose(reached[:3, 3], pose[:3, 3], atol=1e-4)
-            assert np.allclose(reached[:3, :3], pose[:3, :3], atol=1e-3)
-            assert solutions[0].satisfies_bounds()
+
+    def check(solution: RobotState, pose: np.ndarray) -> None:
+        reached = solution.frame_pose("link6_flange")
+        assert np.allclose(reached[:3, 3], pose[:3, 3], atol=1e-4)
+        assert np.allclose(reached[:3, :3], pose[:3, :3], atol=1e-3)
+        assert solution.satisfies_bounds()
+
+    # Bounded by descents, not by the 50 ms kinematics.yaml timeout, so that a loaded machine
+    # cannot turn this into a timing test (the bench measures the timeout-bound solver).
+    solved = round_trips(solver, poses, rng, check, timeout=2.0, attempts=60)
     assert solved / len(poses) >= 0.995
 
 
@@ -109,13 +121,11 @@ def test_panda_ik_round_trip(panda: RobotModel):
     solver = IKSolver(panda, "arm")
     rng = np.random.default_rng(0)
     poses = random_reachable_poses(panda, "arm", 100, seed=1)
-    solved = 0
-    for pose in poses:
-        solutions = solver.solve(pose, rng=rng)
-        if solutions:
-            solved += 1
-            assert np.allclose(solutions[0].frame_pose("panda_hand_tcp"), pose, atol=1e-4)
-    assert solved >= 98
+
+    def check(solution: RobotState, pose: np.ndarray) -> None:
+        assert np.allclose(solution.frame_pose("panda_hand_tcp"), pose, atol=1e-4)
+
+    assert round_trips(solver, poses, rng, check) >= 98
 
 
 @pytest.mark.parametrize(

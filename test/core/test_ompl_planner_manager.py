@@ -44,6 +44,13 @@ def assert_valid(scene: PlanningScene, response, group: str, start: RobotState) 
     assert report.valid, report.problems
 
 
+def assert_ends_at_pose(start: RobotState, response, link: str, target: np.ndarray) -> None:
+    """The arm's last trajectory point puts ``link`` at ``target``."""
+    end = start.copy()
+    end.set_group_positions("arm", response.trajectory.positions[-1])
+    assert np.allclose(end.frame_pose(link), target, atol=1e-4)
+
+
 @pytest.mark.parametrize("case", ["a", "b", "c"])
 def test_fallback_cases_succeed(mycobot: RobotModel, planner: OmplPlanner, case: str):
     target = dict(mycobot.named_state("ready", "arm"), link1_to_link2=TAU / 8)
@@ -67,9 +74,7 @@ def test_named_and_pose_goals(mycobot: RobotModel, planner: OmplPlanner):
     target = make_pose([0.15, 0.05, 0.15], rpy=[math.pi, 0.0, 0.0])
     posed = planner.plan(scene, MotionPlanRequest("arm", PoseGoal(target), start_state=start, seed=1))
     assert_valid(scene, posed, "arm", start)
-    end = start.copy()
-    end.set_group_positions("arm", posed.trajectory.positions[-1])
-    assert np.allclose(end.frame_pose("link6_flange"), target, atol=1e-4)
+    assert_ends_at_pose(start, posed, "link6_flange", target)
 
 
 def test_planner_ids(mycobot: RobotModel, planner: OmplPlanner):
@@ -91,9 +96,7 @@ def test_panda_pose_goal(panda: RobotModel, planner: OmplPlanner):
     target[:3, 3] += [0.05, 0.25, -0.15]
     response = planner.plan(scene, MotionPlanRequest("arm", PoseGoal(target), start_state=start, seed=4))
     assert_valid(scene, response, "arm", start)
-    end = start.copy()
-    end.set_group_positions("arm", response.trajectory.positions[-1])
-    assert np.allclose(end.frame_pose("panda_hand_tcp"), target, atol=1e-4)
+    assert_ends_at_pose(start, response, "panda_hand_tcp", target)
 
 
 def test_error_codes(mycobot: RobotModel, planner: OmplPlanner):

@@ -31,6 +31,8 @@ from mycobot_planning.core.planning_interface.planning_interface import JointGoa
 from mycobot_planning.core.trajectory_processing.trajectory_validator import validate_trajectory
 from mycobot_planning.core.transforms import make_pose, rpy_to_matrix
 
+from test_ompl_planner_manager import fallback_scene, ready_with
+
 TAU = 2 * math.pi
 INVALID_STATES = re.compile(
     r"Invalid states at index locations: \[ ((?:\d+ )+)\] out of (\d+); "
@@ -39,23 +41,6 @@ INVALID_STATES = re.compile(
 
 
 # ---------------------------------------------------------------------------- helpers
-def ready_with(model: RobotModel, **joints: float) -> RobotState:
-    state = RobotState(model)
-    state.set_named("ready")
-    state.set_joint_positions(joints)
-    return state
-
-
-def fallback_scene(model: RobotModel, with_box: bool) -> PlanningScene:
-    """The seeds' fallbacks_move_to case (c): a thin wall beside the arm."""
-    scene = PlanningScene(model)
-    if with_box:
-        scene.add_object(
-            CollisionObject.box("box", [0.005, 0.1, 0.32], make_pose([0.02, -0.20, 0.16]), frame_id="base_link")
-        )
-    return scene
-
-
 def fallback_target(model: RobotModel) -> dict[str, float]:
     return dict(model.named_state("ready", "arm"), link1_to_link2=TAU / 8)
 

@@ -17,19 +17,7 @@ from mycobot_planning.core.trajectory_processing.trajectory_validator import (
 )
 from mycobot_planning.core.transforms import make_pose
 
-PANDA_READY = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]
-
-
-def arm_state(model, values) -> RobotState:
-    state = RobotState(model)
-    state.set_group_positions("arm", values)
-    return state
-
-
-def ready(model) -> RobotState:
-    state = RobotState(model)
-    state.set_named("ready", "arm")
-    return state
+from test_joint_interpolation import PANDA_READY, arm_state, ready
 
 
 def timed(model, path, vs=1.0, acc=1.0, sample_period=None) -> TimedTrajectory:

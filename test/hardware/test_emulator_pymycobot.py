@@ -12,14 +12,11 @@ from mycobot_planning.hardware import emulator as emu_module  # noqa: E402
 from mycobot_planning.hardware.emulator import EmulatedArm, control_request  # noqa: E402
 from mycobot_planning.hardware.servo_model import ServoConfig  # noqa: E402
 
+from test_driver_core import wait_until as poll_until  # noqa: E402
+
 
 def wait_until(predicate, timeout: float = 10.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.02)
-    return predicate()
+    return poll_until(predicate, timeout)
 
 
 @pytest.fixture(scope="module")

@@ -36,15 +36,52 @@ def _version() -> str:
         return "unknown"
 
 
+def _reduced_models(request: dict, spec: dict):
+    """The arm-only pinocchio model and its collision model, with the spec's boxes as obstacles.
+
+    ``spec`` holds ``joint_names``, ``finger_positions`` and ``obstacles`` (a pose problem or the
+    parts); every joint that is not a planned arm joint (the fingers) is locked at its value.
+    """
+    import coal
+    import numpy as np
+    import pinocchio
+    from pyroboplan.core.utils import set_collisions
+
+    full_model, full_collision, _visual = pinocchio.buildModelsFromUrdf(request["urdf"])
+    # Lock every joint that is not a planned arm joint (the fingers) at the problem's value.
+    fixed = dict(spec.get("finger_positions", {}))
+    q_ref = pinocchio.neutral(full_model)
+    lock = []
+    for joint_id in range(1, full_model.njoints):
+        name = full_model.names[joint_id]
+        if name not in spec["joint_names"]:
+            lock.append(joint_id)
+            q_ref[full_model.joints[joint_id].idx_q] = fixed.get(name, 0.0)
+    model, (collision_model,) = pinocchio.buildReducedModel(full_model, [full_collision], lock, q_ref)
+    if list(model.names)[1:] != list(spec["joint_names"]):
+        raise RuntimeError(f"reduced model joints {list(model.names)[1:]} != {spec['joint_names']}")
+
+    collision_model.addAllCollisionPairs()
+    pinocchio.removeCollisionPairs(model, collision_model, request["srdf"])
+    robot_geoms = [g.name for g in collision_model.geometryObjects]
+    for box in spec.get("obstacles", []):
+        x, y, z, w = box["orientation_xyzw"]
+        rotation = pinocchio.Quaternion(w, x, y, z).normalized().matrix()
+        placement = pinocchio.SE3(rotation, np.asarray(box["position"], dtype=float))
+        collision_model.addGeometryObject(
+            pinocchio.GeometryObject(box["id"], 0, placement, coal.Box(*map(float, box["size"]))))
+        for geom in robot_geoms:
+            set_collisions(model, collision_model, box["id"], geom, True)
+    return model, collision_model
+
+
 def main() -> int:
     out = _json_out()
     request = _read_request()
     if "parts" in request:
         return _run_parts(out, request)
-    import coal
     import numpy as np
     import pinocchio
-    from pyroboplan.core.utils import set_collisions
     from pyroboplan.ik.differential_ik import DifferentialIk, DifferentialIkOptions
     from pyroboplan.planning.path_shortcutting import shortcut_path
     from pyroboplan.planning.rrt import RRTPlanner, RRTPlannerOptions
@@ -55,32 +92,7 @@ def main() -> int:
     first = problems[0] if problems else {"joint_names": [], "tip_link": "panda_hand"}
     tip = first["tip_link"]
 
-    full_model, full_collision, _visual = pinocchio.buildModelsFromUrdf(request["urdf"])
-    # Lock every joint that is not a planned arm joint (the fingers) at the problem's value.
-    fixed = dict(first.get("finger_positions", {}))
-    q_ref = pinocchio.neutral(full_model)
-    lock = []
-    for joint_id in range(1, full_model.njoints):
-        name = full_model.names[joint_id]
-        if name not in first["joint_names"]:
-            lock.append(joint_id)
-            q_ref[full_model.joints[joint_id].idx_q] = fixed.get(name, 0.0)
-    model, (collision_model,) = pinocchio.buildReducedModel(full_model, [full_collision], lock, q_ref)
-    if list(model.names)[1:] != list(first["joint_names"]):
-        raise RuntimeError(f"reduced model joints {list(model.names)[1:]} != {first['joint_names']}")
-
-    collision_model.addAllCollisionPairs()
-    pinocchio.removeCollisionPairs(model, collision_model, request["srdf"])
-    robot_geoms = [g.name for g in collision_model.geometryObjects]
-    for box in first.get("obstacles", []):
-        x, y, z, w = box["orientation_xyzw"]
-        rotation = pinocchio.Quaternion(w, x, y, z).normalized().matrix()
-        placement = pinocchio.SE3(rotation, np.asarray(box["position"], dtype=float))
-        collision_model.addGeometryObject(
-            pinocchio.GeometryObject(box["id"], 0, placement, coal.Box(*map(float, box["size"]))))
-        for geom in robot_geoms:
-            set_collisions(model, collision_model, box["id"], geom, True)
-
+    model, collision_model = _reduced_models(request, first)
     data = model.createData()
     collision_data = collision_model.createData()
     tip_id = model.getFrameId(tip)
@@ -146,10 +158,9 @@ def main() -> int:
 
 def _run_parts(out, request: dict) -> int:
     """The three parts (IK, validity checks, joint-goal plans); see docs/bench.md."""
-    import coal
     import numpy as np
     import pinocchio
-    from pyroboplan.core.utils import check_collisions_at_state, set_collisions
+    from pyroboplan.core.utils import check_collisions_at_state
     from pyroboplan.ik.differential_ik import DifferentialIk, DifferentialIkOptions
     from pyroboplan.planning.path_shortcutting import shortcut_path
     from pyroboplan.planning.rrt import RRTPlanner, RRTPlannerOptions
@@ -158,29 +169,7 @@ def _run_parts(out, request: dict) -> int:
     time_limit = float(request.get("time_limit", 1.0))
     np.random.seed(int(request.get("seed", 0)) + 1)  # pyroboplan's restarts and samples draw from numpy
     started = time.perf_counter()
-    full_model, full_collision, _visual = pinocchio.buildModelsFromUrdf(request["urdf"])
-    fixed = dict(parts.get("finger_positions", {}))
-    q_ref = pinocchio.neutral(full_model)
-    lock = []
-    for joint_id in range(1, full_model.njoints):
-        name = full_model.names[joint_id]
-        if name not in parts["joint_names"]:
-            lock.append(joint_id)
-            q_ref[full_model.joints[joint_id].idx_q] = fixed.get(name, 0.0)
-    model, (collision_model,) = pinocchio.buildReducedModel(full_model, [full_collision], lock, q_ref)
-    if list(model.names)[1:] != list(parts["joint_names"]):
-        raise RuntimeError(f"reduced model joints {list(model.names)[1:]} != {parts['joint_names']}")
-    collision_model.addAllCollisionPairs()
-    pinocchio.removeCollisionPairs(model, collision_model, request["srdf"])
-    robot_geoms = [g.name for g in collision_model.geometryObjects]
-    for box in parts.get("obstacles", []):
-        x, y, z, w = box["orientation_xyzw"]
-        rotation = pinocchio.Quaternion(w, x, y, z).normalized().matrix()
-        placement = pinocchio.SE3(rotation, np.asarray(box["position"], dtype=float))
-        collision_model.addGeometryObject(
-            pinocchio.GeometryObject(box["id"], 0, placement, coal.Box(*map(float, box["size"]))))
-        for geom in robot_geoms:
-            set_collisions(model, collision_model, box["id"], geom, True)
+    model, collision_model = _reduced_models(request, parts)
     data = model.createData()
     collision_data = collision_model.createData()
     tip = parts["tip_link"]

@@ -50,12 +50,36 @@ def _quat_matrix(xyzw):
     ])
 
 
+def _pose_matrix(pose: dict):
+    """The 4x4 transform of a ``{"position", "orientation_xyzw"}`` pose."""
+    import numpy as np
+
+    tform = np.eye(4)
+    tform[:3, :3] = _quat_matrix(pose["orientation_xyzw"])
+    tform[:3, 3] = pose["position"]
+    return tform
+
+
+def _scene(request: dict, boxes: list):
+    """The roboplan scene of the request's URDF and SRDF, with ``boxes`` as obstacles."""
+    import numpy as np
+    from roboplan.core import Box, Scene, loadUrdfSceneDescription
+
+    scene = Scene("panda", loadUrdfSceneDescription(request["urdf"]))
+    with open(request["srdf"]) as handle:
+        scene.importSrdf(handle.read())
+    for box in boxes:
+        scene.addBoxGeometry(box["id"], "universe", Box(*map(float, box["size"])), _pose_matrix(box),
+                             np.array([0.5, 0.5, 0.5, 1.0]))
+    return scene
+
+
 def main() -> int:
     out = _json_out()
     request = _read_request()
     import numpy as np
-    from roboplan.core import (Box, CartesianConfiguration, JointConfiguration, PathShortcutter,
-                               PathShortcuttingOptions, Scene, loadUrdfSceneDescription)
+    from roboplan.core import (CartesianConfiguration, JointConfiguration, PathShortcutter,
+                               PathShortcuttingOptions)
     from roboplan.rrt import RRT, RRTOptions
     from roboplan.simple_ik import SimpleIk, SimpleIkOptions
 
@@ -64,15 +88,7 @@ def main() -> int:
     parts = request["parts"]
     time_limit = float(request.get("time_limit", 1.0))
     started = time.perf_counter()
-    scene = Scene("panda", loadUrdfSceneDescription(request["urdf"]))
-    with open(request["srdf"]) as handle:
-        scene.importSrdf(handle.read())
-    for box in parts.get("obstacles", []):
-        tform = np.eye(4)
-        tform[:3, :3] = _quat_matrix(box["orientation_xyzw"])
-        tform[:3, 3] = box["position"]
-        scene.addBoxGeometry(box["id"], "universe", Box(*map(float, box["size"])), tform,
-                             np.array([0.5, 0.5, 0.5, 1.0]))
+    scene = _scene(request, parts.get("obstacles", []))
     arm = list(parts["joint_names"])
     group = "arm"
     names = scene.getJointNames()  # actuated joints: the arm's, then panda_finger_joint1
@@ -94,9 +110,7 @@ def main() -> int:
     base, tip = parts["base_frame"], parts["tip_link"]
 
     def solve_ik(problem: dict):
-        tform = np.eye(4)
-        tform[:3, :3] = _quat_matrix(problem["goal"]["orientation_xyzw"])
-        tform[:3, 3] = problem["goal"]["position"]
+        tform = _pose_matrix(problem["goal"])
         goal = CartesianConfiguration(base, tip, tform)
         solution = JointConfiguration()
         t0 = time.perf_counter()
@@ -168,24 +182,16 @@ def _run_pose_problems(out, request: dict) -> int:
     """The pose-goal problems of ``python -m mycobot_planning.bench.peers``: SimpleIk from the
     start, then RRTConnect and the shortcutter, timed together (as the other runners do)."""
     import numpy as np
-    from roboplan.core import (Box, CartesianConfiguration, JointConfiguration, PathShortcutter,
-                               PathShortcuttingOptions, Scene, loadUrdfSceneDescription)
+    from roboplan.core import (CartesianConfiguration, JointConfiguration, PathShortcutter,
+                               PathShortcuttingOptions)
     from roboplan.rrt import RRT, RRTOptions
     from roboplan.simple_ik import SimpleIk, SimpleIkOptions
 
     problems = request["problems"]
     time_limit = float(request.get("time_limit", 1.0))
     started = time.perf_counter()
-    scene = Scene("panda", loadUrdfSceneDescription(request["urdf"]))
-    with open(request["srdf"]) as handle:
-        scene.importSrdf(handle.read())
     first = problems[0] if problems else {"joint_names": [], "obstacles": [], "finger_positions": {}}
-    for box in first.get("obstacles", []):
-        tform = np.eye(4)
-        tform[:3, :3] = _quat_matrix(box["orientation_xyzw"])
-        tform[:3, 3] = box["position"]
-        scene.addBoxGeometry(box["id"], "universe", Box(*map(float, box["size"])), tform,
-                             np.array([0.5, 0.5, 0.5, 1.0]))
+    scene = _scene(request, first.get("obstacles", []))
     arm = list(first["joint_names"])
     names = scene.getJointNames()
     fingers = first.get("finger_positions", {})
@@ -200,9 +206,7 @@ def _run_pose_problems(out, request: dict) -> int:
         q = np.array([float(fingers.get(n, 0.0)) for n in names])
         q[arm_slots] = problem["start"]
         scene.setJointPositions(q)
-        tform = np.eye(4)
-        tform[:3, :3] = _quat_matrix(problem["goal"]["orientation_xyzw"])
-        tform[:3, 3] = problem["goal"]["position"]
+        tform = _pose_matrix(problem["goal"])
         start = JointConfiguration(arm, np.asarray(problem["start"], dtype=float))
         t0 = time.perf_counter()
         goal = JointConfiguration()

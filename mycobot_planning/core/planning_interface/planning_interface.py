@@ -182,16 +182,23 @@ def start_state_of(scene: PlanningScene, request: MotionPlanRequest) -> RobotSta
         raise failure(MoveItErrorCode.INVALID_ROBOT_STATE, "start state is not a RobotState of this robot")
     if not np.all(np.isfinite(start.positions)):
         raise failure(MoveItErrorCode.INVALID_ROBOT_STATE, "start state contains NaN or infinite values")
+    check_start_state(scene, start)
+    return start.copy()
+
+
+def check_start_state(scene: PlanningScene, start: RobotState, check_collisions: bool = True) -> None:
+    """Raise START_STATE_INVALID for a start outside the joint limits and, when
+    ``check_collisions``, START_STATE_IN_COLLISION for one in collision in ``scene``."""
     violated = start.violated_bounds(margin=1e-6)
     if violated:
         raise failure(MoveItErrorCode.START_STATE_INVALID, "start state outside joint limits: " + "; ".join(violated))
-    report = scene.check_collision(start, max_contacts=3)
-    if report.collision:
-        raise failure(
-            MoveItErrorCode.START_STATE_IN_COLLISION,
-            "start state in collision: " + "; ".join(str(c) for c in report.contacts),
-        )
-    return start.copy()
+    if check_collisions:
+        report = scene.check_collision(start, max_contacts=3)
+        if report.collision:
+            raise failure(
+                MoveItErrorCode.START_STATE_IN_COLLISION,
+                "start state in collision: " + "; ".join(str(c) for c in report.contacts),
+            )
 
 
 def joint_goal_vector(model: RobotModel, jmg: JointModelGroup, goal: JointGoal | NamedGoal) -> np.ndarray:

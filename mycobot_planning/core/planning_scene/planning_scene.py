@@ -154,11 +154,7 @@ class PlanningScene:
 
     def _coerce_state(self, state: Any) -> RobotState:
         if isinstance(state, RobotState):
-            if state.model is not self._model:
-                raise SceneError(
-                    f"robot state belongs to robot '{state.model.name}', not to this scene's robot '{self._model.name}'"
-                )
-            return state.copy()
+            return self._own_state(state).copy()
         return RobotState(self._model, state)
 
     def _state_or_current(self, state: RobotState | None) -> RobotState:
@@ -166,6 +162,10 @@ class PlanningScene:
             return self._state
         if not isinstance(state, RobotState):
             return self._coerce_state(state)
+        return self._own_state(state)
+
+    def _own_state(self, state: RobotState) -> RobotState:
+        """``state`` itself; a SceneError when it belongs to another robot than the scene's."""
         if state.model is not self._model:
             raise SceneError(
                 f"robot state belongs to robot '{state.model.name}', not to this scene's robot '{self._model.name}'"

@@ -12,8 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import yaml
-
+from ...paths import read_yaml_file
 from ..errors import RobotModelError
 
 MANIFEST = "setup_assistant.yaml"
@@ -70,10 +69,7 @@ def _read_manifest(root: Path) -> dict[str, Any]:
     file = root / MANIFEST
     if not file.is_file():
         return {}
-    try:
-        data = yaml.safe_load(file.read_text()) or {}
-    except (OSError, yaml.YAMLError) as exc:
-        raise RobotModelError(f"cannot read '{file}': {exc}") from None
+    data = read_yaml_file(file, RobotModelError, f"'{file}'") or {}
     if not isinstance(data, dict):
         raise RobotModelError(f"'{file}' must hold a mapping")
     return data

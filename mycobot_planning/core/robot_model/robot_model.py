@@ -11,19 +11,17 @@ from __future__ import annotations
 
 import logging
 import math
-import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping
 
 import numpy as np
 import pinocchio as pin
-import yaml
 
-from ...paths import config_file, example_robot_data_dir, package_share_dirs
+from ...paths import config_file, example_robot_data_dir, package_share_dirs, read_yaml_file
 from ..errors import RobotModelError
 from .robot_config import RobotConfig
-from .srdf import Srdf, parse_srdf
+from .srdf import Srdf, parse_robot_xml, parse_srdf
 from .srdf_check import UrdfTree, drop_unknown_names
 
 _LOG = logging.getLogger(__name__)
@@ -100,12 +98,7 @@ class _UrdfInfo:
 
 def _parse_urdf_info(urdf_xml: str) -> _UrdfInfo:
     """The URDF facts Pinocchio does not expose in Python: mimic parameters, link tree, limits."""
-    try:
-        root = ET.fromstring(urdf_xml)
-    except ET.ParseError as exc:
-        raise RobotModelError(f"URDF is not well-formed XML: {exc}") from None
-    if root.tag != "robot":
-        raise RobotModelError(f"URDF root element must be <robot>, got <{root.tag}>")
+    root = parse_robot_xml(urdf_xml, "URDF")
     info = _UrdfInfo(name=root.get("name", ""))
     info.links = [link.get("name", "") for link in root.findall("link")]
     if not info.links or any(not name for name in info.links):
@@ -152,10 +145,7 @@ def _load_yaml(source: str | Path | Mapping | None, what: str) -> dict:
         return {}
     if isinstance(source, Mapping):
         return dict(source)
-    try:
-        data = yaml.safe_load(Path(source).read_text())
-    except (OSError, yaml.YAMLError) as exc:
-        raise RobotModelError(f"cannot read {what} '{source}': {exc}") from None
+    data = read_yaml_file(source, RobotModelError, f"{what} '{source}'")
     if data is None:
         return {}
     if not isinstance(data, dict):

@@ -71,14 +71,21 @@ def _attr(element: ET.Element, name: str, where: str) -> str:
     return value.strip()
 
 
-def parse_srdf(xml_text: str) -> Srdf:
-    """Parse SRDF text into plain data, raising RobotModelError for malformed documents."""
+def parse_robot_xml(xml_text: str, kind: str) -> ET.Element:
+    """The <robot> root element of a URDF or SRDF document (``kind`` names it in the
+    RobotModelError raised for malformed XML or another root)."""
     try:
         root = ET.fromstring(xml_text)
     except ET.ParseError as exc:
-        raise RobotModelError(f"SRDF is not well-formed XML: {exc}") from None
+        raise RobotModelError(f"{kind} is not well-formed XML: {exc}") from None
     if root.tag != "robot":
-        raise RobotModelError(f"SRDF root element must be <robot>, got <{root.tag}>")
+        raise RobotModelError(f"{kind} root element must be <robot>, got <{root.tag}>")
+    return root
+
+
+def parse_srdf(xml_text: str) -> Srdf:
+    """Parse SRDF text into plain data, raising RobotModelError for malformed documents."""
+    root = parse_robot_xml(xml_text, "SRDF")
     srdf = Srdf(robot_name=root.get("name", ""))
 
     for element in root.findall("group"):

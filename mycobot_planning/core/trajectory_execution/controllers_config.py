@@ -10,8 +10,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
-import yaml
-
+from ...paths import read_yaml_file
 from ..errors import PlanningError
 
 
@@ -52,10 +51,7 @@ def read_controllers_source(source: str | Path | Mapping[str, Any], what: str) -
         where = what
     else:
         where = f"controllers file '{source}'"
-        try:
-            data = yaml.safe_load(Path(source).read_text())
-        except (OSError, yaml.YAMLError) as exc:
-            raise ControllerConfigError(f"cannot read {where}: {exc}") from None
+        data = read_yaml_file(source, ControllerConfigError, where)
     if not isinstance(data, Mapping):
         raise ControllerConfigError(f"{where} must hold a mapping at the top level")
     return data, where

@@ -169,11 +169,7 @@ def check_solution(manager: "TrajectoryExecutionManager", steps: Sequence[Soluti
     for k, step in enumerate(steps):
         where = f"step {k} ('{step.name}')"
         if step.scene_diff_before is not None:
-            try:
-                staged.apply_planning_scene_msg(step.scene_diff_before)
-            except (SceneError, MessageError) as exc:
-                raise ExecutionError(MoveItErrorCode.INVALID_MOTION_PLAN,
-                                     f"{where}: scene_diff_before cannot be applied: {exc}") from None
+            _stage_scene_diff(staged, step.scene_diff_before, where, "scene_diff_before")
         if step.moves:
             try:
                 prepared = prepare_trajectory(manager.model, step.trajectory,
@@ -197,11 +193,15 @@ def check_solution(manager: "TrajectoryExecutionManager", steps: Sequence[Soluti
             except (ValueError, PlanningError) as exc:
                 raise ExecutionError(MoveItErrorCode.INVALID_MOTION_PLAN, f"{where}: end state: {exc}") from None
         if step.scene_diff_after is not None:
-            try:
-                staged.apply_planning_scene_msg(step.scene_diff_after)
-            except (SceneError, MessageError) as exc:
-                raise ExecutionError(MoveItErrorCode.INVALID_MOTION_PLAN,
-                                     f"{where}: scene_diff_after cannot be applied: {exc}") from None
+            _stage_scene_diff(staged, step.scene_diff_after, where, "scene_diff_after")
+
+def _stage_scene_diff(staged: PlanningScene, diff: PlanningSceneMsg, where: str, label: str) -> None:
+    """Apply one of a step's scene diffs on the staged scene copy (ExecutionError when it cannot)."""
+    try:
+        staged.apply_planning_scene_msg(diff)
+    except (SceneError, MessageError) as exc:
+        raise ExecutionError(MoveItErrorCode.INVALID_MOTION_PLAN, f"{where}: {label} cannot be applied: {exc}") from None
+
 
 def execute_solution(
     manager: "TrajectoryExecutionManager",
@@ -241,12 +241,9 @@ def _execute_solution(manager: "TrajectoryExecutionManager", steps: Sequence[Sol
         if stopped:
             return _fail(manager, result, k, _code(MoveItErrorCode.PREEMPTED, f"execution stopped on request before {where}"))
         if step.scene_diff_before is not None:
-            try:
-                apply_diff(step.scene_diff_before)
-            except (SceneError, MessageError, ValueError) as exc:
-                return _fail(manager, result, k, _code(MoveItErrorCode.FAILURE,
-                                                   f"{where}: scene_diff_before could not be applied: {exc}"))
-            result.applied.append(f"{where}: scene_diff_before")
+            failed = _apply_scene_diff(manager, result, k, where, "scene_diff_before", step.scene_diff_before, apply_diff)
+            if failed is not None:
+                return failed
         step_record: dict[str, Any] = {"name": step.name, "group": step.group}
         if step.moves:
             try:
@@ -263,15 +260,25 @@ def _execute_solution(manager: "TrajectoryExecutionManager", steps: Sequence[Sol
         else:
             result.step_results.append(step_record)
         if step.scene_diff_after is not None:
-            try:
-                apply_diff(step.scene_diff_after)
-            except (SceneError, MessageError, ValueError) as exc:
-                return _fail(manager, result, k, _code(MoveItErrorCode.FAILURE,
-                                                   f"{where}: scene_diff_after could not be applied: {exc}"))
-            result.applied.append(f"{where}: scene_diff_after")
+            failed = _apply_scene_diff(manager, result, k, where, "scene_diff_after", step.scene_diff_after, apply_diff)
+            if failed is not None:
+                return failed
         result.steps_completed = k + 1
     result.error_code = _code(MoveItErrorCode.SUCCESS, f"{len(steps)} steps executed")
     return result
+
+
+def _apply_scene_diff(manager: "TrajectoryExecutionManager", result: SolutionResult, step: int, where: str, label: str,
+                      diff: PlanningSceneMsg, apply_diff: Callable[[PlanningSceneMsg], None]) -> SolutionResult | None:
+    """Apply one of a step's scene diffs and note it in ``result.applied``; the failed result
+    (see _fail) when it cannot be applied, None when it was."""
+    try:
+        apply_diff(diff)
+    except (SceneError, MessageError, ValueError) as exc:
+        return _fail(manager, result, step, _code(MoveItErrorCode.FAILURE, f"{where}: {label} could not be applied: {exc}"))
+    result.applied.append(f"{where}: {label}")
+    return None
+
 
 def _fail(manager: "TrajectoryExecutionManager", result: SolutionResult, step: int, code: MoveItErrorCode) -> SolutionResult:
     applied = ("Applied scene diffs: " + ", ".join(result.applied) + "." if result.applied

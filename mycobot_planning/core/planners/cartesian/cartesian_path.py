@@ -16,11 +16,12 @@ from scipy.spatial.transform import Rotation
 
 from interfaces_py.msgs import MoveItErrorCode
 
-from .cartesian_precision import CartesianPrecision, PrecisionCheck
+from .cartesian_precision import CartesianPrecision, PrecisionCheck, group_configuration
 from ...errors import PlanningError
 from ...kinematic_constraints.kinematic_constraints import CONSTRAINT_CHECK_STEP
 from ...kinematics.ik_solver import IKSolver
-from ...planning_interface.planning_interface import MotionPlanResponse, PlanningFailure, check_group, failure, time_group_path
+from ...planning_interface.planning_interface import (MotionPlanResponse, PlanningFailure, check_group, check_start_state,
+                                                       failure, time_group_path)
 from ...planning_scene.planning_scene import PlanningScene
 from ...robot_model.robot_model import JointModelGroup, RobotModel
 from ...robot_state.robot_state import RobotState
@@ -151,17 +152,18 @@ def _start_state(scene: PlanningScene, start_state: RobotState | None, avoid_col
     start = scene.current_state if start_state is None else start_state
     if not isinstance(start, RobotState) or start.model is not scene.robot_model:
         raise failure(MoveItErrorCode.INVALID_ROBOT_STATE, "start state is not a RobotState of the scene's robot")
-    violated = start.violated_bounds(margin=1e-6)
-    if violated:
-        raise failure(MoveItErrorCode.START_STATE_INVALID, "start state outside joint limits: " + "; ".join(violated))
-    if avoid_collisions:
-        report = scene.check_collision(start, max_contacts=3)
-        if report.collision:
-            raise failure(
-                MoveItErrorCode.START_STATE_IN_COLLISION,
-                "start state in collision: " + "; ".join(str(c) for c in report.contacts),
-            )
+    check_start_state(scene, start, avoid_collisions)
     return start.copy()
+
+
+def _joint_jump(delta: np.ndarray, limits: Sequence[tuple[np.ndarray, float, str, str]], step: int) -> str | None:
+    """Why the step ``delta`` (group values) jumps: the first (mask, threshold, kind, unit) of
+    ``limits`` with a positive threshold that a masked joint's step exceeds; None when none does."""
+    for mask, threshold, kind, unit in limits:
+        if threshold > 0 and np.any(np.abs(delta[mask]) > threshold):
+            return (f"{kind} joint step {float(np.max(np.abs(delta[mask]))):.4f} {unit} exceeds "
+                    f"{kind}_jump_threshold {threshold:g} at step {step}")
+    return None
 
 
 def _check_link(model: RobotModel, jmg: JointModelGroup, link: str | None) -> str:
@@ -294,12 +296,7 @@ class _StepSolver:
     def update(self, x: np.ndarray) -> None:
         self.x = x
         pmodel, pdata, fid = self.pmodel, self.pdata, self.fid
-        if self.slots is not None:
-            q = self.q
-            q[self.slots] = x
-        else:
-            self.full[self.idx] = x
-            q = self.model.to_q(self.full)
+        q = group_configuration(self.model, x, self.slots, self.q, self.full, self.idx)
         pin.computeJointJacobians(pmodel, pdata, q)
         placement = pin.updateFramePlacement(pmodel, pdata, fid)
         self.position = placement.translation
@@ -482,6 +479,8 @@ def _compute(
     revolute = np.array([model.joint(j).type in ("revolute", "continuous") for j in jmg.joint_names])
     prismatic = np.array([model.joint(j).type == "prismatic" for j in jmg.joint_names])
     continuous = np.array([model.joint(j).type == "continuous" for j in jmg.joint_names])
+    jump_limits = ((revolute, revolute_jump_threshold, "revolute", "rad"),
+                   (prismatic, prismatic_jump_threshold, "prismatic", "m"))
     # States are within the limits by construction (every IK step is clipped to them).
     is_valid = scene.validity_checker(jmg.name, start, check_bounds=False)
     check_buffer = full.copy()
@@ -524,17 +523,11 @@ def _compute(
                 break
         x = solver.x
         delta = x - previous
-        if revolute_jump_threshold > 0 and np.any(np.abs(delta[revolute]) > revolute_jump_threshold):
+        jump = _joint_jump(delta, jump_limits, s + 1)
+        if jump is not None:
             solver.update(previous)
             stop_reason = STOP_JOINT_JUMP
-            detail = (f"revolute joint step {float(np.max(np.abs(delta[revolute]))):.4f} rad exceeds "
-                      f"revolute_jump_threshold {revolute_jump_threshold:g} at step {s + 1}")
-            break
-        if prismatic_jump_threshold > 0 and np.any(np.abs(delta[prismatic]) > prismatic_jump_threshold):
-            solver.update(previous)
-            stop_reason = STOP_JOINT_JUMP
-            detail = (f"prismatic joint step {float(np.max(np.abs(delta[prismatic]))):.4f} m exceeds "
-                      f"prismatic_jump_threshold {prismatic_jump_threshold:g} at step {s + 1}")
+            detail = jump
             break
         largest = float(np.abs(delta).max())
         if straightness is not None and straightness.needs_check(delta, largest):

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -44,6 +45,18 @@ class CartesianPrecision:
     def __str__(self) -> str:
         return (f"CartesianPrecision(translational={self.translational:g}, rotational={self.rotational:g}, "
                 f"max_resolution={self.max_resolution:g})")
+
+
+def group_configuration(model: Any, x: np.ndarray, slots: np.ndarray | None, q: np.ndarray, full: np.ndarray,
+                        idx: np.ndarray) -> np.ndarray:
+    """The Pinocchio configuration with the group values ``x`` (at ``idx`` of the positions):
+    written into the buffer ``q`` at ``slots`` when the model gives them (RobotModel.q_slots),
+    else through the positions buffer ``full`` and RobotModel.to_q."""
+    if slots is not None:
+        q[slots] = x
+        return q
+    full[idx] = x
+    return model.to_q(full)
 
 
 class PrecisionCheck:
@@ -90,12 +103,7 @@ class PrecisionCheck:
             self.pdata = self.pmodel.createData()
             self.slots = self.model.q_slots(self.idx)
             self.q = np.array(self.model.to_q(self.full), dtype=float)
-        if self.slots is not None:
-            q = self.q
-            q[self.slots] = x
-        else:
-            self.full[self.idx] = x
-            q = self.model.to_q(self.full)
+        q = group_configuration(self.model, x, self.slots, self.q, self.full, self.idx)
         pin.forwardKinematics(self.pmodel, self.pdata, q)
         placement = pin.updateFramePlacement(self.pmodel, self.pdata, self.fid)
         rotation = placement.rotation

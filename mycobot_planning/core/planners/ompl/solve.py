@@ -549,7 +549,10 @@ def plan_joint_space(
     planning_time = 0.0
     simplify_time = 0.0
     try:
-        outcome = _solve(si, spec, params, q_start, valid_goals, float(timeout), stop_on_first_solution, ctx)
+        def solve_once(goals_to_try: list[tuple[int, np.ndarray]], budget: float) -> tuple[str, Any, bool, str]:
+            return _solve_once(si, spec, params, q_start, goals_to_try, budget, stop_on_first_solution, ctx)
+
+        outcome = _solve(spec, q_start, valid_goals, float(timeout), ctx, solve_once)
         planning_time = time.perf_counter() - t0
         if ctx.error is not None:
             raise ctx.error
@@ -636,16 +639,16 @@ def _interpolate(si: Any, path: Any, minimum: int) -> None:
 
 
 def _solve(
-    si: Any,
     spec: PlannerSpec,
-    params: Mapping[str, Any],
     q_start: np.ndarray,
     goals: list[tuple[int, np.ndarray]],
     timeout: float,
-    stop_on_first_solution: bool,
     ctx: _CallbackContext,
+    solve_once: Callable[[list[tuple[int, np.ndarray]], float], tuple[str, Any, bool, str]],
 ) -> tuple[str, Any, bool, str]:
-    """Run the planner; returns (status, PathGeometric oriented start->goal or None, approximate, message)."""
+    """Run the planner (``solve_once(goals, time budget)``: one _solve_once call), all goals at
+    once or, for a planner that takes one goal at a time, nearest goal first; returns (status,
+    PathGeometric oriented start->goal or None, approximate, message)."""
     if spec.one_goal_at_a_time and len(goals) > 1:
         deadline = time.perf_counter() + timeout
         ordered = sorted(goals, key=lambda ig: float(np.linalg.norm(ig[1] - q_start)))
@@ -654,9 +657,7 @@ def _solve(
             budget = (deadline - time.perf_counter()) / (len(ordered) - k)
             if budget <= 0:
                 break
-            status, path, approximate, message = _solve_once(
-                si, spec, params, q_start, [goal], budget, stop_on_first_solution, ctx
-            )
+            status, path, approximate, message = solve_once([goal], budget)
             if path is not None or ctx.error is not None or ctx.cancelled:
                 return status, path, approximate, message
             statuses.append((status, approximate))
@@ -665,7 +666,7 @@ def _solve(
         if any(s == "TIMEOUT" for s, _ in statuses):
             return "TIMEOUT", None, any(a for _, a in statuses), "no goal reached within the time limit"
         return statuses[-1][0], None, False, f"planner returned {statuses[-1][0]} for every goal"
-    return _solve_once(si, spec, params, q_start, goals, timeout, stop_on_first_solution, ctx)
+    return solve_once(goals, timeout)
 
 
 def _solve_once(
