@@ -140,26 +140,29 @@ class BehaviorTreeFactory:
                                ports: Iterable[PortInfo] = (), description: str = "",
                                metadata: Iterable[tuple[str, str]] | Mapping | None = None) -> None:
         """A function ``tick(node) -> NodeStatus`` (or bool) as a synchronous action."""
-        manifest = TreeNodeManifest(NodeType.ACTION, registration_id, ports_list(ports), description,
-                                    _metadata(metadata))
-        self.register_builder(manifest, lambda name, config: SimpleActionNode(name, config, tick))
+        self._register_simple(SimpleActionNode, registration_id, tick, ports, description, metadata)
 
     def register_simple_condition(self, registration_id: str, tick: Callable[[TreeNode], NodeStatus | bool],
                                   ports: Iterable[PortInfo] = (), description: str = "",
                                   metadata: Iterable[tuple[str, str]] | Mapping | None = None) -> None:
         """A function ``tick(node) -> NodeStatus`` (or bool) as a condition."""
-        manifest = TreeNodeManifest(NodeType.CONDITION, registration_id, ports_list(ports), description,
-                                    _metadata(metadata))
-        self.register_builder(manifest, lambda name, config: SimpleConditionNode(name, config, tick))
+        self._register_simple(SimpleConditionNode, registration_id, tick, ports, description, metadata)
 
     def register_simple_decorator(self, registration_id: str,
                                   tick: Callable[[NodeStatus, TreeNode], NodeStatus | bool],
                                   ports: Iterable[PortInfo] = (), description: str = "",
                                   metadata: Iterable[tuple[str, str]] | Mapping | None = None) -> None:
         """A function ``tick(child_status, node) -> NodeStatus`` as a decorator."""
-        manifest = TreeNodeManifest(NodeType.DECORATOR, registration_id, ports_list(ports), description,
+        self._register_simple(SimpleDecoratorNode, registration_id, tick, ports, description, metadata)
+
+    def _register_simple(self, node_cls: type[TreeNode], registration_id: str, tick: Callable[..., Any],
+                         ports: Iterable[PortInfo], description: str,
+                         metadata: Iterable[tuple[str, str]] | Mapping | None) -> None:
+        """Register ``node_cls(name, config, tick)`` (a Simple*Node of its NODE_TYPE) under
+        ``registration_id``."""
+        manifest = TreeNodeManifest(node_cls.NODE_TYPE, registration_id, ports_list(ports), description,
                                     _metadata(metadata))
-        self.register_builder(manifest, lambda name, config: SimpleDecoratorNode(name, config, tick))
+        self.register_builder(manifest, lambda name, config: node_cls(name, config, tick))
 
     def unregister_builder(self, registration_id: str) -> bool:
         if registration_id in self._builtin_ids:

@@ -11,7 +11,7 @@ from .basic_types import FAILURE, IDLE, RUNNING, SKIPPED, SUCCESS, NodeStatus, i
 from .control_node import ControlNode
 from .exceptions import LogicError
 from .ports import INT, STRING, input_port, parse_int
-from .tree_node import NodeConfig
+from .tree_node import NodeConfig, TreeNode
 
 
 def _idle_child(node: ControlNode) -> LogicError:
@@ -300,11 +300,24 @@ class ParallelAllNode(ControlNode):
         ControlNode.halt(self)
 
 
-class IfThenElseNode(ControlNode):
-    """Child 1 is the condition: SUCCESS ticks child 2, FAILURE ticks child 3 (or fails if
-    there is none). The condition is not ticked again while the chosen branch runs."""
+class _ConditionalBranches(ControlNode):
+    """A condition (child 1), a then-branch (child 2) and an optional else-branch (child 3)."""
 
     CHILDREN = (2, 3)
+
+    def _start_tick(self, kind: str) -> list[TreeNode]:
+        """The children, checked to be 2 or 3 (a LogicError naming ``kind`` if not), with the
+        node set RUNNING."""
+        children = self.children
+        if len(children) not in (2, 3):
+            raise LogicError(f"{kind} must have either 2 or 3 children")
+        self.set_status(RUNNING)
+        return children
+
+
+class IfThenElseNode(_ConditionalBranches):
+    """Child 1 is the condition: SUCCESS ticks child 2, FAILURE ticks child 3 (or fails if
+    there is none). The condition is not ticked again while the chosen branch runs."""
 
     def __init__(self, name: str, config: NodeConfig | None = None):
         super().__init__(name, config)
@@ -315,11 +328,8 @@ class IfThenElseNode(ControlNode):
         ControlNode.halt(self)
 
     def tick(self) -> NodeStatus:
-        children = self.children
+        children = self._start_tick("IfThenElseNode")
         count = len(children)
-        if count not in (2, 3):
-            raise LogicError("IfThenElseNode must have either 2 or 3 children")
-        self.set_status(RUNNING)
         if self._child_index == 0:
             condition = children[0].execute_tick()
             if condition is RUNNING:
@@ -341,18 +351,13 @@ class IfThenElseNode(ControlNode):
         raise LogicError("Something unexpected happened in IfThenElseNode (the condition was SKIPPED?)")
 
 
-class WhileDoElseNode(ControlNode):
+class WhileDoElseNode(_ConditionalBranches):
     """Like IfThenElse, but the condition is ticked on every tick: when it changes, the branch
     that was running is halted."""
 
-    CHILDREN = (2, 3)
-
     def tick(self) -> NodeStatus:
-        children = self.children
+        children = self._start_tick("WhileDoElseNode")
         count = len(children)
-        if count not in (2, 3):
-            raise LogicError("WhileDoElseNode must have either 2 or 3 children")
-        self.set_status(RUNNING)
         condition = children[0].execute_tick()
         if condition is RUNNING:
             return RUNNING

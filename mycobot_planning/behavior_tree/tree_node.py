@@ -155,18 +155,18 @@ class TreeNode:
         if new_status is IDLE:
             raise LogicError(f"node [{self.name}]: you are not allowed to set the status to IDLE; "
                              "use reset_status()")
+        self._change_status(new_status)
+
+    def reset_status(self) -> None:
+        self._change_status(IDLE)
+
+    def _change_status(self, new_status: NodeStatus) -> None:
+        """Set the status and tell the observers, if it changes (IDLE included)."""
         previous = self._status
         if previous is not new_status:
             self._status = new_status
             if self._observers:
                 self._notify(previous, new_status)
-
-    def reset_status(self) -> None:
-        previous = self._status
-        if previous is not IDLE:
-            self._status = IDLE
-            if self._observers:
-                self._notify(previous, IDLE)
 
     def is_halted(self) -> bool:
         return self._status is IDLE
