@@ -1,4 +1,5 @@
-"""Benchmark of concurrent plans in the planning_server: its memory (RSS) with four plans at once.
+"""Benchmarks of concurrent plans in the planning_server: its memory (RSS) with four plans at
+once (``concurrent_plans``), and its plans per second for one and two clients (``concurrency``).
 
 ``concurrent_plans``: starts mock_controllers + planning_server (RobotProcesses, a ROS domain of
 its own), puts a 5 cm box in the way (/apply_planning_scene), sends one plan, then rounds of four
@@ -14,10 +15,14 @@ same file, run as a script, measures an older checkout (docs/bench.md says how).
 """
 from __future__ import annotations
 
+import itertools
 import statistics
+import threading
 import time
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from mycobot_planning.bench.common import emit, machine, spread
 from mycobot_planning.bench.ros_scenarios import RobotProcesses, bench_domain_id
@@ -82,6 +87,9 @@ def _box_scene() -> Any:
     return request
 
 
+_CLIENT_NUMBERS = itertools.count()
+
+
 class _Client:
     """A private rclpy context and node with the two service clients this benchmark calls."""
 
@@ -92,7 +100,7 @@ class _Client:
 
         self.context = rclpy.Context()
         rclpy.init(context=self.context)
-        self.node = rclpy.create_node("bench_concurrent_plans", context=self.context)
+        self.node = rclpy.create_node(f"bench_concurrent_plans_{next(_CLIENT_NUMBERS)}", context=self.context)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
         self.plan = self.node.create_client(GetMotionPlan, "/plan_kinematic_path")
@@ -155,7 +163,97 @@ def bench_concurrent_plans(repeat: int, seed: int) -> None:
     emit({**summary, **spread([r["rss_after_mb"] for r in records]), **machine()})
 
 
-CONCURRENCY_SCENARIOS = {"concurrent_plans": bench_concurrent_plans}
+# ---------------------------------------------------------------------------- concurrency
+#: plan requests per client count and server mode (the issue's "0 mixed-up answers of 100")
+REQUESTS = 100
+#: OMPL attempts per request: about 0.1 s of planning each, so a plan is mostly planner work
+CONCURRENCY_ATTEMPTS = 4
+#: worker processes of the "processes" server (planning_processes), one per core here
+PROCESSES = 2
+WORKERS_READY = "worker processes"
+
+
+def _goals(count: int, seed: int) -> list[list[float]]:
+    """``count`` different joint goals behind the box: the three of PLANS, moved a little."""
+    rng = np.random.default_rng(seed)
+    bases = [np.asarray(goal) for pipeline, _, goal in PLANS if pipeline == "ompl"]
+    return [list(np.round(bases[k % len(bases)] + rng.uniform(-0.08, 0.08, len(ARM)), 4)) for k in range(count)]
+
+
+def _run_clients(clients: list[_Client], goals: list[list[float]]) -> dict[str, Any]:
+    """Each client sends its share of ``goals`` one after the other, all clients at once: plans
+    per second over the whole, and the answers whose path does not end at their own goal."""
+    shares = [goals[k::len(clients)] for k in range(len(clients))]
+    outcome = {"mixed": 0, "failed": 0, "solved": 0}
+    lock = threading.Lock()
+
+    def run(client: _Client, share: list[list[float]]) -> None:
+        for goal in share:
+            request = _request("ompl", "RRTConnectkConfigDefault", goal)
+            request.motion_plan_request.num_planning_attempts = CONCURRENCY_ATTEMPTS
+            answer = client.wait([client.plan.call_async(request)], "a plan")[0].motion_plan_response
+            with lock:
+                if answer.error_code.val != 1:
+                    outcome["failed"] += 1
+                    continue
+                outcome["solved"] += 1
+                points = answer.trajectory.joint_trajectory.points
+                names = list(answer.trajectory.joint_trajectory.joint_names)
+                end = [points[-1].positions[names.index(j)] for j in ARM] if points and set(ARM) <= set(names) else []
+                if len(end) != len(goal) or not np.allclose(end, goal, atol=2e-3):
+                    outcome["mixed"] += 1
+
+    threads = [threading.Thread(target=run, args=(c, share)) for c, share in zip(clients, shares)]
+    t0 = time.perf_counter()
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    wall = time.perf_counter() - t0
+    return {**outcome, "wall_s": round(wall, 3), "plans_per_s": round(outcome["solved"] / wall, 3)}
+
+
+def bench_concurrency(repeat: int, seed: int) -> None:
+    """Plans per second of the planning_server for 1 and 2 clients planning at once over ROS
+    (/plan_kinematic_path, OMPL around the box), with planning_processes 0 (the server's threads)
+    and PROCESSES (worker processes); ``speedup``: 2 clients' plans/s over 1 client's."""
+    records: list[dict[str, Any]] = []
+    for index in range(repeat):
+        for mode, processes in (("threads", 0), ("processes", PROCESSES)):
+            with RobotProcesses(bench_domain_id(), server_args=[
+                    "-p", f"planning_processes:={processes}"]) as robot:
+                if processes and not robot.robot["planning_server"].wait_for_output(WORKERS_READY, 120.0):
+                    raise RuntimeError("the planning_server's workers did not start: " + robot.log("planning_server")[-2000:])
+                clients = [_Client(), _Client()]
+                try:
+                    if not clients[0].wait([clients[0].apply.call_async(_box_scene())], "the box")[0].success:
+                        raise RuntimeError("the planning_server did not add the box")
+                    _run_clients(clients[:1], _goals(2 * PROCESSES, seed + 1000))  # warm-up: each worker's scene
+                    for count in (1, 2):
+                        result = _run_clients(clients[:count], _goals(REQUESTS, seed + index))
+                        record = {"scenario": "concurrency", "repeat": index, "mode": mode, "clients": count,
+                                  **result}
+                        records.append(record)
+                        emit(record)
+                finally:
+                    for client in clients:
+                        client.close()
+    summary: dict[str, Any] = {"scenario": "concurrency", "summary": True, "clients": [1, 2],
+                               "requests": REQUESTS, "processes": PROCESSES}
+
+    def median(mode: str, count: int) -> float:
+        return statistics.median(r["plans_per_s"] for r in records if r["mode"] == mode and r["clients"] == count)
+
+    for mode, prefix in (("processes", ""), ("threads", "threads_")):
+        rates = [round(median(mode, count), 3) for count in (1, 2)]
+        summary[prefix + "plans_per_s"] = rates
+        summary[prefix + "speedup"] = round(rates[1] / rates[0], 3) if rates[0] else 0.0
+    summary["mixed_answers"] = sum(r["mixed"] for r in records)
+    summary["failed_plans"] = sum(r["failed"] for r in records)
+    emit({**summary, **machine()})
+
+
+CONCURRENCY_SCENARIOS = {"concurrent_plans": bench_concurrent_plans, "concurrency": bench_concurrency}
 
 if __name__ == "__main__":  # to measure another checkout with this file (docs/bench.md)
     import argparse

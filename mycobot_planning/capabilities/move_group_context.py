@@ -29,6 +29,7 @@ from interfaces_py.msgs import (
 from ..core.errors import SceneError, StateError
 from ..core.kinematic_constraints.kinematic_constraints import ConstraintError, PathConstraints, path_constraints_from_json
 from ..core.planning_interface.planning_context import PlanningContext
+from ..core.planning_interface.planning_workers import PlanningWorkers
 from ..core.planning_interface.planning_interface import JointGoal, MotionPlanRequest, NamedGoal, PoseGoal
 from ..core.planning_scene.planning_scene import PlanningScene
 from ..core.planning_scene.planning_scene_monitor import PlanningSceneMonitor, RequestError
@@ -110,11 +111,14 @@ class MoveGroupContext(PlanningSceneMonitor):
         defaults: PlanningDefaults | None = None,
         clock: Callable[[], float] = time.monotonic,
         log: Callable[[str, str], None] | None = None,
+        workers: PlanningWorkers | None = None,
     ) -> None:
         """Plans of several clients run at once, each in a PlanningContext of its own on the one
-        model and pipeline (see core/planning_interface/planning_context.py)."""
+        model and pipeline (see core/planning_interface/planning_context.py); with ``workers``,
+        in worker processes that run the same pipeline (planning_workers.py)."""
         super().__init__(model, clock, log)
         self.pipeline = pipeline
+        self.workers = workers
         self.planning: set[PlanningContext] = set()  # the plans running now (stop terminates them)
         self.defaults = defaults or PlanningDefaults()
         #: (trajectory, group) of the last successful plan, what execute() without a trajectory runs
@@ -235,7 +239,7 @@ class MoveGroupContext(PlanningSceneMonitor):
 
     def plan_in_context(self, scene: PlanningScene, request: MotionPlanRequest) -> Any:
         """Plan in a planning context of its own, terminated by stop()."""
-        context = PlanningContext(self.pipeline, scene, request)
+        context = PlanningContext(self.workers or self.pipeline, scene, request)
         with self._lock:
             self.planning.add(context)
         try:

@@ -64,6 +64,8 @@ def set_planner_params(ctx: MoveGroupContext, pipeline_id: str, planner_config: 
     problem = ctx.pipeline.manager(pipeline_id).set_planner_params(planner_config, params, replace)
     if problem is not None:
         return problem
+    if ctx.workers is not None:
+        ctx.workers.parameters_changed(pipeline_id, planner_config, params, replace)
     ctx.log("info", f"planner configuration {pipeline_id or 'ompl'}/{planner_config}: parameters now "
                     f"{get_planner_params(ctx, pipeline_id, planner_config)}")
     return None

@@ -35,6 +35,7 @@ from mycobot_planning.capabilities.json_face import (
 )
 from mycobot_planning.behavior_tree.behaviors.waypoints import WaypointStore
 from mycobot_planning.core.planning_interface.planning_pipeline import PlanningPipeline
+from mycobot_planning.core.planning_interface.planning_workers import PlanningSetup, PlanningWorkers
 from mycobot_planning.core.robot_model.robot_config import RobotConfig
 from mycobot_planning.core.robot_model.robot_model import RobotModel
 from mycobot_planning.core.robot_trajectory.robot_trajectory import DEFAULT_MAX_WAYPOINT_DISTANCE
@@ -128,6 +129,10 @@ class PlanningServer(Node):
             ParameterSpec("controllers_file", "",
                           "controllers YAML (ros2_control or MoveIt layout); empty: config/controllers.yaml",
                           read_only=True),
+            ParameterSpec("planning_processes", 0,
+                          "worker processes that plan (each loads the robot and the planners once, about 1-2 s in "
+                          "the background): concurrent plan requests then use several cores; 0: plans run in the "
+                          "server's threads, which share one core", range=(0, 64), read_only=True),
             ParameterSpec("warehouse_host", ":memory:",
                           "SQLite database file of the warehouse robot states (/save_robot_state, ...), as "
                           "warehouse_ros_sqlite reads warehouse_host; '~' expands; ':memory:' (the default) keeps "
@@ -142,9 +147,12 @@ class PlanningServer(Node):
         model = self._load_model()
         for warning in model.load_warnings:
             log.warning(warning)
-        pipeline = PlanningPipeline(self._config_path("ompl_planning_file", "ompl_planning"),
-                                    self._config.get("pilz_cartesian_limits_file") or None)
+        setup = self._planning_setup()
+        pipeline = setup.planning_pipeline()
         controllers = load_controllers(self._config_path("controllers_file", "moveit_controllers"))
+        processes = int(self._config.get("planning_processes"))
+        self._workers = PlanningWorkers(pipeline, setup, processes, log=self._log) if processes \
+            else None
         self._params = _declare(self, self._specs(model, pipeline, self._goal_group))
 
         # The high-rate streams (/joint_states and the controllers' states, 100 Hz each) are
@@ -156,7 +164,7 @@ class PlanningServer(Node):
         self._monitor_executor.add_node(self._monitor)
         self._bus = ActionControllerBus(self, self._monitor, controllers, self._on_feedback)
         self.core = MoveGroupJsonFace(model, pipeline, controllers, self._bus, self._execution_settings(),
-                                       self._planning_defaults(), log=self._log)
+                                       self._planning_defaults(), log=self._log, workers=self._workers)
         self._goal_last_set: str | None = None
         self._params.on_change(self._on_params)
 
@@ -283,11 +291,18 @@ class PlanningServer(Node):
             "robot_description", "robot_description_semantic", "joint_limits_file", "kinematics_file"))
 
     def _load_model(self) -> RobotModel:
+        return self._planning_setup().robot_model()
+
+    def _planning_setup(self) -> PlanningSetup:
+        """What a planning worker process loads: this server's robot and planner files."""
+        ompl = self._config_path("ompl_planning_file", "ompl_planning")
+        cartesian = self._config.get("pilz_cartesian_limits_file") or None
         if self._is_package_robot():
-            return RobotModel.mycobot()
+            return PlanningSetup(ompl_config=ompl, cartesian_limits=cartesian)
         urdf, srdf, limits, kinematics = self._model_sources()
-        dirs = [*(self._robot_config.package_dirs if self._robot_config else ()), *package_share_dirs()]
-        return RobotModel.from_strings(urdf, srdf, limits, kinematics, package_dirs=dirs)
+        dirs = tuple(str(d) for d in (*(self._robot_config.package_dirs if self._robot_config else ()),
+                                      *package_share_dirs()))
+        return PlanningSetup(urdf, srdf, limits, kinematics, dirs, ompl, cartesian)
 
     def _goal_group(self) -> str:
         params = getattr(self, "_params", None)  # None while the parameters are being declared
@@ -455,6 +470,8 @@ class PlanningServer(Node):
         self.move_group.close()
         self.warehouse.storage.close()
         self.move_group.destroy_node()
+        if self._workers is not None:
+            self._workers.close()
 
     # ------------------------------------------------------------------ publishing
     def _publish_scene(self) -> None:
