@@ -6,7 +6,10 @@ from __future__ import annotations
 import multiprocessing
 import os
 import signal
+import subprocess
+import sys
 import threading
+import time
 
 import numpy as np
 import pytest
@@ -206,3 +209,44 @@ def test_workers_refuse_a_count_below_one(setup):
     model, pipeline = setup()
     with pytest.raises(ValueError, match="at least 1"):
         PlanningWorkers(pipeline, setup, 0)
+
+
+_ORPHAN_SCRIPT = """
+import multiprocessing, sys, time
+from mycobot_planning.core.planning_interface.planning_workers import PlanningSetup, PlanningWorkers
+if __name__ == "__main__":
+    setup = PlanningSetup()
+    pool = PlanningWorkers(setup.planning_pipeline(), setup, 2)
+    assert pool.wait_ready(120.0)
+    print(" ".join(str(p.pid) for p in multiprocessing.active_children()), flush=True)
+    time.sleep(600)
+"""
+
+
+def test_workers_exit_when_their_server_is_killed(tmp_path):
+    """SIGKILL runs no clean-up in the server: its workers notice and exit (no orphans)."""
+    script = tmp_path / "server.py"
+    script.write_text(_ORPHAN_SCRIPT)
+    server = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True,
+                              env=dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path)))
+    try:
+        pids = [int(p) for p in server.stdout.readline().split()]
+        assert len(pids) >= 2, pids
+    finally:
+        server.kill()
+        server.wait(10)
+
+    def alive(pid: int) -> bool:
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return False
+        return True
+
+    deadline = time.monotonic() + 20.0
+    while any(alive(pid) for pid in pids) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    left = [pid for pid in pids if alive(pid)]
+    for pid in left:
+        os.kill(pid, signal.SIGKILL)
+    assert not left, f"worker processes {left} outlived their killed server"

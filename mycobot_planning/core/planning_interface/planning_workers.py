@@ -19,7 +19,9 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import multiprocessing
+import os
 import threading
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from concurrent.futures import Future, ProcessPoolExecutor
@@ -67,6 +69,8 @@ class PlanningSetup:
 
 #: s between two looks at a running request's cancel flag from the calling thread
 CANCEL_POLL = 0.02
+#: s between a worker's looks at whether its server is still alive
+PARENT_POLL = 0.5
 
 
 class _SharedFlag:
@@ -85,7 +89,15 @@ class _SharedFlag:
 _WORKER: dict[str, Any] = {}
 
 
-def _worker_init(loader: PlanningLoader, flags: Any) -> None:
+def _exit_with_parent(parent: int) -> None:
+    """A worker whose server died (even by SIGKILL, which runs no clean-up) exits too."""
+    while os.getppid() == parent:
+        time.sleep(PARENT_POLL)
+    os._exit(0)
+
+
+def _worker_init(loader: PlanningLoader, flags: Any, parent: int) -> None:
+    threading.Thread(target=_exit_with_parent, args=(parent,), name="parent watch", daemon=True).start()
     model, pipeline = loader()
     _WORKER.update(model=model, pipeline=pipeline, flags=flags, scene_key=None, scene=None, changes=0)
 
@@ -152,7 +164,7 @@ class PlanningWorkers:
     def _start(self) -> None:
         try:
             pool = ProcessPoolExecutor(self.processes, mp_context=self._context, initializer=_worker_init,
-                                       initargs=(self._loader, self._flags))
+                                       initargs=(self._loader, self._flags, os.getpid()))
             # one call per worker, so every worker has loaded the model before the first plan
             ids = [pool.submit(_worker_pipeline_ids) for _ in range(self.processes)]
             remote = frozenset(ids[0].result())
