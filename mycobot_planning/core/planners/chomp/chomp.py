@@ -88,6 +88,8 @@ DIFF_RULES = np.array([
 ])
 #: MoveIt's exact (mesh-to-mesh) check every this many iterations
 EXACT_CHECK_EVERY = 10
+#: and every this many iterations while no sphere penetrates the world (between waypoints it may)
+CLEAR_CHECK_EVERY = 3
 #: spheres whose potential is below this add nothing to the gradient (MoveIt's 0.0001)
 MIN_POTENTIAL = 1e-4
 #: share of allowed_planning_time IK may use for a pose goal before the optimisation starts
@@ -314,15 +316,20 @@ class _SphereKinematics:
         t = translations[:, self.sphere_joint_slot]
         return np.einsum("nsij,sj->nsi", r, self.spheres.centres) + t
 
-    def jacobians(self, values: np.ndarray, points: np.ndarray, which: np.ndarray) -> np.ndarray:
-        """(k, 3, d) linear Jacobians over the group's variables of spheres ``which`` at world
-        ``points`` (k, 3), the robot at ``values``."""
-        j = pin.computeJointJacobians(self.pin_model, self.data, self.configuration(values))  # WORLD frame
-        linear, angular = j[:3], j[3:]  # (3, nv)
-        # a point p moving with the joint: v = v_origin + ω × p
-        cross = np.cross(angular.T[None, :, :], points[:, None, :])  # (k, nv, 3)
-        full = (linear[None] + cross.transpose(0, 2, 1)) * self.masks[which][:, None, :]
-        return full @ self.jacobian_map
+    def jacobians(self, path: np.ndarray, rows: np.ndarray, points: np.ndarray, which: np.ndarray) -> np.ndarray:
+        """(k, 3, d) linear Jacobians over the group's variables of spheres ``which`` (k,) at world
+        ``points`` (k, 3), the robot at ``path[rows]`` (k rows, repeated as often as needed)."""
+        unique, inverse = np.unique(rows, return_inverse=True)
+        frames = np.empty((len(unique), 6, self.pin_model.nv))
+        for k, row in enumerate(unique.tolist()):  # WORLD frame: spatial velocity at the origin
+            frames[k] = pin.computeJointJacobians(self.pin_model, self.data, self.configuration(path[row]))
+        j = frames[inverse]  # (k, 6, nv)
+        v, w, p = j[:, :3], j[:, 3:], points[:, :, None]
+        # a point p moving with the joint: v + ω × p
+        linear = v + np.stack([w[:, 1] * p[:, 2] - w[:, 2] * p[:, 1],
+                               w[:, 2] * p[:, 0] - w[:, 0] * p[:, 2],
+                               w[:, 0] * p[:, 1] - w[:, 1] * p[:, 0]], axis=1)
+        return (linear * self.masks[which][:, None, :]) @ self.jacobian_map
 
 
 # ---------------------------------------------------------------------------- the optimisation
@@ -390,29 +397,35 @@ class ChompOptimizer:
         }
 
     def obstacle_increments(self, terms: Mapping[str, Any]) -> np.ndarray:
-        """(free, d): minus the obstacle gradient (CHOMP's functional) at the chosen waypoints."""
+        """(free, d): minus the obstacle gradient (CHOMP's functional) at the chosen waypoints,
+        every (waypoint, sphere) pair with a potential at once."""
         p = self.params
         out = np.zeros((self.free, self.path.shape[1]))
-        rows = (np.array([int(self.rng.integers(0, self.free))]) if p.use_stochastic_descent
-                else np.arange(self.free))
-        for i in rows.tolist():
-            speed = terms["speed"][i]
-            which = np.flatnonzero((terms["potential"][i] >= MIN_POTENTIAL) & (speed > 1e-9))
-            if not which.size:
-                continue
-            v = terms["velocity"][i, which]
-            unit = v / speed[which, None]
-            projector = np.eye(3)[None] - unit[:, :, None] * unit[:, None, :]  # (k, 3, 3)
-            curvature = np.einsum("kij,kj->ki", projector, terms["acceleration"][i, which]) / (speed[which, None] ** 2)
-            grad = np.einsum("kij,kj->ki", projector, terms["gradient"][i, which])
-            cartesian = speed[which, None] * (grad - terms["potential"][i, which, None] * curvature)
-            jac = self.kin.jacobians(self.path[1 + i], terms["centres"][i, which], which)  # (k, 3, d)
-            if p.use_pseudo_inverse:
-                jjt = jac @ jac.transpose(0, 2, 1) + p.pseudo_inverse_ridge_factor * np.eye(3)[None]
-                pseudo = jac.transpose(0, 2, 1) @ np.linalg.inv(jjt)  # (k, d, 3)
-                out[i] -= np.einsum("kdi,ki->d", pseudo, cartesian)
-            else:
-                out[i] -= np.einsum("kid,ki->d", jac, cartesian)
+        chosen = np.zeros(self.free, dtype=bool)
+        if p.use_stochastic_descent:
+            chosen[int(self.rng.integers(0, self.free))] = True
+        else:
+            chosen[:] = True
+        speed = terms["speed"]
+        active = (terms["potential"] >= MIN_POTENTIAL) & (speed > 1e-9) & chosen[:, None]
+        rows, which = np.nonzero(active)
+        if not rows.size:
+            return out
+        v = terms["velocity"][rows, which]
+        magnitude = speed[rows, which][:, None]
+        unit = v / magnitude
+        projector = np.eye(3)[None] - unit[:, :, None] * unit[:, None, :]  # (k, 3, 3)
+        curvature = np.einsum("kij,kj->ki", projector, terms["acceleration"][rows, which]) / magnitude ** 2
+        grad = np.einsum("kij,kj->ki", projector, terms["gradient"][rows, which])
+        cartesian = magnitude * (grad - terms["potential"][rows, which][:, None] * curvature)
+        jac = self.kin.jacobians(self.path, rows + 1, terms["centres"][rows, which], which)  # (k, 3, d)
+        if p.use_pseudo_inverse:
+            jjt = jac @ jac.transpose(0, 2, 1) + p.pseudo_inverse_ridge_factor * np.eye(3)[None]
+            pseudo = jac.transpose(0, 2, 1) @ np.linalg.inv(jjt)  # (k, d, 3)
+            contributions = np.einsum("kdi,ki->kd", pseudo, cartesian)
+        else:
+            contributions = np.einsum("kid,ki->kd", jac, cartesian)
+        np.subtract.at(out, rows, contributions)
         return out
 
     def step(self, terms: Mapping[str, Any]) -> None:
@@ -453,6 +466,7 @@ class ChompOptimizer:
         rejected = ""
         after_valid = 0
         iteration = 0
+        last_checked = -EXACT_CHECK_EVERY
         while True:
             if cancel is not None and cancel.is_set():
                 return ChompResult(None, iteration, "PREEMPTED", "cancelled")
@@ -466,11 +480,15 @@ class ChompOptimizer:
             last = iteration >= p.max_iterations or out_of_time or (
                 best is not None and after_valid >= p.max_iterations_after_collision_free)
             if best is None:
-                check = (terms["obstacle_cost"] < p.collision_threshold or not terms["penetrating"]
+                # a path whose spheres stay out of the world may still pass through a thin object
+                # between waypoints: at most every CLEAR_CHECK_EVERY iterations on that ground
+                clear = not terms["penetrating"] and iteration - last_checked >= CLEAR_CHECK_EVERY
+                check = (terms["obstacle_cost"] < p.collision_threshold or clear
                          or iteration % EXACT_CHECK_EVERY == 0 or last)
             else:
                 check = last and cost < best[0]
             if check:
+                last_checked = iteration
                 kept, problem = accept(self.path)
                 if problem is None:
                     best = (cost, self.path.copy(), kept)
