@@ -66,7 +66,7 @@ class MotionPlanRequest:
     group: str
     goal: Goal
     start_state: RobotState | None = None  # default: the scene's current state
-    pipeline_id: str = "ompl"  # "ompl", "pilz_industrial_motion_planner", "joint_interpolation", "stomp"
+    pipeline_id: str = "ompl"  # "ompl", "pilz_industrial_motion_planner", "joint_interpolation", "stomp", "chomp"
     planner_id: str = ""  # "RRTConnectkConfigDefault", "arm[RRTConnectkConfigDefault]", "PTP", "LIN", "CIRC"
     allowed_planning_time: float = 5.0
     num_planning_attempts: int = 1
