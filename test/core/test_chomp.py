@@ -248,6 +248,28 @@ def test_path_constraints_are_not_planned_for_and_a_path_leaving_them_is_refused
         assert wide.satisfied(arm_state(mycobot, q))
 
 
+def cube_mesh(side: float) -> Mesh:
+    """A closed triangle mesh of a cube of ``side`` around its centre."""
+    h = side / 2.0
+    corners = [[x, y, z] for x in (-h, h) for y in (-h, h) for z in (-h, h)]
+    faces = [[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1], [2, 3, 7], [2, 7, 6],
+             [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]]
+    return Mesh(vertices=corners, triangles=faces)
+
+
+def test_a_mesh_obstacle(pipeline, mycobot):
+    """The box of the first test as a triangle mesh: its voxel field pushes the path around it too."""
+    start = arm_state(mycobot, LEFT)
+    where = arm_state(mycobot, (LEFT + RIGHT) / 2).frame_pose(TIP)[:3, 3]
+    scene = PlanningScene(mycobot, start)
+    scene.add_object(CollisionObject(id="cube", meshes=[cube_mesh(0.04)], mesh_poses=[Pose.from_matrix(make_pose(where))]))
+    straight = pipeline.plan(scene, MotionPlanRequest("arm", JointGoal(RIGHT), start_state=start,
+                                                      pipeline_id="joint_interpolation"))
+    assert not straight.success
+    response = pipeline.plan(scene, chomp_request(JointGoal(RIGHT), start))
+    assert_plain_valid(scene, response, start)
+
+
 def test_the_panda_around_a_box(panda, pipeline):
     """Any URDF + SRDF robot (meshes): the Panda's 7 joints swing past a box on the straight line's path."""
     a = np.array([-1.2, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785])
@@ -302,10 +324,8 @@ def test_the_distance_field_is_exact_for_primitives_and_close_for_meshes(mycobot
     assert np.allclose(distance, [0.1, -0.05, 0.25, np.hypot(0.1, 0.1)], atol=1e-9)
     assert np.allclose(gradient[0], [1, 0, 0], atol=1e-6) and np.allclose(gradient[2], [0, 1, 0], atol=1e-6)
     # a box as a triangle mesh: the voxel field agrees with the exact distance within a voxel or so
-    corners = np.array([[x, y, z] for x in (-0.1, 0.1) for y in (-0.05, 0.05) for z in (-0.2, 0.2)])
-    faces = [[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1], [2, 3, 7], [2, 7, 6],
-             [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]]
-    mesh = Mesh(vertices=corners.tolist(), triangles=faces)
+    mesh = cube_mesh(1.0)
+    mesh.scale = [0.2, 0.1, 0.4]
     meshed = PlanningScene(mycobot)
     meshed.add_object(CollisionObject(id="mesh", meshes=[mesh], mesh_poses=[Pose.from_matrix(make_pose([0.5, 0.0, 0.0]))]))
     mesh_field = WorldDistanceField(meshed.world_geometry(), padding=0.2)

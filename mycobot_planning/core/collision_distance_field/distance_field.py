@@ -13,6 +13,7 @@ only are kept (a stronger push than needed; the exact check has the last word).
 from __future__ import annotations
 
 import math
+import threading
 from typing import Callable, Iterable, Sequence
 
 import coal
@@ -144,8 +145,29 @@ def shape_distance(shape: Shape, padding: float) -> SignedDistance | None:
     if isinstance(g, coal.Cone):
         return _cone(float(g.radius), float(g.halfLength))
     if isinstance(g, coal.BVHModelBase):
-        return _mesh(g, padding)
+        return _cached_mesh(g, padding)
     return None
+
+
+_MESH_FIELDS: dict[tuple[int, float], tuple[coal.CollisionGeometry, SignedDistance | None]] = {}
+_MESH_FIELDS_LOCK = threading.Lock()
+_MESH_FIELDS_SIZE = 16
+
+
+def _cached_mesh(geometry: coal.BVHModelBase, padding: float) -> SignedDistance | None:
+    """A mesh's grid, built once per mesh and padding (scene objects share their loaded meshes,
+    and a scene's objects outlive many plans): the entry holds the mesh, so its id stays its own."""
+    key = (id(geometry), float(padding))
+    with _MESH_FIELDS_LOCK:
+        entry = _MESH_FIELDS.get(key)
+    if entry is not None and entry[0] is geometry:
+        return entry[1]
+    distance = _mesh(geometry, padding)
+    with _MESH_FIELDS_LOCK:
+        if len(_MESH_FIELDS) >= _MESH_FIELDS_SIZE:
+            _MESH_FIELDS.pop(next(iter(_MESH_FIELDS)))
+        _MESH_FIELDS[key] = (geometry, distance)
+    return distance
 
 
 class WorldDistanceField:
