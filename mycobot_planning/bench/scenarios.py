@@ -21,6 +21,7 @@ from .peers.parts import bench_peers_parts
 from .perception_scenarios import bench_perception
 from .react_scenarios import REACT_SCENARIOS
 from .pick_place_scenarios import PICK_PLACE_SCENARIOS
+from .planners_scenarios import PLANNERS_SCENARIOS
 from .robots_scenarios import bench_robots
 from .robustness import bench_robustness
 from .sim_scenarios import SIM_SCENARIOS
@@ -256,6 +257,7 @@ SCENARIOS: dict[str, Callable[..., None]] = {
     **TASK_SCENARIOS,
     **ROS_SCENARIOS,
     **PICK_PLACE_SCENARIOS,
+    **PLANNERS_SCENARIOS,
     **VIEWER_SCENARIOS,
     **TIME_PARAMETERIZATION_SCENARIOS,
     **OBJECTIVES_SCENARIOS,

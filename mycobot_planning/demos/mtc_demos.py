@@ -44,7 +44,9 @@ __all__ = [
     "build_fallbacks_move_to_task",
     "build_ik_clearance_cost_task",
     "build_modular_task",
+    "fallbacks_initial_cases",
     "fallbacks_initial_scene",
+    "fallbacks_target_state",
     "ik_clearance_cost_scene",
     "load_ik_clearance_cost_parameters",
 ]
@@ -110,6 +112,33 @@ def fallbacks_initial_scene(model: RobotModel, base: PlanningScene | None = None
     return scene
 
 
+def fallbacks_target_state(model: RobotModel) -> dict[str, float]:
+    """The seed's goal of "move to other side": arm 'ready' with link1_to_link2 at +TAU/8."""
+    target_state = dict(model.named_state("ready", "arm"))
+    target_state["link1_to_link2"] = +TAU / 8
+    return target_state
+
+
+def fallbacks_initial_cases(model: RobotModel, scene_for_initial_state: PlanningScene | None = None
+                            ) -> list[tuple[str, PlanningScene]]:
+    """The seed's three initial states (a, b, c), each a diff of the initial scene: (a) 90 degrees
+    from the target, (b) directly reachable, (c) the target behind a thin box (collision avoidance)."""
+    initial_scene = fallbacks_initial_scene(model, scene_for_initial_state)
+    cases = []
+    scene = initial_scene.diff()
+    scene.set_current_state({"link1_to_link2": -TAU / 8})
+    cases.append(("90 degree offset from target goal", scene))
+    scene = initial_scene.diff()
+    scene.set_current_state({"link1_to_link2": +TAU / 8, "link3_to_link4": 0.0})
+    cases.append(("directly reachable without collision", scene))
+    scene = initial_scene.diff()
+    scene.set_current_state({"link1_to_link2": -TAU / 8})
+    scene.apply_collision_object(CollisionObject.box("box", [0.005, 0.1, 0.32], make_pose([0.02, -0.20, 0.32 / 2]),
+                                                     frame_id="base_link"))
+    cases.append(("getting to target requires collision avoidance", scene))
+    return cases
+
+
 def build_fallbacks_move_to_task(model: RobotModel, scene_for_initial_state: PlanningScene | None = None, *,
                                  seed: int | None = 0, pipeline=None) -> Task:
     """The seed's fallbacks_move_to demo ("fallback strategies in MoveTo")."""
@@ -120,32 +149,13 @@ def build_fallbacks_move_to_task(model: RobotModel, scene_for_initial_state: Pla
     pilz_planner = PipelinePlanner({"pilz_industrial_motion_planner": "PTP"})
     ompl_planner = PipelinePlanner({"ompl": "arm[RRTConnectkConfigDefault]"})
 
-    target_state = dict(model.named_state("ready", "arm"))
-    target_state["link1_to_link2"] = +TAU / 8
+    target_state = fallbacks_target_state(model)
 
-    initial_scene = fallbacks_initial_scene(model, scene_for_initial_state)
     initial_alternatives = Alternatives("initial states")
-
-    fixed = FixedState("90 degree offset from target goal")
-    scene = initial_scene.diff()
-    scene.set_current_state({"link1_to_link2": -TAU / 8})
-    fixed.setState(scene)
-    initial_alternatives.add(fixed)
-
-    fixed = FixedState("directly reachable without collision")
-    scene = initial_scene.diff()
-    scene.set_current_state({"link1_to_link2": +TAU / 8, "link3_to_link4": 0.0})
-    fixed.setState(scene)
-    initial_alternatives.add(fixed)
-
-    fixed = FixedState("getting to target requires collision avoidance")
-    scene = initial_scene.diff()
-    scene.set_current_state({"link1_to_link2": -TAU / 8})
-    scene.apply_collision_object(CollisionObject.box("box", [0.005, 0.1, 0.32], make_pose([0.02, -0.20, 0.32 / 2]),
-                                                     frame_id="base_link"))
-    fixed.setState(scene)
-    initial_alternatives.add(fixed)
-
+    for name, scene in fallbacks_initial_cases(model, scene_for_initial_state):
+        fixed = FixedState(name)
+        fixed.setState(scene)
+        initial_alternatives.add(fixed)
     task.add(initial_alternatives)
 
     fallbacks = Fallbacks("move to other side")

@@ -50,7 +50,7 @@ def _pipelines() -> PlanningPipeline:
 PLANNING_SPECS = [
     ParameterSpec("group", "arm", "planning group to move", non_empty=True),
     ParameterSpec("planning_pipeline", "ompl", "planning pipeline: ompl, pilz_industrial_motion_planner, "
-                  "joint_interpolation or stomp", non_empty=True),
+                  "joint_interpolation, stomp or chomp", non_empty=True),
     ParameterSpec("planner_id", "", "planner id (empty: the pipeline's default, RRTConnect for ompl)",
                   validator=lambda value: _pipelines().planner_id_problem(value)),
     ParameterSpec("planning_time", 5.0, "allowed planning time per attempt in seconds", range=(0.01, 600.0)),

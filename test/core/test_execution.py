@@ -741,7 +741,7 @@ def test_planned_trajectories_start_at_the_current_state_and_pass_the_validator(
     ({"goal": {"pose": [0.1, 0.1, 0.1]}}, MoveItErrorCode.INVALID_GOAL_CONSTRAINTS, "7 numbers"),
     ({"goal": {"named": "ready"}, "planing_time": 1}, MoveItErrorCode.INVALID_MOTION_PLAN, "unknown keys"),
     ({"goal": {"named": "ready"}, "max_velocity_scaling_factor": 3.0}, MoveItErrorCode.INVALID_MOTION_PLAN, "(0, 1]"),
-    ({"goal": {"named": "ready"}, "pipeline_id": "chomp"}, MoveItErrorCode.INVALID_MOTION_PLAN, "unknown planning pipeline"),
+    ({"goal": {"named": "ready"}, "pipeline_id": "trajopt"}, MoveItErrorCode.INVALID_MOTION_PLAN, "unknown planning pipeline"),
     ({"goal": {"named": "ready"}, "start_state": {"joint_names": ["x"], "positions": [0.0]}},
      MoveItErrorCode.INVALID_ROBOT_STATE, "does not have"),
 ])

@@ -40,7 +40,8 @@ def straight_line():
 
 def test_the_built_in_planners_are_managers():
     pipeline = PlanningPipeline()
-    assert pipeline.pipeline_ids[:3] == ["ompl", "pilz_industrial_motion_planner", "joint_interpolation"]
+    assert pipeline.pipeline_ids[:5] == ["ompl", "pilz_industrial_motion_planner", "joint_interpolation", "stomp",
+                                         "chomp"]
     for pipeline_id, manager in pipeline.managers.items():
         assert isinstance(manager, PlannerManager), pipeline_id
         assert manager.pipeline_id == pipeline_id and manager.planner_ids()

@@ -37,9 +37,9 @@ def test_every_pipeline_reaches_home(mycobot: RobotModel, pipeline: PlanningPipe
 
 
 def test_unknown_pipeline(mycobot: RobotModel, pipeline: PlanningPipeline):
-    response = pipeline.plan(PlanningScene(mycobot), MotionPlanRequest("arm", NamedGoal("home"), pipeline_id="chomp"))
+    response = pipeline.plan(PlanningScene(mycobot), MotionPlanRequest("arm", NamedGoal("home"), pipeline_id="trajopt"))
     assert response.error_code.val == MoveItErrorCode.INVALID_MOTION_PLAN
-    assert "unknown planning pipeline 'chomp'" in response.message
+    assert "unknown planning pipeline 'trajopt'" in response.message
     assert not response
 
 

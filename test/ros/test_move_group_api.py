@@ -350,6 +350,29 @@ def test_planner_interfaces_and_params(client: Client) -> None:
     assert response.error_code.val == C.SUCCESS
 
 
+def test_stomp_and_chomp_are_listed_and_plan_through_move_group(client: Client) -> None:
+    interfaces = client.call(QueryPlannerInterfaces, "/query_planner_interface",
+                             QueryPlannerInterfaces.Request()).planner_interfaces
+    by_pipeline = {i.pipeline_id: (i.name, list(i.planner_ids)) for i in interfaces}
+    assert by_pipeline["stomp"] == ("STOMP", ["STOMP"]) and by_pipeline["chomp"] == ("CHOMP", ["CHOMP"])
+    get = GetPlannerParams.Request(pipeline_id="chomp", planner_config="CHOMP", group="arm")
+    params = client.call(GetPlannerParams, "/get_planner_params", get).params
+    assert dict(zip(params.keys, params.values))["max_iterations"] == "200"
+    for pipeline_id, planner_id in (("stomp", "STOMP"), ("chomp", "CHOMP"), ("chomp", "")):
+        request = joint_goal(FAR)
+        request.motion_plan_request.pipeline_id, request.motion_plan_request.planner_id = pipeline_id, planner_id
+        response = client.call(GetMotionPlan, "/plan_kinematic_path", request, timeout=30.0).motion_plan_response
+        assert response.error_code.val == C.SUCCESS, (pipeline_id, response.error_code.message)
+        points = response.trajectory.joint_trajectory.points
+        index = [list(response.trajectory.joint_trajectory.joint_names).index(j) for j in ARM]
+        assert np.allclose(np.asarray(points[-1].positions)[index], FAR, atol=1e-3)
+    # an id CHOMP does not have is refused with MoveIt's code, not planned by another planner
+    request = joint_goal(FAR)
+    request.motion_plan_request.pipeline_id, request.motion_plan_request.planner_id = "chomp", "RRTConnectkConfigDefault"
+    refused = client.call(GetMotionPlan, "/plan_kinematic_path", request).motion_plan_response
+    assert refused.error_code.val != C.SUCCESS
+
+
 # ------------------------------------------------------------------------------- actions
 def test_move_action_plan_only_moves_nothing(client: Client) -> None:
     move(client, READY)

@@ -16,13 +16,15 @@ import numpy as np
 
 from interfaces_py.msgs import MoveItErrorCode
 
-from ..errors import PlanningError
+from ..errors import PlanningError, TimeParameterizationError
+from ..kinematic_constraints.kinematic_constraints import CONSTRAINT_CHECK_STEP, dense_violation
 from ..kinematics.ik_solver import IKSolver
 from ..planning_scene.planning_scene import PlanningScene
 from ..robot_model.robot_model import JointModelGroup, RobotModel
 from ..robot_state.robot_state import RobotState
 from ..robot_trajectory.robot_trajectory import TimedTrajectory
 from ..trajectory_processing import DEFAULT_MAX_DEVIATION, time_parameterize
+from ..trajectory_processing.trajectory_validator import DEFAULT_RESOLUTION, halving_order, validate_trajectory
 from ..transforms import check_pose
 from ..moveit_error_code import ErrorCodeResult
 
@@ -64,7 +66,7 @@ class MotionPlanRequest:
     group: str
     goal: Goal
     start_state: RobotState | None = None  # default: the scene's current state
-    pipeline_id: str = "ompl"  # "ompl", "pilz_industrial_motion_planner", "joint_interpolation", "stomp"
+    pipeline_id: str = "ompl"  # "ompl", "pilz_industrial_motion_planner", "joint_interpolation", "stomp", "chomp"
     planner_id: str = ""  # "RRTConnectkConfigDefault", "arm[RRTConnectkConfigDefault]", "PTP", "LIN", "CIRC"
     allowed_planning_time: float = 5.0
     num_planning_attempts: int = 1
@@ -344,6 +346,59 @@ def time_group_path(
         method="auto",
         max_deviation=max_deviation,
     )
+
+
+def polyline_problem(scene: PlanningScene, group: str, start: RobotState, path: np.ndarray,
+                     constraints: Any = None) -> str | None:
+    """Why the joint-space polyline ``path`` (the group's variables, one row per waypoint) is not
+    valid when checked every DEFAULT_RESOLUTION (max-norm) for collisions and every
+    CONSTRAINT_CHECK_STEP for the path constraints, or None. Trajectory optimisers (STOMP,
+    CHOMP) ask this of a candidate before they time it."""
+    rows = [path[:1]]
+    for a, b in zip(path[:-1], path[1:]):
+        steps = max(1, int(math.ceil(float(np.max(np.abs(b - a))) / DEFAULT_RESOLUTION)))
+        rows.append(a + (b - a) * (np.arange(1, steps + 1) / steps)[:, None])
+    states = np.vstack(rows)
+    hit = scene.colliding_rows(group, start, states, order=halving_order(len(states)), stop_at_first=True)
+    if hit.any():
+        return "the path collides between its waypoints"
+    if constraints:
+        joint_names = list(scene.robot_model.group(group).joint_names)
+        found = dense_violation(constraints, start, joint_names, path, CONSTRAINT_CHECK_STEP)
+        if found is not None:
+            return f"the path leaves the path constraints between its waypoints: {found[2]}"
+    return None
+
+
+def timed_and_validated(scene: PlanningScene, jmg: JointModelGroup, start: RobotState, path: np.ndarray,
+                        constraints: Any, velocity_scaling: float, acceleration_scaling: float
+                        ) -> tuple[TimedTrajectory | None, str | None]:
+    """(the timed trajectory of ``path``, None) when the trajectory validator (the scene's
+    checker, every DEFAULT_RESOLUTION) and the path constraints pass it, else (None, why not).
+    The timing follows a smooth curve near the polyline (max_deviation), so it is checked
+    again, and timed closer to the (densely checked) polyline when the curve touches something.
+    What trajectory optimisers (STOMP, CHOMP) call before they count a path as found."""
+    model = scene.robot_model
+    report_problem = "not timed"
+    for deviation in (DEFAULT_MAX_DEVIATION, DEFAULT_MAX_DEVIATION / 10.0):
+        try:
+            candidate = time_group_path(model, jmg, path, velocity_scaling, acceleration_scaling,
+                                        max_deviation=deviation)
+        except TimeParameterizationError as exc:
+            report_problem = f"the path cannot be timed: {exc}"
+            continue
+        report = validate_trajectory(scene, candidate, jmg.name, start, all_pairs=False)
+        if not report.valid:
+            report_problem = "; ".join(report.problems[:2])
+            continue
+        if constraints:
+            found = dense_violation(constraints, start, list(jmg.joint_names), candidate.positions,
+                                    CONSTRAINT_CHECK_STEP)
+            if found is not None:
+                report_problem = f"the timed trajectory leaves the path constraints: {found[2]}"
+                continue
+        return candidate, None
+    return None, report_problem
 
 
 def success(

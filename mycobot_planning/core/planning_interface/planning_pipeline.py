@@ -2,7 +2,7 @@
 
 MoveIt users pick a pipeline (``ompl``, ``pilz_industrial_motion_planner``) and a planner id on
 the request; MTC's JointInterpolationPlanner is exposed as a third pipeline so task stages and
-the planning server reach every core planner the same way; STOMP (``stomp``) is a fourth. Every planner is a PlannerManager
+the planning server reach every core planner the same way; STOMP (``stomp``) and CHOMP (``chomp``) are a fourth and fifth. Every planner is a PlannerManager
 held in the registry of planner_manager.py (built-ins registered here, third-party ones through
 the ``mycobot_planning.planners`` entry-point group); each is built once per pipeline and reused.
 """
@@ -16,6 +16,7 @@ import numpy as np
 
 from interfaces_py.msgs import MoveItErrorCode
 
+from ..planners.chomp import CHOMP_PIPELINE_ID, ChompPlanner
 from ..planners.joint_interpolation import JOINT_INTERPOLATION_PIPELINE_ID, JointInterpolationPlanner
 from ..kinematic_constraints.kinematic_constraints import dense_violation
 from ..planners.ompl.planner_manager import OMPL_PIPELINE_ID, OmplPlanner
@@ -25,13 +26,14 @@ from .planner_manager import PlannerManager, PlannerSettings, planner_factories,
 from .planning_interface import MotionPlanRequest, MotionPlanResponse, failure
 from ..planning_scene.planning_scene import PlanningScene
 
-__all__ = ["JOINT_INTERPOLATION_PIPELINE_ID", "OMPL_PIPELINE_ID", "PILZ_PIPELINE_ID", "PlanningPipeline",
+__all__ = ["CHOMP_PIPELINE_ID", "JOINT_INTERPOLATION_PIPELINE_ID", "OMPL_PIPELINE_ID", "PILZ_PIPELINE_ID", "PlanningPipeline",
            "STOMP_PIPELINE_ID"]
 
 register_planner(OMPL_PIPELINE_ID, lambda settings: OmplPlanner(settings.ompl_config))
 register_planner(PILZ_PIPELINE_ID, lambda settings: IndustrialMotionPlanner(settings.cartesian_limits))
 register_planner(JOINT_INTERPOLATION_PIPELINE_ID, lambda settings: JointInterpolationPlanner())
 register_planner(STOMP_PIPELINE_ID, lambda settings: StompPlanner())
+register_planner(CHOMP_PIPELINE_ID, lambda settings: ChompPlanner())
 
 
 class PlanningPipeline:

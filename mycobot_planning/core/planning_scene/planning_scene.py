@@ -259,6 +259,15 @@ class PlanningScene:
     def attached_object_ids(self) -> list[str]:
         return list(self._attached)
 
+    def world_geometry(self) -> list[SceneObject]:
+        """The world objects as compiled for checking (immutable: id, world pose, Coal shapes),
+        for consumers of the geometry itself (a distance field)."""
+        return list(self._world.values())
+
+    def attached_bodies(self) -> list[AttachedBody]:
+        """The attached objects as compiled for checking (immutable: shapes posed in their link)."""
+        return list(self._attached.values())
+
     def has_object(self, object_id: str) -> bool:
         """True for a world object or an attached object with this id."""
         return object_id in self._world or object_id in self._attached

@@ -22,13 +22,11 @@ import numpy as np
 
 from interfaces_py.msgs import MoveItErrorCode
 
-from ...errors import PlanningError, TimeParameterizationError
+from ...errors import PlanningError
 from ...kinematic_constraints.kinematic_constraints import (
-    CONSTRAINT_CHECK_STEP,
     NEARLY_FREE,
     XYZ_EULER_ANGLES,
     ConstraintManifold,
-    dense_violation,
 )
 from ...planning_interface.planning_interface import (
     JointGoal,
@@ -43,14 +41,13 @@ from ...planning_interface.planning_interface import (
     check_scaling,
     failure,
     goal_states,
+    polyline_problem,
     start_state_of,
     success,
-    time_group_path,
+    timed_and_validated,
 )
 from ...planning_scene.planning_scene import PlanningScene
 from ...robot_state.robot_state import RobotState
-from ...trajectory_processing import DEFAULT_MAX_DEVIATION
-from ...trajectory_processing.trajectory_validator import DEFAULT_RESOLUTION, halving_order, validate_trajectory
 
 __all__ = ["DEFAULT_PARAMS", "PLANNER_ID", "STOMP_PIPELINE_ID", "StompParams", "StompPlanner", "plan_stomp"]
 
@@ -257,23 +254,8 @@ class _Costs:
         return COLLISION_PENALTY * _gaussian_windows(colliding) + cost, colliding | violated
 
     def dense_problem(self, path: np.ndarray) -> str | None:
-        """Why the polyline ``path`` is not valid when checked every DEFAULT_RESOLUTION (max-norm)
-        for collisions and CONSTRAINT_CHECK_STEP for the path constraints, or None."""
-        rows = [path[:1]]
-        for a, b in zip(path[:-1], path[1:]):
-            steps = max(1, int(math.ceil(float(np.max(np.abs(b - a))) / DEFAULT_RESOLUTION)))
-            rows.append(a + (b - a) * (np.arange(1, steps + 1) / steps)[:, None])
-        states = np.vstack(rows)
-        hit = self.scene.colliding_rows(self.group, self.start, states, order=halving_order(len(states)),
-                                        stop_at_first=True)
-        if hit.any():
-            return "the path collides between its waypoints"
-        if self.constraints is not None:
-            joint_names = list(self.scene.robot_model.group(self.group).joint_names)
-            found = dense_violation(self.constraints, self.start, joint_names, path, CONSTRAINT_CHECK_STEP)
-            if found is not None:
-                return f"the path leaves the path constraints between its waypoints: {found[2]}"
-        return None
+        """Why the polyline ``path`` is not valid, checked densely (planning_interface.polyline_problem)."""
+        return polyline_problem(self.scene, self.group, self.start, path, self.constraints)
 
 
 # ---------------------------------------------------------------------------- the optimisation
@@ -430,7 +412,7 @@ def _plan(scene: PlanningScene, request: MotionPlanRequest, params: StompParams,
     costs = _Costs(scene, jmg.name, start, constraints, [start, goal_state])
 
     def timed(path: np.ndarray) -> tuple[Any, str | None]:
-        return _timed_and_validated(scene, jmg, start, path, constraints, velocity_scaling, acceleration_scaling)
+        return timed_and_validated(scene, jmg, start, path, constraints, velocity_scaling, acceleration_scaling)
 
     result = optimize(costs, start_vector, goal_vector, lower, upper, params, rng, started + budget, request.cancel,
                       accept=timed)
@@ -448,35 +430,6 @@ def _plan(scene: PlanningScene, request: MotionPlanRequest, params: StompParams,
     )
     response.planner_id = STOMP_PIPELINE_ID  # MoveIt's STOMP answers with planner_id "stomp"
     return response
-
-
-def _timed_and_validated(scene: PlanningScene, jmg: Any, start: RobotState, path: np.ndarray, constraints: Any,
-                         velocity_scaling: float, acceleration_scaling: float) -> tuple[Any, str | None]:
-    """(the timed trajectory of ``path``, None) when the trajectory validator (the scene's
-    checker, every DEFAULT_RESOLUTION) and the path constraints pass it, else (None, why not).
-    The timing follows a smooth curve near the polyline (max_deviation), so it is checked
-    again, and timed closer to the (densely checked) polyline when the curve touches something."""
-    model = scene.robot_model
-    report_problem = "not timed"
-    for deviation in (DEFAULT_MAX_DEVIATION, DEFAULT_MAX_DEVIATION / 10.0):
-        try:
-            candidate = time_group_path(model, jmg, path, velocity_scaling, acceleration_scaling,
-                                        max_deviation=deviation)
-        except TimeParameterizationError as exc:
-            report_problem = f"the path cannot be timed: {exc}"
-            continue
-        report = validate_trajectory(scene, candidate, jmg.name, start, all_pairs=False)
-        if not report.valid:
-            report_problem = "; ".join(report.problems[:2])
-            continue
-        if constraints:
-            found = dense_violation(constraints, start, list(jmg.joint_names), candidate.positions,
-                                    CONSTRAINT_CHECK_STEP)
-            if found is not None:
-                report_problem = f"the timed trajectory leaves the path constraints: {found[2]}"
-                continue
-        return candidate, None
-    return None, report_problem
 
 
 class StompPlanner:
