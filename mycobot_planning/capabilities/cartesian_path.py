@@ -89,14 +89,15 @@ def compute_cartesian_path(ctx: MoveGroupContext, request: CartesianPathRequest,
     except RequestError as exc:
         return CartesianPathResult(MoveItErrorCode(exc.moveit_code, exc.message, "planning_server"),
                                    stop_reason="invalid_request")
-    cache_key = None
+    cache_key, refused = None, 0
     if request.avoid_collisions and trajectory_cache.enabled(ctx):  # paths through obstacles are never cached
         cache_key = GetCartesianPathRequest(
             request.group, scene.current_state.copy(), poses, request.link, request.ik_frame_offset,
             kwargs["eef_step"], kwargs["jump_threshold"], kwargs["revolute_jump_threshold"],
             kwargs["prismatic_jump_threshold"], kwargs["velocity_scaling"], kwargs["acceleration_scaling"],
             kwargs["path_constraints"])
-        hit = trajectory_cache.fetch_cartesian_path(ctx, scene, cache_key)
+        lookup = trajectory_cache.fetch_cartesian_path(ctx, scene, cache_key)
+        hit, refused = lookup.hit, lookup.refused
         if hit is not None:
             out = CartesianPathResult(
                 MoveItErrorCode(MoveItErrorCode.SUCCESS, f"trajectory cache hit: entry {hit.entry.id}, validated in "
@@ -116,7 +117,7 @@ def compute_cartesian_path(ctx: MoveGroupContext, request: CartesianPathRequest,
                               scene.current_state, "miss" if cache_key is not None else "")
     if cache_key is not None and result.success and result.trajectory is not None:
         trajectory_cache.insert_cartesian_path(ctx, cache_key, result.trajectory, float(result.fraction),
-                                               result.planning_time)
+                                               result.planning_time, refused)
     if result.success and result.trajectory is not None:
         out.trajectory = timed_to_joint_trajectory(result.trajectory, ctx.defaults.sample_period or None)
         if display and result.fraction > 0:

@@ -95,9 +95,9 @@ def plan(ctx: MoveGroupContext, request: MotionPlanRequest, start_state: RobotSt
         ctx.last_plan, ctx.last_plan_problem = None, f"the last planning request failed: {exc.message}"
         ctx.log("warning", f"plan request refused: {exc.message}")
         return PlanResult(MoveItErrorCode(exc.moveit_code, exc.message, SOURCE))
-    hit = trajectory_cache.fetch_plan(ctx, scene, request)
-    if hit is not None:
-        return _cached(ctx, request, hit, started, display)
+    lookup = trajectory_cache.fetch_plan(ctx, scene, request)
+    if lookup.hit is not None:
+        return _cached(ctx, request, lookup.hit, started, display)
     cache = "miss" if trajectory_cache.enabled(ctx) else ""
     try:
         response = ctx.plan_in_context(scene, request)
@@ -112,7 +112,7 @@ def plan(ctx: MoveGroupContext, request: MotionPlanRequest, start_state: RobotSt
         return PlanResult(MoveItErrorCode(code.val, code.message, code.source or request.pipeline_id),
                           planning_time=time.perf_counter() - started, group=request.group, trajectory_cache=cache)
     if cache:
-        trajectory_cache.insert_plan(ctx, request, response)
+        trajectory_cache.insert_plan(ctx, request, response, lookup.refused)
     trajectory = timed_to_joint_trajectory(response.trajectory, ctx.defaults.sample_period or None)
     ctx.last_plan, ctx.last_plan_problem = (trajectory, request.group), ""
     if display:

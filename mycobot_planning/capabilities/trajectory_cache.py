@@ -43,7 +43,7 @@ from ..core.trajectory_cache import (
 from ..core.trajectory_cache.cache_insert_policies import POLICIES
 from ..core.trajectory_processing.trajectory_validator import validate_trajectory
 
-__all__ = ["CacheHit", "MAX_CANDIDATES", "MoveGroupTrajectoryCache", "TrajectoryCacheSettings", "configure", "enabled",
+__all__ = ["CacheHit", "CacheLookup", "MAX_CANDIDATES", "MoveGroupTrajectoryCache", "TrajectoryCacheSettings", "configure", "enabled",
            "fetch_cartesian_path", "fetch_plan", "insert_cartesian_path", "insert_plan"]
 
 #: matching entries (fastest first) validated per request before it is planned instead: bounds
@@ -86,6 +86,15 @@ class CacheHit:
     lookup_time: float
     validate_time: float
     refused: int = 0  # matching entries the validator refused before this one
+
+
+@dataclass
+class CacheLookup:
+    """What a lookup found: a validated ``hit``, or None and how many matching entries the
+    validator ``refused`` in the current scene (0: nothing matched, or the cache is disabled)."""
+
+    hit: CacheHit | None = None
+    refused: int = 0
 
 
 @dataclass
@@ -180,9 +189,9 @@ def _active(ctx: Any) -> MoveGroupTrajectoryCache | None:
 
 def _validated(ctx: Any, tc: MoveGroupTrajectoryCache, scene: PlanningScene, group: str, start: Any,
                entries: list[CacheEntry], constraints: Any, velocity_scaling: float, acceleration_scaling: float,
-               counts: _Counts, lookup: float, cartesian: bool) -> CacheHit | None:
+               counts: _Counts, lookup: float, cartesian: bool) -> CacheLookup:
     """The first of ``entries`` that, stitched to ``start``, passes the pipelines' validator in
-    ``scene`` (and the path constraints); None when none does."""
+    ``scene`` (and the path constraints), and how many were refused before it."""
     model = ctx.model
     refused = 0
     started = time.perf_counter()
@@ -202,8 +211,10 @@ def _validated(ctx: Any, tc: MoveGroupTrajectoryCache, scene: PlanningScene, gro
             reason = f"cannot start it at the current state: {exc}"
         else:
             try:
+                # the pipelines' check (first_collision: the same verdict, a blocked path refused sooner)
                 report = validate_trajectory(scene, trajectory, group, start, velocity_scaling=velocity_scaling,
-                                             acceleration_scaling=acceleration_scaling, all_pairs=False)
+                                             acceleration_scaling=acceleration_scaling, first_collision=True,
+                                             all_pairs=False)
                 reason = "" if report.valid else "; ".join(report.problems[:2])
             except ValueError as exc:  # scaling outside (0, 1]: the planner answers that request
                 reason = f"cannot validate it: {exc}"
@@ -212,11 +223,11 @@ def _validated(ctx: Any, tc: MoveGroupTrajectoryCache, scene: PlanningScene, gro
                 reason = "" if found is None else f"path constraints: {found[2]}"
         if not reason:
             tc.count(counts, hits=1, refused=refused)
-            return CacheHit(trajectory, entry, lookup, time.perf_counter() - started, refused)
+            return CacheLookup(CacheHit(trajectory, entry, lookup, time.perf_counter() - started, refused), refused)
         refused += 1
         ctx.log("info", f"trajectory cache entry {entry.id} refused in the current scene: {reason}")
     tc.count(counts, misses=1, refused=refused)
-    return None
+    return CacheLookup(None, refused)
 
 
 def _key(ctx: Any, tc: MoveGroupTrajectoryCache, features: Callable[[], CacheKey]) -> CacheKey | None:
@@ -227,17 +238,17 @@ def _key(ctx: Any, tc: MoveGroupTrajectoryCache, features: Callable[[], CacheKey
         return None
 
 
-def fetch_plan(ctx: Any, scene: PlanningScene, request: MotionPlanRequest) -> CacheHit | None:
-    """A validated hit for a completed request (plan.complete_request), or None (cache disabled,
+def fetch_plan(ctx: Any, scene: PlanningScene, request: MotionPlanRequest) -> CacheLookup:
+    """A validated hit for a completed request (plan.complete_request), or none (cache disabled,
     no match, every match refused in ``scene``)."""
     tc = _active(ctx)
     if tc is None:
-        return None
+        return CacheLookup()
     started = time.perf_counter()
     key = _key(ctx, tc, lambda: motion_plan_request_features(ctx.model, request))
     if key is None:
         tc.count(tc.plans, misses=1)
-        return None
+        return CacheLookup()
     s = tc.settings
     try:
         entries = tc.cache.fetch_all_matching_trajectories(tc.namespace(ctx.model), key, s.start_tolerance,
@@ -246,15 +257,16 @@ def fetch_plan(ctx: Any, scene: PlanningScene, request: MotionPlanRequest) -> Ca
         tc.problem(str(exc))
         ctx.log("warning", f"trajectory cache: {exc}")
         tc.count(tc.plans, misses=1)
-        return None
+        return CacheLookup()
     return _validated(ctx, tc, scene, request.group, request.start_state, entries, request.path_constraints,
                       float(request.max_velocity_scaling_factor or 1.0),
                       float(request.max_acceleration_scaling_factor or 1.0), tc.plans,
                       time.perf_counter() - started, cartesian=False)
 
 
-def insert_plan(ctx: Any, request: MotionPlanRequest, response: MotionPlanResponse) -> bool:
-    """Offer a successful plan to the cache (its insert policy decides); whether it went in."""
+def insert_plan(ctx: Any, request: MotionPlanRequest, response: MotionPlanResponse, refused: int = 0) -> bool:
+    """Offer a successful plan to the cache (its insert policy decides; see _insert for
+    ``refused``); whether it went in."""
     tc = _active(ctx)
     if tc is None or not response.success or response.trajectory is None:
         return False
@@ -262,19 +274,19 @@ def insert_plan(ctx: Any, request: MotionPlanRequest, response: MotionPlanRespon
     if key is None:
         return False
     value = CacheValue(response.trajectory, float(response.planning_time), 1.0, response.planner_id or "")
-    return _insert(ctx, tc, key, value, tc.plans, cartesian=False)
+    return _insert(ctx, tc, key, value, tc.plans, False, refused)
 
 
-def fetch_cartesian_path(ctx: Any, scene: PlanningScene, request: GetCartesianPathRequest) -> CacheHit | None:
-    """A validated complete Cartesian path for ``request``, or None."""
+def fetch_cartesian_path(ctx: Any, scene: PlanningScene, request: GetCartesianPathRequest) -> CacheLookup:
+    """A validated complete Cartesian path for ``request``, or none."""
     tc = _active(ctx)
     if tc is None:
-        return None
+        return CacheLookup()
     started = time.perf_counter()
     key = _key(ctx, tc, lambda: cartesian_path_request_features(ctx.model, request))
     if key is None:
         tc.count(tc.cartesian, misses=1)
-        return None
+        return CacheLookup()
     s = tc.settings
     try:
         entries = tc.cache.fetch_all_matching_cartesian_trajectories(
@@ -283,14 +295,14 @@ def fetch_cartesian_path(ctx: Any, scene: PlanningScene, request: GetCartesianPa
         tc.problem(str(exc))
         ctx.log("warning", f"trajectory cache: {exc}")
         tc.count(tc.cartesian, misses=1)
-        return None
+        return CacheLookup()
     return _validated(ctx, tc, scene, request.group, request.start_state, entries, request.path_constraints,
                       request.max_velocity_scaling_factor, request.max_acceleration_scaling_factor, tc.cartesian,
                       time.perf_counter() - started, cartesian=True)
 
 
 def insert_cartesian_path(ctx: Any, request: GetCartesianPathRequest, trajectory: TimedTrajectory,
-                          fraction: float, planning_time: float) -> bool:
+                          fraction: float, planning_time: float, refused: int = 0) -> bool:
     """Offer a complete Cartesian path to the cache (a partial one is never stored: it reflects
     whatever stopped it); whether it went in."""
     tc = _active(ctx)
@@ -300,13 +312,17 @@ def insert_cartesian_path(ctx: Any, request: GetCartesianPathRequest, trajectory
     if key is None:
         return False
     return _insert(ctx, tc, key, CacheValue(trajectory, float(planning_time), float(fraction), "cartesian_path"),
-                   tc.cartesian, cartesian=True)
+                   tc.cartesian, True, refused)
 
 
 def _insert(ctx: Any, tc: MoveGroupTrajectoryCache, key: CacheKey, value: CacheValue, counts: _Counts,
-            cartesian: bool) -> bool:
+            cartesian: bool, refused: int) -> bool:
+    """Insert under the configured policy; after ``refused`` > 0 (the request's matching entries
+    are blocked in the current world) the new trajectory goes in beside them whatever the policy
+    says (AlwaysInsertNeverPrune): a detour is slower than the blocked path, so best-seen would
+    never keep it, and the blocked entries stay for when the world changes back."""
     s = tc.settings
-    policy = cache_insert_policy(s.cache_insert_policy, cartesian)
+    policy = cache_insert_policy("AlwaysInsertNeverPrunePolicy" if refused else s.cache_insert_policy, cartesian)
     insert = tc.cache.insert_cartesian_trajectory if cartesian else tc.cache.insert_trajectory
     try:
         inserted, reason = insert(tc.namespace(ctx.model), key, value, policy, s.prune_worse_trajectories)
