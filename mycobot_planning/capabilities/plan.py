@@ -41,6 +41,9 @@ class PlanResult:
     start_state: Any = None  # core RobotState the plan starts from
     #: "hit" (answered by the trajectory cache), "miss" (planned; the cache is enabled), "" (disabled)
     trajectory_cache: str = ""
+    #: s: a hit's lookup (key, SQLite, decoding) and validation (stitching, validator) times
+    cache_lookup_time: float = 0.0
+    cache_validate_time: float = 0.0
 
 
 def complete_request(ctx: MoveGroupContext, request: MotionPlanRequest, start_state: RobotStateMsg | None = None,
@@ -138,7 +141,8 @@ def _cached(ctx: MoveGroupContext, request: MotionPlanRequest, hit: trajectory_c
                     f"{trajectory.duration:.3f} s trajectory; lookup {1e3 * hit.lookup_time:.2f} ms, validation "
                     f"{1e3 * hit.validate_time:.2f} ms")
     return PlanResult(MoveItErrorCode(MoveItErrorCode.SUCCESS, message, "trajectory_cache"), trajectory, elapsed,
-                      request.group, hit.entry.planner_id, request.start_state, "hit")
+                      request.group, hit.entry.planner_id, request.start_state, "hit", hit.lookup_time,
+                      hit.validate_time)
 
 
 def plan_any(ctx: MoveGroupContext, requests: Sequence[tuple[MotionPlanRequest, str]],
