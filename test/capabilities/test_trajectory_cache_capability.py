@@ -181,3 +181,12 @@ def test_settings_change_keeps_the_entries_of_the_same_database(core, tmp_path):
     trajectory_cache.configure(core, trajectory_cache.TrajectoryCacheSettings(enabled=True, db_path=str(path)))
     assert _status(core)["entries"] == 0 and core.plan(REQUEST)["trajectory_cache"] == "miss"
     assert path.exists()
+
+
+def test_a_failing_cache_never_fails_a_plan(core):
+    assert _ok(core.plan(REQUEST))
+    core.trajectory_cache.cache.close()  # every query now fails
+    result = core.plan(REQUEST)
+    assert _ok(result) and result["trajectory_cache"] == "miss"
+    status = _status(core)
+    assert "closed" in status["last_problem"] and status["entries"] == -1

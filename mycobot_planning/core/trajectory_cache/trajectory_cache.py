@@ -22,9 +22,10 @@ import json
 import sqlite3
 import threading
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterator
 
 import numpy as np
 
@@ -188,8 +189,18 @@ class TrajectoryCache:
     def count_cartesian_trajectories(self, cache_namespace: str) -> int:
         return self._count(CARTESIAN_TABLE, cache_namespace)
 
-    def _count(self, table: str, cache_namespace: str) -> int:
+    @contextmanager
+    def _locked(self) -> Iterator[sqlite3.Connection]:
+        """The connection, under the lock; SQLite's errors (a closed, locked or full database)
+        as TrajectoryCacheError."""
         with self._lock:
+            try:
+                yield self._db
+            except sqlite3.Error as exc:
+                raise TrajectoryCacheError(f"trajectory cache database '{self.db_path}': {exc}") from None
+
+    def _count(self, table: str, cache_namespace: str) -> int:
+        with self._locked():
             return int(self._db.execute(f"SELECT COUNT(*) FROM {table} WHERE cache_namespace = ?",
                                         [cache_namespace]).fetchone()[0])
 
@@ -251,7 +262,7 @@ class TrajectoryCache:
                + (" AND fraction >= ?" if min_fraction is not None else "")
                + f" ORDER BY {sort_by} {'ASC' if ascending else 'DESC'}, id ASC")
         args: list[Any] = [cache_namespace, key.signature] + ([float(min_fraction)] if min_fraction is not None else [])
-        with self._lock:
+        with self._locked():
             rows = self._db.execute(sql, args).fetchall()
         if not rows:
             return []
@@ -272,7 +283,7 @@ class TrajectoryCache:
 
     def _load(self, table: str, ids: list[int]) -> dict[int, TimedTrajectory]:
         marks = ", ".join("?" * len(ids))
-        with self._lock:
+        with self._locked():
             rows = self._db.execute(f"SELECT id, joint_names, interpolation, trajectory, features FROM {table} "
                                     f"WHERE id IN ({marks})", ids).fetchall()
         found: dict[int, TimedTrajectory] = {}
@@ -311,7 +322,7 @@ class TrajectoryCache:
                    _encode(value.trajectory), value.execution_time_s, float(value.planning_time_s),
                    float(value.fraction), str(value.planner_id), time.time()]
             # one transaction: the entries compared, pruned and the new one inserted together
-            with self._lock:
+            with self._locked():
                 self._db.execute("BEGIN IMMEDIATE")
                 try:
                     result = self._insert_locked(table, cache_namespace, key, value, policy, prune, row)
