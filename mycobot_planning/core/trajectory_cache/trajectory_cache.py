@@ -7,8 +7,8 @@ are in features.py, the insert policies in cache_insert_policies.py. Nothing her
 planning scene: as in MoveIt, a fetched trajectory must be validated against the current scene
 before use (capabilities/trajectory_cache.py does, for the planning server).
 
-Storage follows the warehouse (core/warehouse/robot_state_storage.py): one SQLite file (stdlib
-sqlite3), or ``:memory:``, one connection behind one lock (thread-safe), every change in one
+Storage follows the warehouse (core/warehouse: robot_state_storage.py, opened the same way by
+sqlite_database.py): one SQLite file (stdlib sqlite3), or ``:memory:``, one connection behind one lock (thread-safe), every change in one
 transaction. Tables are MoveIt's database names, ``move_group_trajectory_cache`` and
 ``move_group_cartesian_trajectory_cache``, a row per trajectory with its cache_namespace
 (MoveIt's collection), the features (JSON, readable), the key's numbers (a float64 blob compared
@@ -30,12 +30,12 @@ from typing import Any, Iterator
 import numpy as np
 
 from ..robot_trajectory.robot_trajectory import TimedTrajectory
+from ..warehouse.sqlite_database import MEMORY, connect_database
 from .cache_insert_policies import CacheEntry, CacheInsertPolicy, CacheValue
 from .features import CacheKey
 
 __all__ = ["CARTESIAN_TABLE", "MOTION_TABLE", "Options", "TrajectoryCache", "TrajectoryCacheError", "check_options"]
 
-MEMORY = ":memory:"
 MOTION_TABLE = "move_group_trajectory_cache"
 CARTESIAN_TABLE = "move_group_cartesian_trajectory_cache"
 META_TABLE = "trajectory_cache_meta"
@@ -110,22 +110,9 @@ class TrajectoryCache:
     def __init__(self, options: Options | None = None) -> None:
         self.options = options or Options()
         check_options(self.options)
-        self.db_path = str(self.options.db_path)
-        if self.db_path != MEMORY:
-            path = Path(self.db_path).expanduser()
-            if path.is_dir():
-                raise TrajectoryCacheError(f"trajectory cache database '{path}' is a directory, not a file")
-            try:
-                path.parent.mkdir(parents=True, exist_ok=True)
-            except OSError as exc:
-                raise TrajectoryCacheError(f"cannot create the directory of trajectory cache database '{path}': "
-                                           f"{exc}") from None
-            self.db_path = str(path)
+        self._db, self.db_path = connect_database(self.options.db_path, "trajectory cache database",
+                                                  TrajectoryCacheError)
         self._lock = threading.Lock()
-        try:
-            self._db = sqlite3.connect(self.db_path, check_same_thread=False, isolation_level=None, timeout=10.0)
-        except sqlite3.Error as exc:
-            raise TrajectoryCacheError(f"cannot open trajectory cache database '{self.db_path}': {exc}") from None
         try:
             self._open_schema()
         except sqlite3.DatabaseError as exc:
