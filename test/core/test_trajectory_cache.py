@@ -244,6 +244,22 @@ def test_a_corrupt_file_is_refused_with_a_clear_error_and_left_alone(tmp_path):
     assert path.read_bytes() == garbage
 
 
+def test_a_cache_file_with_damaged_pages_is_refused(tmp_path, mycobot):
+    path = tmp_path / "damaged.sqlite"
+    cache = TrajectoryCache(Options(str(path)))
+    for k in range(20):
+        goal = GOAL * (1.0 - 0.01 * k)
+        _insert(cache, mycobot, _request(mycobot, goal=goal), _value(mycobot, goal=goal), AlwaysInsertNeverPrunePolicy())
+    cache.close()
+    data = bytearray(path.read_bytes())
+    assert len(data) > 4 * 4096
+    for i in range(4096 + 100, 4 * 4096, 7):  # garble pages after the header page
+        data[i] ^= 0x5A
+    path.write_bytes(bytes(data))
+    with pytest.raises(TrajectoryCacheError, match="not a trajectory cache"):
+        TrajectoryCache(Options(str(path)))
+
+
 def test_a_foreign_sqlite_file_is_refused(tmp_path):
     path = tmp_path / "warehouse.sqlite"
     RobotStateStorage(str(path)).close()  # the warehouse's robot states: another schema
