@@ -91,6 +91,12 @@ def _describe(value: Any) -> str:
     return f"{type(value).__name__} {text if len(text) <= 40 else text[:37] + '...'}"
 
 
+@functools.cache
+def _list_item(tp: Any) -> Any:
+    """The item type of a ``list[...]`` annotation, None for anything else (resolved once)."""
+    return typing.get_args(tp)[0] if typing.get_origin(tp) is list else None
+
+
 def _convert(tp: Any, value: Any, path: str) -> Any:
     """Check ``value`` against the field annotation ``tp`` and return its canonical form.
 
@@ -98,8 +104,13 @@ def _convert(tp: Any, value: Any, path: str) -> Any:
     equality, copying and ``json.dumps`` behave predictably whatever the caller passed in
     (tuples, numpy arrays, numpy scalars, or dicts for nested messages).
     """
-    if typing.get_origin(tp) is list:
-        (item_tp,) = typing.get_args(tp)
+    item_tp = _list_item(tp)
+    if item_tp is not None:
+        # fast path: a list of finite Python floats (what tolist() gives; a planned trajectory
+        # is thousands of them) is already canonical; copied as every list is
+        if item_tp is float and type(value) is list and all(type(v) is float for v in value) \
+                and all(map(math.isfinite, value)):
+            return list(value)
         # Any sequence (list, tuple, array.array from ROS messages, numpy array) but not text.
         if isinstance(value, (str, bytes, bytearray)) or not (
             isinstance(value, Sequence) or (isinstance(value, np.ndarray) and value.ndim > 0)

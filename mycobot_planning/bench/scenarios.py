@@ -30,6 +30,7 @@ from .ros_scenarios import ROS_SCENARIOS
 from .servo_scenarios import SERVO_SCENARIOS
 from .task_scenarios import TASK_SCENARIOS
 from .time_parameterization_scenarios import TIME_PARAMETERIZATION_SCENARIOS
+from .trajectory_cache_scenarios import TRAJECTORY_CACHE_SCENARIOS
 from .viewer_scenarios import VIEWER_SCENARIOS
 
 
@@ -267,4 +268,5 @@ SCENARIOS: dict[str, Callable[..., None]] = {
     **SOAK_SCENARIOS,
     **SERVO_SCENARIOS,
     **IDLE_SCENARIOS,
+    **TRAJECTORY_CACHE_SCENARIOS,
 }

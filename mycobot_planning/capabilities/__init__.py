@@ -5,7 +5,8 @@ core types:
 
 plan, cartesian_path, kinematics (IK/FK), state_validation, planner_query (planner interfaces
 and parameters), planning_scene (get/apply), execute_trajectory, move_action (plan and execute),
-task_solution (MTC's execute_task_solution), stop.
+task_solution (MTC's execute_task_solution), stop. trajectory_cache is no capability of its own:
+the trajectory cache plan and cartesian_path consult (off unless configured).
 
 Two faces translate to and from these calls and nothing else: the moveit_msgs face
 (ros/move_group/move_group.py with ros/move_group/moveit_translation.py) and the JSON face

@@ -1,5 +1,7 @@
 """move_group's Cartesian path capability (MoveIt: MoveGroupCartesianPathService,
-/compute_cartesian_path): waypoints in a frame, followed by the group's link in straight lines."""
+/compute_cartesian_path): waypoints in a frame, followed by the group's link in straight lines.
+With the trajectory cache enabled, a complete path stored for the same request (and valid in the
+current scene) answers instead; complete paths computed are offered to the cache."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -10,7 +12,10 @@ import numpy as np
 from interfaces_py.msgs import JointTrajectory, MoveItErrorCode, RobotState as RobotStateMsg
 
 from ..core.planners.cartesian.cartesian_path import compute_cartesian_path as follow_waypoints
+from ..core.planners.cartesian.cartesian_path import STOP_COMPLETE
 from ..core.robot_trajectory.robot_trajectory import timed_to_joint_trajectory
+from ..core.trajectory_cache import GetCartesianPathRequest
+from . import trajectory_cache
 from .move_group_context import MoveGroupContext, RequestError, check_number
 
 #: m: the smallest eef_step (max_step) taken; below it MoveIt answers FAILURE
@@ -50,6 +55,8 @@ class CartesianPathResult:
     stop_reason: str = ""
     planning_time: float = 0.0
     start_state: Any = field(default=None, repr=False)  # core RobotState the path starts from
+    #: "hit", "miss" (the cache is enabled and was consulted) or ""
+    trajectory_cache: str = ""
 
 
 def compute_cartesian_path(ctx: MoveGroupContext, request: CartesianPathRequest, display: bool = True
@@ -82,12 +89,35 @@ def compute_cartesian_path(ctx: MoveGroupContext, request: CartesianPathRequest,
     except RequestError as exc:
         return CartesianPathResult(MoveItErrorCode(exc.moveit_code, exc.message, "planning_server"),
                                    stop_reason="invalid_request")
+    cache_key, refused = None, 0
+    if request.avoid_collisions and trajectory_cache.enabled(ctx):  # paths through obstacles are never cached
+        cache_key = GetCartesianPathRequest(
+            request.group, scene.current_state.copy(), poses, request.link, request.ik_frame_offset,
+            kwargs["eef_step"], kwargs["jump_threshold"], kwargs["revolute_jump_threshold"],
+            kwargs["prismatic_jump_threshold"], kwargs["velocity_scaling"], kwargs["acceleration_scaling"],
+            kwargs["path_constraints"])
+        lookup = trajectory_cache.fetch_cartesian_path(ctx, scene, cache_key)
+        hit, refused = lookup.hit, lookup.refused
+        if hit is not None:
+            out = CartesianPathResult(
+                MoveItErrorCode(MoveItErrorCode.SUCCESS, f"trajectory cache hit: entry {hit.entry.id}, validated in "
+                                "the current scene", "trajectory_cache"),
+                timed_to_joint_trajectory(hit.trajectory, ctx.defaults.sample_period or None), 1.0, STOP_COMPLETE,
+                hit.lookup_time + hit.validate_time, scene.current_state, "hit")
+            if display:
+                ctx.display(out.trajectory)
+            ctx.log("info", f"cartesian path for '{request.group}' answered from the trajectory cache "
+                            f"(entry {hit.entry.id})")
+            return out
     result = follow_waypoints(scene, request.group, scene.current_state.copy(), poses, link=request.link or None,
                               ik_frame_offset=request.ik_frame_offset, avoid_collisions=request.avoid_collisions,
                               **kwargs)
     out = CartesianPathResult(MoveItErrorCode(result.error_code.val, result.error_code.message, "cartesian_path"),
                               None, float(result.fraction), result.stop_reason, result.planning_time,
-                              scene.current_state)
+                              scene.current_state, "miss" if cache_key is not None else "")
+    if cache_key is not None and result.success and result.trajectory is not None:
+        trajectory_cache.insert_cartesian_path(ctx, cache_key, result.trajectory, float(result.fraction),
+                                               result.planning_time, refused)
     if result.success and result.trajectory is not None:
         out.trajectory = timed_to_joint_trajectory(result.trajectory, ctx.defaults.sample_period or None)
         if display and result.fraction > 0:

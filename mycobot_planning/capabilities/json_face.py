@@ -244,6 +244,7 @@ class MoveGroupJsonFace(MoveGroupContext):
             "planning_time": result.planning_time,
             "group": result.group,
             "planner_id": result.planner_id,
+            **({"trajectory_cache": result.trajectory_cache} if result.trajectory_cache else {}),
         }
 
     def compute_cartesian_path(self, params: Mapping[str, Any]) -> dict[str, Any]:
@@ -289,6 +290,7 @@ class MoveGroupJsonFace(MoveGroupContext):
             "fraction": result.fraction,
             "stop_reason": result.stop_reason,
             "planning_time": result.planning_time,
+            **({"trajectory_cache": result.trajectory_cache} if result.trajectory_cache else {}),
         }
 
     # ------------------------------------------------------------------ scene

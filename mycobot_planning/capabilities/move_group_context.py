@@ -132,6 +132,8 @@ class MoveGroupContext(PlanningSceneMonitor):
         # MoveIt's plan_execution: every change of the monitored scene re-checks the path ahead
         self.scene_listeners.append(self.executor.scene_changed)
         self.queries = StateQueries(model)
+        #: capabilities/trajectory_cache.py's MoveGroupTrajectoryCache once configured (None: no cache)
+        self.trajectory_cache: Any = None
 
     def log(self, level: str, text: str) -> None:
         self._log(level, text)
@@ -309,4 +311,6 @@ class MoveGroupContext(PlanningSceneMonitor):
             "planning": len(self.planning),  # plans running now (stop cancels them)
             "has_plan": self.last_plan is not None,
             "controllers": dict(controller_states or {}),
+            "trajectory_cache": (self.trajectory_cache.status(self.model) if self.trajectory_cache is not None
+                                 else {"enabled": False}),
         }

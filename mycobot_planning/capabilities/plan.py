@@ -1,6 +1,8 @@
 """move_group's plan capability (MoveIt: MoveGroupPlanService, /plan_kinematic_path): a core
 MotionPlanRequest, completed with the defaults and checked against the request budgets, planned
-on a free planning context; a success becomes the last plan that execute() runs."""
+on a free planning context; a success becomes the last plan that execute() runs. With the
+trajectory cache enabled (capabilities/trajectory_cache.py) a stored trajectory that passes the
+validator in the current scene answers instead, and what is planned is offered to the cache."""
 from __future__ import annotations
 
 import time
@@ -13,6 +15,7 @@ from interfaces_py.msgs import JointTrajectory, MoveItErrorCode, RobotState as R
 from ..core.planning_interface.planning_interface import MotionPlanRequest, PoseGoal
 from ..core.planning_scene.planning_scene import PlanningScene
 from ..core.robot_trajectory.robot_trajectory import timed_to_joint_trajectory
+from . import trajectory_cache
 from .move_group_context import SOURCE, MoveGroupContext, RequestError, check_goal, check_number
 
 __all__ = ["MAX_PLANNING_ATTEMPTS", "MAX_PLANNING_TIME", "PlanResult", "complete_request", "plan", "plan_any"]
@@ -36,6 +39,11 @@ class PlanResult:
     group: str = ""
     planner_id: str = ""
     start_state: Any = None  # core RobotState the plan starts from
+    #: "hit" (answered by the trajectory cache), "miss" (planned; the cache is enabled), "" (disabled)
+    trajectory_cache: str = ""
+    #: s: a hit's lookup (key, SQLite, decoding) and validation (stitching, validator) times
+    cache_lookup_time: float = 0.0
+    cache_validate_time: float = 0.0
 
 
 def complete_request(ctx: MoveGroupContext, request: MotionPlanRequest, start_state: RobotStateMsg | None = None,
@@ -90,6 +98,10 @@ def plan(ctx: MoveGroupContext, request: MotionPlanRequest, start_state: RobotSt
         ctx.last_plan, ctx.last_plan_problem = None, f"the last planning request failed: {exc.message}"
         ctx.log("warning", f"plan request refused: {exc.message}")
         return PlanResult(MoveItErrorCode(exc.moveit_code, exc.message, SOURCE))
+    lookup = trajectory_cache.fetch_plan(ctx, scene, request)
+    if lookup.hit is not None:
+        return _cached(ctx, request, lookup.hit, started, display)
+    cache = "miss" if trajectory_cache.enabled(ctx) else ""
     try:
         response = ctx.plan_in_context(scene, request)
     except Exception as exc:  # planners promise not to raise; if one does, answer anyway
@@ -101,7 +113,9 @@ def plan(ctx: MoveGroupContext, request: MotionPlanRequest, start_state: RobotSt
         ctx.last_plan, ctx.last_plan_problem = None, f"the last planning request failed: {code}"
         ctx.log("warning", f"planning for '{request.group}' failed: {code}")
         return PlanResult(MoveItErrorCode(code.val, code.message, code.source or request.pipeline_id),
-                          planning_time=time.perf_counter() - started, group=request.group)
+                          planning_time=time.perf_counter() - started, group=request.group, trajectory_cache=cache)
+    if cache:
+        trajectory_cache.insert_plan(ctx, request, response, lookup.refused)
     trajectory = timed_to_joint_trajectory(response.trajectory, ctx.defaults.sample_period or None)
     ctx.last_plan, ctx.last_plan_problem = (trajectory, request.group), ""
     if display:
@@ -109,7 +123,26 @@ def plan(ctx: MoveGroupContext, request: MotionPlanRequest, start_state: RobotSt
     ctx.log("info", f"planned '{request.group}' with {request.pipeline_id}/{response.planner_id or 'default'}: "
                     f"{trajectory.duration:.3f} s trajectory in {response.planning_time:.3f} s")
     return PlanResult(MoveItErrorCode(MoveItErrorCode.SUCCESS, response.error_code.message, request.pipeline_id),
-                      trajectory, response.planning_time, request.group, response.planner_id, request.start_state)
+                      trajectory, response.planning_time, request.group, response.planner_id, request.start_state,
+                      cache)
+
+
+def _cached(ctx: MoveGroupContext, request: MotionPlanRequest, hit: trajectory_cache.CacheHit, started: float,
+            display: bool) -> PlanResult:
+    """The plan result of a trajectory cache hit (validated in the request's scene already)."""
+    trajectory = timed_to_joint_trajectory(hit.trajectory, ctx.defaults.sample_period or None)
+    ctx.last_plan, ctx.last_plan_problem = (trajectory, request.group), ""
+    if display:
+        ctx.display(trajectory)
+    elapsed = time.perf_counter() - started
+    message = (f"trajectory cache hit: entry {hit.entry.id} ({hit.entry.planner_id or 'planner unknown'}), "
+               f"validated in the current scene")
+    ctx.log("info", f"'{request.group}' answered from the trajectory cache (entry {hit.entry.id}): "
+                    f"{trajectory.duration:.3f} s trajectory; lookup {1e3 * hit.lookup_time:.2f} ms, validation "
+                    f"{1e3 * hit.validate_time:.2f} ms")
+    return PlanResult(MoveItErrorCode(MoveItErrorCode.SUCCESS, message, "trajectory_cache"), trajectory, elapsed,
+                      request.group, hit.entry.planner_id, request.start_state, "hit", hit.lookup_time,
+                      hit.validate_time)
 
 
 def plan_any(ctx: MoveGroupContext, requests: Sequence[tuple[MotionPlanRequest, str]],

@@ -211,8 +211,9 @@ def test_a_package_init_that_imports_a_user_of_the_package_is_a_cycle():
 
 
 CAPABILITIES_PACKAGE = f"{PACKAGE}.capabilities"
-#: capabilities/ modules that are no capability: the context, the JSON face, the IK solver cache.
-CAPABILITY_SUPPORT = {"move_group_context", "json_face", "state_queries"}
+#: capabilities/ modules that are no capability: the context, the JSON face, the IK solver cache,
+#: the trajectory cache the plan and Cartesian path capabilities consult.
+CAPABILITY_SUPPORT = {"move_group_context", "json_face", "state_queries", "trajectory_cache"}
 #: the faces that translate to the capabilities' typed calls
 FACES = (f"{CAPABILITIES_PACKAGE}.json_face", f"{PACKAGE}.ros.move_group.move_group")
 

@@ -158,6 +158,21 @@ def test_bad_configuration_exits_with_one_line_reason(args, problem):
         proc.stop()
 
 
+def test_a_corrupt_trajectory_cache_file_exits_with_one_line_reason(tmp_path):
+    use_session_domain()
+    bad = tmp_path / "cache.sqlite"
+    bad.write_bytes(b"not a database at all" * 50)
+    proc = NodeProcess("mycobot_planning.nodes.planning_server",
+                       ["--ros-args", "-p", f"trajectory_cache.db_path:={bad}"], name="planning_server_bad_cache")
+    try:
+        assert proc.proc.wait(30) == 1
+        output = proc.output()
+        assert "trajectory_cache.db_path" in output and "not a trajectory cache" in output, output
+        assert "Traceback" not in output, output
+    finally:
+        proc.stop()
+
+
 # ---------------------------------------------------------------------------- planning
 def test_trigger_plan_uses_the_goal_parameters_and_publishes_the_path(system, model):
     probe = system["probe"]
@@ -270,6 +285,28 @@ def test_client_plan_then_execute_ends_at_the_trajectorys_last_point(system):
     assert wait_until(lambda: [probe.joints()[n] for n in ARM] == pytest.approx(goal, abs=0.01), 5.0), probe.joints()
     assert arm.last_result["controllers"] == ["arm_controller"]
     _go_home(system)
+
+
+def test_trajectory_cache_answers_a_repeated_plan_when_enabled(system):
+    """Off by default; enabled by parameter, the second identical request is a hit, counted in
+    get_state; an obstacle on the cached path is refused there (the capability tests cover it in
+    full)."""
+    arm, probe = system["arm"], system["probe"]
+    assert arm.call("get_state")["trajectory_cache"]["enabled"] is False
+    request = {"group": "arm", "goal": {"joints": [0.5, -0.4, -0.6, 0.3, 0.2, 0.1]}, "display": False}
+    try:
+        assert probe.set_params("planning_server", {"trajectory_cache.enabled": True})[0].successful
+        refused = probe.set_params("planning_server", {"trajectory_cache.cache_insert_policy": "Sometimes"})[0]
+        assert not refused.successful and "unknown cache insert policy" in refused.reason
+        first = arm.call("plan", request)
+        second = arm.call("plan", request)
+        assert first["error_code"]["val"] == MoveItErrorCode.SUCCESS and first["trajectory_cache"] == "miss"
+        assert second["error_code"]["val"] == MoveItErrorCode.SUCCESS and second["trajectory_cache"] == "hit"
+        status = arm.call("get_state")["trajectory_cache"]
+        assert status["enabled"] and status["hits"] >= 1 and status["entries"] >= 1, status
+    finally:
+        assert probe.set_params("planning_server", {"trajectory_cache.enabled": False})[0].successful
+    assert "trajectory_cache" not in arm.call("plan", request)
 
 
 def test_pose_goal_from_parameters_reaches_the_pose(system, model):

@@ -15,10 +15,9 @@ import threading
 from pathlib import Path
 
 from .names import name_problem
+from .sqlite_database import MEMORY, connect_database
 
 __all__ = ["RobotStateStorage", "WarehouseError"]
-
-MEMORY = ":memory:"
 
 
 class WarehouseError(ValueError):
@@ -29,17 +28,9 @@ class RobotStateStorage:
     """Robot states by (name, robot) in SQLite; thread-safe (one connection, one lock)."""
 
     def __init__(self, database: str | Path = MEMORY) -> None:
-        self.database = str(database)
-        if self.database != MEMORY:
-            path = Path(self.database).expanduser()
-            try:
-                path.parent.mkdir(parents=True, exist_ok=True)
-            except OSError as exc:
-                raise WarehouseError(f"cannot create the directory of warehouse database '{path}': {exc}") from None
-            self.database = str(path)
+        self._db, self.database = connect_database(database, "warehouse database", WarehouseError)
         self._lock = threading.Lock()
         try:
-            self._db = sqlite3.connect(self.database, check_same_thread=False, isolation_level=None, timeout=10.0)
             self._db.execute("PRAGMA journal_mode=WAL" if self.database != MEMORY else "PRAGMA journal_mode=MEMORY")
             self._db.execute("CREATE TABLE IF NOT EXISTS robot_states (name TEXT NOT NULL, robot TEXT NOT NULL, "
                              "state BLOB NOT NULL, PRIMARY KEY (name, robot))")

@@ -26,7 +26,7 @@ from interfaces_py.background_spin import BackgroundSpin
 from interfaces_py.json_rpc import BAD_REQUEST, JsonRpcServer, RpcError, decode_request, log_safe
 from interfaces_py.msgs import CollisionObject, JointTrajectory, MoveItErrorCode
 from interfaces_py.ros_conversions import collision_object_to_markers, joint_trajectory_to_msg
-from mycobot_planning.capabilities import stop
+from mycobot_planning.capabilities import stop, trajectory_cache
 from mycobot_planning.capabilities.json_face import (
     MoveGroupJsonFace,
     PlanningDefaults,
@@ -39,6 +39,8 @@ from mycobot_planning.core.planning_interface.planning_workers import PlanningSe
 from mycobot_planning.core.robot_model.robot_config import RobotConfig
 from mycobot_planning.core.robot_model.robot_model import RobotModel
 from mycobot_planning.core.robot_trajectory.robot_trajectory import DEFAULT_MAX_WAYPOINT_DISTANCE
+from mycobot_planning.core.trajectory_cache import TrajectoryCacheError
+from mycobot_planning.core.trajectory_cache.cache_insert_policies import POLICIES
 from mycobot_planning.core.trajectory_execution import ExecutionSettings, load_controllers
 from mycobot_planning.core.trajectory_processing.trajectory_limits import DEFAULT_LIMIT_TOLERANCE
 from mycobot_planning.ros import fast_log
@@ -137,6 +139,10 @@ class PlanningServer(Node):
                           "SQLite database file of the warehouse robot states (/save_robot_state, ...), as "
                           "warehouse_ros_sqlite reads warehouse_host; '~' expands; ':memory:' (the default) keeps "
                           "them only while the server runs", non_empty=True, read_only=True),
+            ParameterSpec("trajectory_cache.db_path", ":memory:",
+                          "SQLite database file of the trajectory cache (MoveIt's trajectory_cache; a file of its "
+                          "own, created if missing, refused if it holds anything else); '~' expands; ':memory:' "
+                          "(the default) keeps entries only while the server runs", non_empty=True, read_only=True),
             ParameterSpec("waypoints_file", "",
                           "YAML file of saved waypoints (MoveIt Pro's format) the waypoint methods of "
                           "/planning_server/rpc read and write; empty: the package's myCobot waypoints for the "
@@ -165,6 +171,10 @@ class PlanningServer(Node):
         self._bus = ActionControllerBus(self, self._monitor, controllers, self._on_feedback)
         self.core = MoveGroupJsonFace(model, pipeline, controllers, self._bus, self._execution_settings(),
                                        self._planning_defaults(), log=self._log, workers=self._workers)
+        try:  # opened even while disabled: a bad database file is reported at start, not on enabling
+            trajectory_cache.configure(self.core, self._trajectory_cache_settings())
+        except TrajectoryCacheError as exc:
+            raise ValueError(f"trajectory_cache.db_path: {exc}") from None
         self._goal_last_set: str | None = None
         self._params.on_change(self._on_params)
 
@@ -341,8 +351,34 @@ class PlanningServer(Node):
                         f"{list(joints)}")
             return None
 
+        def policy_check(value: Any) -> str | None:
+            return None if value in POLICIES else f"unknown cache insert policy '{value}'; known: {list(POLICIES)}"
+
         ex = "trajectory_execution."
+        tc = "trajectory_cache."
         return [
+            ParameterSpec(tc + "enabled", False,
+                          "answer plan and Cartesian path requests from the trajectory cache when a stored "
+                          "trajectory matches (and passes the validator in the current scene), and store what is "
+                          "planned"),
+            ParameterSpec(tc + "cache_namespace", "", "the cache's namespace (MoveIt's collection); empty: the "
+                          "robot's name"),
+            ParameterSpec(tc + "start_tolerance", 0.025,
+                          "rad or m: a cached start state matches when every joint is within half of this of the "
+                          "request's (MoveIt's start_tolerance); the hit is stitched to the actual start",
+                          range=(0.0, 10.0)),
+            ParameterSpec(tc + "goal_tolerance", 0.001,
+                          "rad, m or quaternion component: cached goals, waypoints and path constraints match "
+                          "within half of this (MoveIt's goal_tolerance)", range=(0.0, 10.0)),
+            ParameterSpec(tc + "exact_match_precision", 1e-6,
+                          "slack of exact matches (MoveIt's exact_match_precision)", range=(0.0, 0.1)),
+            ParameterSpec(tc + "cache_insert_policy", "BestSeenExecutionTimePolicy",
+                          "BestSeenExecutionTimePolicy (insert only faster trajectories, prune slower) or "
+                          "AlwaysInsertNeverPrunePolicy", validator=policy_check),
+            ParameterSpec(tc + "prune_worse_trajectories", True,
+                          "let the insert policy delete slower entries of exactly the same request"),
+            ParameterSpec(tc + "num_additional_trajectories_to_preserve_when_pruning_worse", 1,
+                          "best entries kept when pruning (MoveIt's option of that name)", range=(0, 1000)),
             ParameterSpec("joint_state_timeout", 1.0,
                           "seconds after which the last /joint_states message is stale: planning and execution "
                           "refuse a stale current state", range=(0.01, 3600.0)),
@@ -420,9 +456,29 @@ class PlanningServer(Node):
             sample_period=float(self._params.get("trajectory_sample_period")),
         )
 
+    def _trajectory_cache_settings(self) -> trajectory_cache.TrajectoryCacheSettings:
+        tc = "trajectory_cache."
+        return trajectory_cache.TrajectoryCacheSettings(
+            enabled=bool(self._params.get(tc + "enabled")),
+            db_path=self._config.get(tc + "db_path"),
+            cache_namespace=self._params.get(tc + "cache_namespace"),
+            start_tolerance=float(self._params.get(tc + "start_tolerance")),
+            goal_tolerance=float(self._params.get(tc + "goal_tolerance")),
+            exact_match_precision=float(self._params.get(tc + "exact_match_precision")),
+            cache_insert_policy=self._params.get(tc + "cache_insert_policy"),
+            prune_worse_trajectories=bool(self._params.get(tc + "prune_worse_trajectories")),
+            num_additional_trajectories_to_preserve_when_pruning_worse=int(
+                self._params.get(tc + "num_additional_trajectories_to_preserve_when_pruning_worse")),
+        )
+
     def _on_params(self, changed: dict[str, Any]) -> None:
         self.core.settings = self._execution_settings()
         self.core.defaults = self._planning_defaults()
+        if any(name.startswith("trajectory_cache.") for name in changed):
+            try:  # the parameters were checked when set: this only fails on a bug
+                trajectory_cache.configure(self.core, self._trajectory_cache_settings())
+            except TrajectoryCacheError as exc:
+                self.get_logger().error(f"trajectory cache settings not applied: {exc}")
         for name in GOAL_TARGETS:
             if name in changed and changed[name]:
                 self._goal_last_set = name
@@ -469,6 +525,8 @@ class PlanningServer(Node):
         self._monitor.destroy_node()
         self.move_group.close()
         self.warehouse.storage.close()
+        if self.core.trajectory_cache is not None:
+            self.core.trajectory_cache.cache.close()
         self.move_group.destroy_node()
         if self._workers is not None:
             self._workers.close()
