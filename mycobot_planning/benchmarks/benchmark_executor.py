@@ -12,6 +12,7 @@ seed when they stop at their first solution, as ours do (docs/ompl.md)."""
 from __future__ import annotations
 
 import math
+import os
 import time
 import traceback
 from dataclasses import dataclass, field
@@ -62,6 +63,7 @@ class RunResult:
     started_at: float  # wall clock (s since the epoch) when the run began
     positions: list[list[float]] = field(default_factory=list)  # the solved trajectory's waypoints
     message: str = ""
+    worker: int = 0  # the process id that ran it
 
 
 @dataclass
@@ -224,7 +226,7 @@ def run_task(task: RunTask) -> RunResult:
         positions = np.asarray(trajectory.positions, dtype=float).tolist()
         properties.update(_path_metrics(scene, trajectory.joint_names, positions, response.planning_time, total))
     return RunResult(task.query_index, task.planner_index, task.run_index, solved, properties, started_at,
-                     positions, message)
+                     positions, message, os.getpid())
 
 
 def _path_metrics(scene: PlanningScene, joint_names: Sequence[str], positions: list[list[float]],
