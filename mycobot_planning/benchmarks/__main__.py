@@ -10,7 +10,7 @@ from ..core.errors import PlanningError
 from .benchmark_log import BenchmarkLogError
 from .benchmark_options import BenchmarkConfigError, load_benchmark_options
 from .benchmark_statistics import BenchmarkDatabaseError
-from .distribution import RayUnavailable
+from .distribution import DistributionError
 from .run_benchmark import prepare_benchmark, run_benchmark
 
 PROG = "moveit_run_benchmark"
@@ -62,7 +62,8 @@ def main(argv: list[str] | None = None) -> int:
         outcome = run_benchmark(options, requests, seed=args.seed, jobs=args.jobs, ray=args.ray,
                                 database=args.database, append=args.append, plots=not args.no_plots,
                                 progress=progress)
-    except (BenchmarkConfigError, BenchmarkDatabaseError, BenchmarkLogError, RayUnavailable, PlanningError) as exc:
+    except (BenchmarkConfigError, BenchmarkDatabaseError, BenchmarkLogError, DistributionError,
+            PlanningError) as exc:
         print(f"{PROG}: error: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -12,14 +12,19 @@ from __future__ import annotations
 import importlib
 import multiprocessing
 from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Callable, Sequence
 
 from .benchmark_executor import RunResult, RunTask, run_task
 
-__all__ = ["RayUnavailable", "run_local", "run_on_ray"]
+__all__ = ["DistributionError", "RayUnavailable", "run_local", "run_on_ray"]
 
 
-class RayUnavailable(RuntimeError):
+class DistributionError(RuntimeError):
+    """The runs could not be carried out where they were sent (a worker died, Ray failed)."""
+
+
+class RayUnavailable(DistributionError):
     """--ray was asked for, but Ray cannot be imported or reached."""
 
 
@@ -33,11 +38,16 @@ def run_local(tasks: Sequence[RunTask], jobs: int = 1,
             if progress:
                 progress(results[-1])
         return results
-    with ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
-        for result in pool.map(run_task, tasks):
-            results.append(result)
-            if progress:
-                progress(result)
+    try:
+        with ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
+            for result in pool.map(run_task, tasks):
+                results.append(result)
+                if progress:
+                    progress(result)
+    except BrokenProcessPool as exc:
+        raise DistributionError(f"a benchmark worker process died after {len(results)} of {len(tasks)} runs "
+                                f"({exc}); a script calling run_benchmark with jobs > 1 needs an "
+                                "'if __name__ == \"__main__\":' guard") from None
     return results
 
 
@@ -73,7 +83,11 @@ def run_on_ray(tasks: Sequence[RunTask], address: str = "auto", num_cpus: int | 
         while waiting:
             done, waiting = ray.wait(waiting, num_returns=1)
             for ref in done:
-                result = ray.get(ref)
+                try:
+                    result = ray.get(ref)
+                except Exception as exc:  # a worker that died or could not import the package
+                    raise DistributionError(f"a Ray task failed: {type(exc).__name__}: "
+                                            f"{str(exc).strip().splitlines()[-1] if str(exc).strip() else ''}") from None
                 results[pending[ref]] = result
                 if progress:
                     progress(result)

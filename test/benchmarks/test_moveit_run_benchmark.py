@@ -263,3 +263,10 @@ def test_the_options_file_may_be_a_ros_parameters_file(tmp_path):
     assert [p.id for p in options.pipelines] == ["OMPL", "PILZ", "STOMP"] and options.planner_count == 4
     with pytest.raises(BenchmarkConfigError, match="no benchmark_config found"):
         load_benchmark_options(_write(tmp_path, {"something": {"else": 1}}, "other.yaml"))
+
+
+def test_ray_asked_for_but_not_installed_is_one_line(tmp_path, capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "ray", None)  # what a missing package looks like to import
+    assert main([str(_write(tmp_path, _config(tmp_path, runs=1))), "--ray", "auto", "--no-plots"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--ray needs Ray" in err and "mycobot_planning[ray]" in err
