@@ -66,6 +66,9 @@ def main(argv: list[str] | None = None) -> int:
             PlanningError) as exc:
         print(f"{PROG}: error: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}", file=sys.stderr)
         return 2
+    except OSError as exc:  # an output directory or database that cannot be written
+        print(f"{PROG}: error: cannot write the results: {exc}", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print(f"{PROG}: interrupted", file=sys.stderr)
         return 130

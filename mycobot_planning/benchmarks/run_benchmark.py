@@ -64,10 +64,12 @@ class BenchmarkOutcome:
 
 
 def prepare_benchmark(options: BenchmarkOptions) -> list[BenchmarkRequest]:
-    """Load and check everything before a run starts (BenchmarkConfigError otherwise)."""
+    """Load and check everything before a run starts (BenchmarkConfigError otherwise), and make
+    the output directory (OSError when it cannot be: better before the runs than after)."""
     face = benchmark_context()
     requests = load_benchmark_requests(options, face.model)
     check_benchmark(options, requests, face)
+    Path(options.output_directory).mkdir(parents=True, exist_ok=True)
     return requests
 
 

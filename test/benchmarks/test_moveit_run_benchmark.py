@@ -270,3 +270,14 @@ def test_ray_asked_for_but_not_installed_is_one_line(tmp_path, capsys, monkeypat
     assert main([str(_write(tmp_path, _config(tmp_path, runs=1))), "--ray", "auto", "--no-plots"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--ray needs Ray" in err and "mycobot_planning[ray]" in err
+
+
+def test_an_output_directory_that_cannot_be_written_is_one_line(tmp_path, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a directory")
+    config = _config(tmp_path, runs=1, planners={"PILZ": {"name": "pilz_industrial_motion_planner",
+                                                          "planners": ["PTP"]}})
+    config["benchmark_config"]["parameters"]["output_directory"] = str(blocker / "out")
+    assert main([str(_write(tmp_path, config)), "--no-plots"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "cannot write the results" in err
