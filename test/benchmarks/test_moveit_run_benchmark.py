@@ -159,8 +159,8 @@ def test_two_local_processes_give_the_same_results_as_one(local_run, tmp_path):
 
 
 @pytest.mark.skipif(importlib.util.find_spec("ray") is None,
-                    reason="Ray is not installed: it is the optional extra mycobot_planning[ray] "
-                           "(pip install 'ray[default]==2.40.0')")
+                    reason="Ray is not installed: scripts/setup.sh installs ray==2.40.0 (scripts/requirements.txt); "
+                           "users get it with the extra mycobot_planning[ray]")
 def test_a_local_ray_with_two_workers_gives_the_same_results(local_run, tmp_path):
     _, outcome = local_run
     options = load_benchmark_options(_config(tmp_path, regex="around_the_pillar"))
