@@ -134,6 +134,10 @@ def load_benchmark_requests(options: BenchmarkOptions, model: RobotModel) -> lis
         raise BenchmarkConfigError(f"no query matches queries_regex {options.queries_regex!r} in scene(s) "
                                    f"{scene_names or 'none'} of '{options.warehouse_host}'")
     names = [r.name for r in requests]
+    spaced = sorted(n for n in names if re.search(r"[\s/]", n))
+    if spaced:
+        raise BenchmarkConfigError(f"query names {spaced} contain blanks or '/': they name the experiments and the "
+                                   "log files, which OMPL's log format reads up to the first blank")
     duplicated = sorted({n for n in names if names.count(n) > 1})
     if duplicated:
         raise BenchmarkConfigError(f"queries {duplicated} are named alike in several scenes: their logs would "

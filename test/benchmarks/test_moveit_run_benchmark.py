@@ -281,3 +281,12 @@ def test_an_output_directory_that_cannot_be_written_is_one_line(tmp_path, capsys
     assert main([str(_write(tmp_path, config)), "--no-plots"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "cannot write the results" in err
+
+
+def test_a_query_name_with_a_blank_is_refused(tmp_path, capsys):
+    queries = yaml.safe_load(QUERIES.read_text())
+    queries["queries"]["pillar"]["to home"] = queries["queries"]["pillar"].pop("to_home")
+    host = tmp_path / "queries.yaml"
+    host.write_text(yaml.safe_dump(queries))
+    assert main([str(_write(tmp_path, _config(tmp_path, host=host)))]) == 2
+    assert "query names ['to home'] contain blanks" in capsys.readouterr().err
