@@ -32,6 +32,8 @@ setup(
         (f"share/{PACKAGE}/config/groot", sorted(glob("config/groot/*.xml"))),
     ],
     install_requires=runtime_requirements(),
+    # Optional: moveit_run_benchmark --ray spreads benchmark runs over Ray (docs/benchmarking.md).
+    extras_require={"ray": ["ray[default]==2.40.0"]},
     zip_safe=True,
     maintainer="mycobot_planning developers",
     maintainer_email="dev@mycobot-planning.invalid",
@@ -68,6 +70,7 @@ setup(
             f"objective_server = {PACKAGE}.nodes.objective_server:main",
             f"hybrid_planning = {PACKAGE}.nodes.hybrid_planning:main",
             f"setup_assistant = {PACKAGE}.setup_assistant.__main__:main",
+            f"moveit_run_benchmark = {PACKAGE}.benchmarks.__main__:main",
             f"ros2 = {PACKAGE}.ros2cli.__main__:main",
         ],
     },

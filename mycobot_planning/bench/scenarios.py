@@ -14,6 +14,7 @@ from mycobot_planning.core.transforms import make_pose
 
 from .common import emit, machine, spread, stats, timed
 from .driver_scenarios import bench_driver_tracking
+from .benchmark_runner_scenarios import BENCHMARK_RUNNER_SCENARIOS
 from .idle_scenarios import IDLE_SCENARIOS
 from .concurrency_scenarios import CONCURRENCY_SCENARIOS
 from .objectives_scenarios import OBJECTIVES_SCENARIOS
@@ -269,4 +270,5 @@ SCENARIOS: dict[str, Callable[..., None]] = {
     **SERVO_SCENARIOS,
     **IDLE_SCENARIOS,
     **TRAJECTORY_CACHE_SCENARIOS,
+    **BENCHMARK_RUNNER_SCENARIOS,
 }

@@ -207,6 +207,12 @@ class MoveGroupJsonFace(MoveGroupContext):
                                     **strings, **numbers, **extra)
         return request, self._start_msg(params.get("start_state")), frame, params.get("path_constraints")
 
+    def plan_request(self, params: Mapping[str, Any]) -> tuple[MotionPlanRequest, Any, str, Any]:
+        """A JSON plan request read as plan() reads it: (request, start state message, goal frame,
+        path constraints), RequestError when refused. The benchmark runner reads its stored
+        queries through this, so a query means what it means to the planning_server."""
+        return self._request(params)
+
     @staticmethod
     def _start_msg(start_state: Any) -> RobotStateMsg | None:
         if start_state is None or isinstance(start_state, RobotStateMsg):

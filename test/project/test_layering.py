@@ -17,7 +17,7 @@ ROOT = Path(mycobot_planning.__file__).parent
 PACKAGE = "mycobot_planning"
 #: Layers that must run without ROS.
 ROS_FREE = ("core", "task", "perception", "capabilities", "mock_control", "visualization", "behavior_tree",
-            "simulation", "hardware_interface", "hardware")
+            "simulation", "hardware_interface", "hardware", "benchmarks")
 #: Not part of the runtime library: the seeds' demos, their nodes, and the benchmarks.
 OUTSIDE_RUNTIME = ("demos", "bench", "ros.demos")
 #: A thin main: a few lines that start a node the ROS library defines.

@@ -98,9 +98,14 @@ def test_install_requires_is_the_runtime_block_of_the_pinned_requirements(tmp_pa
     run = subprocess.run([sys.executable, "setup.py", "-q", "egg_info", "--egg-base", str(tmp_path)],
                          cwd=ROOT.parent, capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr[-2000:]
-    requires = (tmp_path / "mycobot_planning.egg-info" / "requires.txt").read_text().split()
+    text = (tmp_path / "mycobot_planning.egg-info" / "requires.txt").read_text()
+    # requires.txt lists install_requires first, then each extra under its "[name]" header
+    base, _, extras = text.partition("\n[")
+    requires = base.split()
     assert sorted(requires) == sorted(_runtime_block())
     assert all("==" in r for r in requires)
+    # the one optional extra: Ray for moveit_run_benchmark --ray, pinned
+    assert ("[" + extras).split() == ["[ray]", "ray[default]==2.40.0"]
 
 
 def test_tests_and_build_tools_are_not_runtime_dependencies():
