@@ -523,3 +523,32 @@ def test_package_exports_msgs_names():
     assert set(interfaces_py.__all__) == set(msgs.__all__)
     for name in interfaces_py.__all__:
         assert getattr(interfaces_py, name) is getattr(msgs, name)
+
+
+# ---------------------------------------------------------------------------- trajectories from arrays
+def test_joint_trajectory_from_arrays_equals_the_point_by_point_message():
+    rng = np.random.default_rng(4)
+    times, positions, velocities = np.linspace(0.0, 1.0, 7), rng.normal(size=(7, 3)), rng.normal(size=(7, 3))
+    names = ["a", "b", "c"]
+    fast = JointTrajectory.from_arrays(names, times, positions, velocities)
+    slow = JointTrajectory(joint_names=names, points=[
+        JointTrajectoryPoint(positions=list(p), velocities=list(v), time_from_start=float(t))
+        for t, p, v in zip(times, positions, velocities)])
+    assert fast == slow and fast.to_dict() == slow.to_dict()
+    with_acc = JointTrajectory.from_arrays(names, times, positions, velocities, positions * 2)
+    assert with_acc.points[2].accelerations == list(positions[2] * 2)
+
+
+@pytest.mark.parametrize("change, words", [
+    (lambda a: a.update(positions=a["positions"][:, :2]), "positions: expected shape"),
+    (lambda a: a["velocities"].__setitem__((1, 1), np.nan), "velocities: must be finite"),
+    (lambda a: a["times"].__setitem__(3, 0.0), "non-decreasing"),
+    (lambda a: a["times"].__setitem__(0, -1.0), ">= 0"),
+])
+def test_joint_trajectory_from_arrays_refuses_what_the_constructor_refuses(change, words):
+    arrays = {"times": np.linspace(0.0, 1.0, 5), "positions": np.zeros((5, 3)), "velocities": np.zeros((5, 3))}
+    change(arrays)
+    with pytest.raises(MessageError, match=words):
+        JointTrajectory.from_arrays(["a", "b", "c"], arrays["times"], arrays["positions"], arrays["velocities"])
+    with pytest.raises(MessageError, match="duplicate name"):
+        JointTrajectory.from_arrays(["a", "a", "c"], arrays["times"], np.zeros((5, 3)), np.zeros((5, 3)))

@@ -256,17 +256,10 @@ def timed_to_joint_trajectory(trajectory: TimedTrajectory | None, sample_period:
     if sample_period and len(trajectory) > 1:
         trajectory = trajectory.resample(sample_period)
     with_accelerations = trajectory.interpolation == "quintic"
-    t0 = float(trajectory.times[0])
-    points = [
-        JointTrajectoryPoint(
-            positions=trajectory.positions[k].tolist(),
-            velocities=trajectory.velocities[k].tolist(),
-            accelerations=trajectory.accelerations[k].tolist() if with_accelerations else [],
-            time_from_start=max(0.0, float(trajectory.times[k]) - t0),
-        )
-        for k in range(len(trajectory))
-    ]
-    return JointTrajectory(joint_names=list(trajectory.joint_names), points=points)
+    times = np.asarray(trajectory.times, dtype=float)
+    return JointTrajectory.from_arrays(list(trajectory.joint_names), np.maximum(0.0, times - times[0]),
+                                       trajectory.positions, trajectory.velocities,
+                                       trajectory.accelerations if with_accelerations else None)
 
 
 def joint_trajectory_to_timed(trajectory: JointTrajectory) -> TimedTrajectory:
