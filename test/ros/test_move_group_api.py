@@ -101,6 +101,16 @@ class Client(ProbeNode):
         result = self.call(SetParameters, "/controller_manager/set_parameters", request)
         assert result.results[0].successful, result.results[0].reason
 
+    @contextlib.contextmanager
+    def mock_fault(self, name: str, after: float) -> Iterator[None]:
+        """mock_controllers' fault ``name`` (e.g. arm_controller.fail_after) armed at ``after`` s
+        into a trajectory while the block runs, disarmed (-1) after it."""
+        self.set_mock_param(name, after)
+        try:
+            yield
+        finally:
+            self.set_mock_param(name, -1.0)
+
 
 @contextlib.contextmanager
 def move_group_client() -> Iterator[Client]:
@@ -389,10 +399,15 @@ def _plan(client: Client, values) -> object:
     return response.trajectory
 
 
+def _execute_plan_to(client: Client, values) -> ExecuteTrajectory.Result:
+    """Plan to ``values``, execute the plan through execute_trajectory; its result."""
+    handle = client.send(client.execute, ExecuteTrajectory.Goal(trajectory=_plan(client, values)))
+    return client.spin_until(handle.get_result_async()).result
+
+
 def test_execute_trajectory_and_the_stop_event(client: Client) -> None:
     move(client, READY)
-    handle = client.send(client.execute, ExecuteTrajectory.Goal(trajectory=_plan(client, FAR)))
-    result = client.spin_until(handle.get_result_async()).result
+    result = _execute_plan_to(client, FAR)
     assert result.error_code.val == C.SUCCESS
     assert np.allclose(client.arm(), FAR, atol=0.01)
     handle = client.send(client.execute, ExecuteTrajectory.Goal(trajectory=_plan(client, READY)))
@@ -407,25 +422,17 @@ def test_execute_trajectory_and_the_stop_event(client: Client) -> None:
 
 def test_controller_abort_is_control_failed(client: Client) -> None:
     move(client, READY)
-    client.set_mock_param("arm_controller.fail_after", 0.2)
-    try:
-        handle = client.send(client.execute, ExecuteTrajectory.Goal(trajectory=_plan(client, FAR)))
-        result = client.spin_until(handle.get_result_async()).result
+    with client.mock_fault("arm_controller.fail_after", 0.2):
+        result = _execute_plan_to(client, FAR)
         assert result.error_code.val == C.CONTROL_FAILED
         assert "arm_controller" in result.error_code.message
-    finally:
-        client.set_mock_param("arm_controller.fail_after", -1.0)
 
 
 def test_stalled_controller_is_timed_out(client: Client) -> None:
     move(client, READY)
-    client.set_mock_param("arm_controller.stall_after", 0.2)
-    try:
-        handle = client.send(client.execute, ExecuteTrajectory.Goal(trajectory=_plan(client, FAR)))
-        result = client.spin_until(handle.get_result_async()).result
+    with client.mock_fault("arm_controller.stall_after", 0.2):
+        result = _execute_plan_to(client, FAR)
         assert result.error_code.val == C.TIMED_OUT, result.error_code.message
-    finally:
-        client.set_mock_param("arm_controller.stall_after", -1.0)
     move(client, READY)  # the controller follows again
 
 

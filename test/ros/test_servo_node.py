@@ -264,6 +264,24 @@ def joint_moved(probe: Probe, joint: int, start: np.ndarray, since: float, dista
     return commanded is not None and (commanded[joint] - start[joint]) * math.copysign(1.0, distance) >= abs(distance)
 
 
+def jog_first_joint(probe: Probe, start: np.ndarray, since: float, distance: float, failure: str) -> float:
+    """Jog link1_to_link2 at full speed (the sign of ``distance``) until the servo's newest
+    command has it ``distance`` from ``start``; the stamp of the last command sent."""
+    speed = math.copysign(1.0, distance)
+    return probe.drive(lambda: probe.send_jog(["link1_to_link2"], [speed]),
+                       lambda: joint_moved(probe, 0, start, since, distance), failure)
+
+
+def assert_commands_ignored(probe: Probe, node, send, says: str, before: np.ndarray, since: float,
+                            failure: str) -> None:
+    """``send`` commands until the servo logs ``says``, and as long again: the arm stays at
+    ``before`` and the servo publishes nothing after ``since``."""
+    mark = len(node.output())
+    probe.drive(send, lambda: logged_after(node, mark, says), failure)
+    probe.stream(send, 0.3)
+    assert np.max(np.abs(probe.settle() - before)) < 1e-9 and probe.outputs_after(since) == []
+
+
 def test_commands_are_ignored_until_the_command_type_is_set(servo):
     probe, node = servo
     probe.move_to(WORK)
@@ -308,9 +326,7 @@ def test_joint_jog_moves_only_the_jogged_joint(servo):
     ready(probe, ServoCommandType.Request.JOINT_JOG)
     before = probe.arm()
     since = time.time()
-    last = probe.drive(lambda: probe.send_jog(["link1_to_link2"], [1.0]),
-                       lambda: joint_moved(probe, 0, before, since, 0.15),
-                       "the servo did not jog the joint by 0.15 rad")
+    last = jog_first_joint(probe, before, since, 0.15, "the servo did not jog the joint by 0.15 rad")
     moved = probe.wait_rest(last) - before
     steps = [np.array(m.points[0].positions) for m in probe.outputs_after(since)]
     assert 0.1 < moved[0] <= 0.5 * PERIOD * len(steps) + 1e-9  # scale.joint: 0.5 rad/s, period by period
@@ -343,9 +359,7 @@ def test_a_stopped_command_stream_halts(servo):
     ready(probe, ServoCommandType.Request.JOINT_JOG)
     start = probe.arm()
     since = time.time()
-    last_sent = probe.drive(lambda: probe.send_jog(["link1_to_link2"], [1.0]),
-                            lambda: joint_moved(probe, 0, start, since, 0.2),
-                            "the servo did not jog the joint by 0.2 rad")
+    last_sent = jog_first_joint(probe, start, since, 0.2, "the servo did not jog the joint by 0.2 rad")
     probe.wait_rest(last_sent)
     outputs = probe.outputs_after(since)
     deadline = last_sent + TIMEOUT + PERIOD  # the last command's stamp: the servo's clock of its age
@@ -369,25 +383,17 @@ def test_pause_and_switch_command_type_behave_as_moveits(servo):
     probe.pause(True)
     since = time.time()
     # paused: until the servo says it drops them, and as long again, nothing may happen
-    mark = len(node.output())
-    probe.drive(lambda: probe.send_jog(["link1_to_link2"], [1.0]),
-                lambda: logged_after(node, mark, "ignoring a command sent while servoing was paused"),
-                "the paused servo did not say it drops commands")
-    probe.stream(lambda: probe.send_jog(["link1_to_link2"], [1.0]), 0.3)
-    assert np.max(np.abs(probe.settle() - before)) < 1e-9 and probe.outputs_after(since) == []
+    assert_commands_ignored(probe, node, lambda: probe.send_jog(["link1_to_link2"], [1.0]),
+                            "ignoring a command sent while servoing was paused", before, since,
+                            "the paused servo did not say it drops commands")
     probe.pause(False)
     # twists are ignored while the type is JOINT_JOG: until the servo says so, and as long again
-    mark = len(node.output())
     since = time.time()
-    probe.drive(lambda: probe.send_twist((1.0, 0.0, 0.0)),
-                lambda: logged_after(node, mark, "ignoring a TWIST command: the command type is JOINT_JOG"),
-                "the servo did not say it ignores twists in JOINT_JOG")
-    probe.stream(lambda: probe.send_twist((1.0, 0.0, 0.0)), 0.3)
-    assert np.max(np.abs(probe.settle() - before)) < 1e-9 and probe.outputs_after(since) == []
+    assert_commands_ignored(probe, node, lambda: probe.send_twist((1.0, 0.0, 0.0)),
+                            "ignoring a TWIST command: the command type is JOINT_JOG", before, since,
+                            "the servo did not say it ignores twists in JOINT_JOG")
     since = time.time()
-    last = probe.drive(lambda: probe.send_jog(["link1_to_link2"], [-1.0]),
-                       lambda: joint_moved(probe, 0, before, since, -0.08),
-                       "the servo did not jog the joint after the pause")
+    last = jog_first_joint(probe, before, since, -0.08, "the servo did not jog the joint after the pause")
     assert probe.wait_rest(last)[0] < before[0] - 0.05
 
 
@@ -411,18 +417,13 @@ def test_humble_start_and_stop_servo(servo, mycobot):
     before = probe.arm()
     since = time.time()
     # stopped: until the servo says it drops them, and as long again, nothing may happen
-    mark = len(node.output())
-    probe.drive(lambda: probe.send_jog(["link1_to_link2"], [1.0]),
-                lambda: logged_after(node, mark, "ignoring a command sent while servoing was paused"),
-                "the stopped servo did not say it drops commands")
-    probe.stream(lambda: probe.send_jog(["link1_to_link2"], [1.0]), 0.3)
-    assert np.max(np.abs(probe.settle() - before)) < 1e-9 and probe.outputs_after(since) == []
+    assert_commands_ignored(probe, node, lambda: probe.send_jog(["link1_to_link2"], [1.0]),
+                            "ignoring a command sent while servoing was paused", before, since,
+                            "the stopped servo did not say it drops commands")
     assert probe.trigger("/servo_node/start_servo").success
     # Humble's servo takes twists and joint jogs alike, without switch_command_type
     since = time.time()
-    last = probe.drive(lambda: probe.send_jog(["link1_to_link2"], [1.0]),
-                       lambda: joint_moved(probe, 0, before, since, 0.08),
-                       "the started servo did not jog the joint")
+    last = jog_first_joint(probe, before, since, 0.08, "the started servo did not jog the joint")
     jogged = probe.wait_rest(last)
     assert jogged[0] > before[0] + 0.05
     start = tip_pose(mycobot, jogged)[:3, 3]
