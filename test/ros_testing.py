@@ -14,18 +14,21 @@ import time
 from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator, Sequence
 
+import numpy as np
 import rclpy
 from rcl_interfaces.srv import SetParameters
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
+from std_msgs.msg import String
 from std_srvs.srv import Trigger
 
 from interfaces_py.background_spin import BackgroundSpin
 from mycobot_planning.paths import config_file
 from mycobot_planning.ros.bringup import robot as bringup
 from mycobot_planning.ros.bringup.process import ManagedProcess
+from mycobot_planning.ros.task.task_topics import SOLUTION_QOS, STATISTICS_QOS, task_topics
 
 REPO = Path(__file__).resolve().parent.parent
 PYTHON = sys.executable
@@ -111,6 +114,16 @@ def wait_until(predicate: Callable[[], bool], timeout: float, period: float = 0.
             return True
         time.sleep(period)
     return predicate()
+
+
+def pymoveit2_joints(moveit2: Any, names: Sequence[str]) -> np.ndarray:
+    """Positions of ``names`` from the newest /joint_states message a pymoveit2 ``MoveIt2``
+    receives after this call (asserts one comes within 5 s)."""
+    moveit2.reset_new_joint_state_checker()
+    assert wait_until(lambda: moveit2.new_joint_state_available, 5.0)
+    state = moveit2.joint_state
+    index = {n: i for i, n in enumerate(state.name)}
+    return np.array([state.position[index[n]] for n in names])
 
 
 class ProbeNode:
@@ -207,6 +220,32 @@ class ProbeNode:
         rclpy.try_shutdown(context=self.context)
 
 
+class TaskProbe(ProbeNode):
+    """A probe that records what task nodes publish on their task topics (JSON text): how many
+    messages a topic has had and the latest one. Subclasses subscribe to more before spinning."""
+
+    def __init__(self, name: str, nodes: Iterable[str], description: bool = True) -> None:
+        """Record the statistics and solution topics of every node in ``nodes`` (and, with
+        ``description``, its description topic)."""
+        super().__init__(name)
+        self.received: dict[str, list[String]] = {}
+        for node in nodes:
+            topics = task_topics(node)
+            recorded = [(topics.statistics, STATISTICS_QOS), (topics.solution, SOLUTION_QOS)]
+            if description:
+                recorded.insert(0, (topics.description, STATISTICS_QOS))
+            for topic, qos in recorded:
+                self.received[topic] = self.collect(String, topic, qos)
+
+    def count(self, topic: str) -> int:
+        with self.lock:
+            return len(self.received[topic])
+
+    def latest(self, topic: str) -> str:
+        with self.lock:
+            return self.received[topic][-1].data
+
+
 @contextlib.contextmanager
 def robot_processes(*server_params: str, params_file: bool | Path = False,
                     controllers_file: Path | None = None,
@@ -233,6 +272,38 @@ def robot_processes(*server_params: str, params_file: bool | Path = False,
         except bringup.BringupError as exc:
             raise AssertionError(str(exc)) from None
         yield (robot["mock_controllers"], robot["planning_server"], *(robot[spec.name] for spec in extra_nodes))
+
+
+#: What each process of :func:`perception_stack` prints once it is up, in start order.
+PERCEPTION_STACK_READY = {"controllers": "controller_manager ready", "server": "planning_server ready",
+                          "camera": "camera_simulator ready", "perception": "perception_server ready"}
+
+
+def perception_stack() -> dict[str, NodeProcess]:
+    """The robot with eyes, started on this session's domain (the caller waits for
+    PERCEPTION_STACK_READY and stops them): mock_controllers, planning_server and
+    perception_server with their config/ parameters, and a small (320x240) camera_simulator at
+    2 Hz."""
+    use_session_domain()
+    return {
+        "controllers": NodeProcess("mycobot_planning.nodes.mock_controllers"),
+        "server": NodeProcess("mycobot_planning.nodes.planning_server",
+                              ["--ros-args", "--params-file", str(config_file("planning_server.yaml"))]),
+        "camera": NodeProcess("mycobot_planning.nodes.camera_simulator",
+                              ["--ros-args", "-p", "width:=320", "-p", "height:=240", "-p", "rate:=2.0"]),
+        "perception": NodeProcess("mycobot_planning.nodes.perception_server",
+                                  ["--ros-args", "--params-file", str(config_file("perception_server.yaml"))]),
+    }
+
+
+def close_stack(opened: Iterable[Any], procs: dict[str, NodeProcess]) -> None:
+    """A fixture's clean-up: close what it opened in the test process, in the given order (None:
+    never made), then stop its processes, the last started first."""
+    for thing in opened:
+        if thing is not None:
+            thing.close()
+    for proc in reversed(list(procs.values())):
+        proc.stop()
 
 
 #: panda_moveit_config's initial positions of the arm ('ready')

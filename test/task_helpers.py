@@ -257,6 +257,14 @@ def build_pick_place(model) -> Task:
     return task
 
 
+def planned_pick_place(model) -> Task:
+    """:func:`build_pick_place` planned to one solution; asserts it planned (the message is MTC's
+    explanation of the failure)."""
+    task = build_pick_place(model)
+    assert task.plan(max_solutions=1), task.explainFailure(stream=None)
+    return task
+
+
 def replay_task_solution(model: RobotModel, msg: TaskSolution, check_limits: bool = True) -> tuple[PlanningScene, int]:
     """Replay a TaskSolution as the planning_server executes it (each step's trajectory, then its
     scene diff): every trajectory must pass the core validator in the scene it runs in, starting

@@ -35,6 +35,31 @@ class CliError(Exception):
     """A failure the user must read: printed to stderr as is, exit code 1, no traceback."""
 
 
+def add_command(subparsers: Any, name: str, help: str,
+                when_no_verb: Callable[[argparse.ArgumentParser], int] | None = None) -> Any:
+    """`ros2 <name>`, a command of verbs; given no verb it prints its help (or runs
+    ``when_no_verb(parser)``), as ros2cli does. Returns where its verbs are added (:func:`add_verb`)."""
+    parser = subparsers.add_parser(name, help=help)
+    verbs = parser.add_subparsers(title="Commands", dest="verb",
+                                  metavar=f"Call `ros2 {name} <command> -h` for more detailed usage.")
+    if when_no_verb is None:
+        parser.set_defaults(func=lambda args: parser.print_help() or 0)
+    else:
+        parser.set_defaults(func=lambda args: when_no_verb(parser))
+    return verbs
+
+
+def add_verb(verbs: Any, name: str, help: str, func: Callable[[argparse.Namespace], Any],
+             spin_time: bool = False) -> argparse.ArgumentParser:
+    """The parser of verb ``name`` of a command, run by ``func``; ``spin_time``: it reads the
+    ROS graph, so it takes --spin-time (and ros2cli's ignored daemon options) first."""
+    parser = verbs.add_parser(name, help=help)
+    if spin_time:
+        add_spin_time_argument(parser)
+    parser.set_defaults(func=func)
+    return parser
+
+
 def add_spin_time_argument(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--spin-time", type=positive_float, default=None, metavar="SECONDS",

@@ -267,3 +267,17 @@ def set_message_fields(msg: Any, values: Any, expand_header_auto: bool = False,
 
     fill(msg, values)
     return timestamp_fields
+
+
+def populate_from_yaml(msg: Any, text: str) -> str | None:
+    """Fill ``msg`` from the YAML ``text`` (empty or null: defaults), as `ros2 service call` and
+    `ros2 action send_goal` do; their error sentence, or None when it worked."""
+    try:
+        values = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        return f"Failed to populate field: {exc}"
+    try:
+        set_message_fields(msg, values if values is not None else {})
+    except Exception as exc:
+        return f"Failed to populate field: {exc}"
+    return None

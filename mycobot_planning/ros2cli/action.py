@@ -11,36 +11,26 @@ STATUS_NAMES = {0: "UNKNOWN", 1: "ACCEPTED", 2: "EXECUTING", 3: "CANCELING", 4: 
 
 
 def register(subparsers: Any) -> None:
-    parser = subparsers.add_parser("action", help="Various action related sub-commands")
-    verbs = parser.add_subparsers(title="Commands", dest="verb",
-                                  metavar="Call `ros2 action <command> -h` for more detailed usage.")
-    parser.set_defaults(func=lambda args: parser.print_help() or 0)
+    verbs = c.add_command(subparsers, "action", "Various action related sub-commands")
 
-    p = verbs.add_parser("list", help="Output a list of action names")
-    c.add_spin_time_argument(p)
+    p = c.add_verb(verbs, "list", "Output a list of action names", list_actions, spin_time=True)
     p.add_argument("-t", "--show-types", action="store_true", help="Additionally show the action type")
     p.add_argument("-c", "--count-actions", action="store_true", help="Only display the number of actions discovered")
-    p.set_defaults(func=list_actions)
 
-    p = verbs.add_parser("info", help="Print information about an action")
-    c.add_spin_time_argument(p)
+    p = c.add_verb(verbs, "info", "Print information about an action", info, spin_time=True)
     p.add_argument("action_name", help="Name of the ROS action to get info (e.g. '/fibonacci')")
     p.add_argument("-t", "--show-types", action="store_true", help="Additionally show the action type")
     p.add_argument("-c", "--count", action="store_true", help="Only display the number of action clients and servers")
-    p.set_defaults(func=info)
 
-    p = verbs.add_parser("type", help="Print a action's type")
-    c.add_spin_time_argument(p)
+    p = c.add_verb(verbs, "type", "Print a action's type", action_type, spin_time=True)
     p.add_argument("action_name", help="Name of the ROS action to get type (e.g. '/fibonacci')")
-    p.set_defaults(func=action_type)
 
-    p = verbs.add_parser("send_goal", help="Send an action goal")
+    p = c.add_verb(verbs, "send_goal", "Send an action goal", send_goal)
     p.add_argument("action_name", help="Name of the ROS action (e.g. '/fibonacci')")
     p.add_argument("action_type", help="Type of the ROS action (e.g. 'example_interfaces/action/Fibonacci')")
     p.add_argument("goal", nargs="?", default="{}",
                    help="Goal request values in YAML format (e.g. '{order: 10}')")
     p.add_argument("-f", "--feedback", action="store_true", help="Echo feedback messages for the goal")
-    p.set_defaults(func=send_goal)
 
 
 def _actions(node: Any) -> list[tuple[str, list[str]]]:
@@ -128,10 +118,9 @@ def _yaml(msg: Any) -> str:
 
 def send_goal(args: argparse.Namespace) -> int | str:
     import rclpy
-    import yaml
     from interfaces_py.action_client import ActionClient
 
-    from ._message import get_interface, set_message_fields
+    from ._message import get_interface, populate_from_yaml
 
     try:
         action_class = get_interface(args.action_type if args.action_type.count('/') == 2 else
@@ -139,14 +128,9 @@ def send_goal(args: argparse.Namespace) -> int | str:
         goal = action_class.Goal()
     except (AttributeError, ModuleNotFoundError, ValueError):
         return "The passed action type is invalid"
-    try:
-        values = yaml.safe_load(args.goal)
-    except yaml.YAMLError as exc:
-        return f"Failed to populate field: {exc}"
-    try:
-        set_message_fields(goal, values if values is not None else {})
-    except Exception as exc:
-        return f"Failed to populate field: {exc}"
+    error = populate_from_yaml(goal, args.goal)
+    if error:
+        return error
     package, name = args.action_type.split("/")[0], args.action_type.split("/")[-1]
     with c.CliNode(f"{c.NODE_NAME_PREFIX}_send_goal_{package}_{name}") as node:
         client = ActionClient(node, action_class, args.action_name)

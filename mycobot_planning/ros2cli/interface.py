@@ -13,39 +13,34 @@ from pathlib import Path
 from typing import Any, Iterator
 
 from . import _ament
+from . import _common as c
 
 SEPARATORS = ("---",)
 
 
 def register(subparsers: Any) -> None:
-    parser = subparsers.add_parser("interface", help="Show information about ROS interfaces")
-    verbs = parser.add_subparsers(title="Commands", dest="verb", metavar="Call `ros2 interface <command> -h` for more detailed usage.")
-    parser.set_defaults(func=lambda args: parser.print_help() or 0)
+    verbs = c.add_command(subparsers, "interface", "Show information about ROS interfaces")
 
-    p = verbs.add_parser("show", help="Output the interface definition")
+    p = c.add_verb(verbs, "show", "Output the interface definition", show)
     group = p.add_mutually_exclusive_group()
     group.add_argument("--all-comments", action="store_true", help="Show all comments, including for nested interface definitions")
     group.add_argument("--no-comments", action="store_true", help="Show no comments or whitespace")
     p.add_argument("type", help="Show an interface definition (e.g. 'example_interfaces/msg/String'). "
                                 "Passing '-' reads the argument from stdin (e.g. "
                                 "'ros2 topic type /chatter | ros2 interface show -').")
-    p.set_defaults(func=show)
 
-    p = verbs.add_parser("list", help="List all interface types available")
+    p = c.add_verb(verbs, "list", "List all interface types available", list_interfaces)
     p.add_argument("-m", "--only-msgs", action="store_true", help="Print out only the messages")
     p.add_argument("-s", "--only-srvs", action="store_true", help="Print out only the services")
     p.add_argument("-a", "--only-actions", action="store_true", help="Print out only the actions")
-    p.set_defaults(func=list_interfaces)
 
-    p = verbs.add_parser("package", help="Output a list of available interface types within one package")
+    p = c.add_verb(verbs, "package", "Output a list of available interface types within one package", package)
     p.add_argument("package_name", help="Package name")
-    p.set_defaults(func=package)
 
-    p = verbs.add_parser("packages", help="Output a list of packages that provide interfaces")
+    p = c.add_verb(verbs, "packages", "Output a list of packages that provide interfaces", packages)
     p.add_argument("-m", "--only-msgs", action="store_true", help="Only list packages that generate messages")
     p.add_argument("-s", "--only-srvs", action="store_true", help="Only list packages that generate services")
     p.add_argument("-a", "--only-actions", action="store_true", help="Only list packages that generate actions")
-    p.set_defaults(func=packages)
 
 
 def _interface_path(identifier: str) -> Path:

@@ -14,21 +14,15 @@ INFO_NONUNIQUE_WARNING = ('There are {num_nodes} nodes in the graph with the exa
 
 
 def register(subparsers: Any) -> None:
-    parser = subparsers.add_parser("node", help="Various node related sub-commands")
-    verbs = parser.add_subparsers(title="Commands", dest="verb", metavar="Call `ros2 node <command> -h` for more detailed usage.")
-    parser.set_defaults(func=lambda args: parser.print_help() or 0)
+    verbs = c.add_command(subparsers, "node", "Various node related sub-commands")
 
-    p = verbs.add_parser("list", help="Output a list of available nodes")
-    c.add_spin_time_argument(p)
+    p = c.add_verb(verbs, "list", "Output a list of available nodes", list_nodes, spin_time=True)
     p.add_argument("-a", "--all", action="store_true", help="Display all nodes even hidden ones")
     p.add_argument("-c", "--count-nodes", action="store_true", help="Only display the number of nodes discovered")
-    p.set_defaults(func=list_nodes)
 
-    p = verbs.add_parser("info", help="Output information about a node")
-    c.add_spin_time_argument(p)
+    p = c.add_verb(verbs, "info", "Output information about a node", info, spin_time=True)
     p.add_argument("node_name", help="Node name to request information")
     p.add_argument("--include-hidden", action="store_true", help="Display hidden topics, services, and actions as well")
-    p.set_defaults(func=info)
 
 
 def list_nodes(args: argparse.Namespace) -> int:

@@ -19,55 +19,46 @@ SERVICE_TIMEOUT = 5.0
 
 
 def register(subparsers: Any) -> None:
-    parser = subparsers.add_parser("param", help="Various param related sub-commands")
-    verbs = parser.add_subparsers(title="Commands", dest="verb", metavar="Call `ros2 param <command> -h` for more detailed usage.")
-    parser.set_defaults(func=lambda args: parser.print_help() or 0)
+    verbs = c.add_command(subparsers, "param", "Various param related sub-commands")
 
     def node_arguments(p: argparse.ArgumentParser, optional: bool = False) -> None:
         c.add_spin_time_argument(p)
         p.add_argument("node_name", nargs="?" if optional else None, help="Name of the ROS node")
         p.add_argument("--include-hidden-nodes", action="store_true", help="Consider hidden nodes as well")
 
-    p = verbs.add_parser("list", help="Output a list of available parameters")
+    p = c.add_verb(verbs, "list", "Output a list of available parameters", list_parameters)
     node_arguments(p, optional=True)
     p.add_argument("--filter", nargs=1, help="Only parameters matching the regex expression will be showed. Supports `re` regex syntax.")
     p.add_argument("--param-prefixes", nargs="+", default=[], help="Only list parameters with the provided prefixes")
     p.add_argument("--param-type", action="store_true", help="Print parameter types with parameter names")
-    p.set_defaults(func=list_parameters)
 
-    p = verbs.add_parser("get", help="Get parameter")
+    p = c.add_verb(verbs, "get", "Get parameter", get)
     node_arguments(p)
     p.add_argument("parameter_name", help="Name of the parameter")
     p.add_argument("--hide-type", action="store_true", help="Hide the type information")
-    p.set_defaults(func=get)
 
-    p = verbs.add_parser("set", help="Set parameter")
+    p = c.add_verb(verbs, "set", "Set parameter", set_parameter)
     node_arguments(p)
     p.add_argument("parameter_name", help="Name of the parameter")
     p.add_argument("value", help="Value of the parameter")
-    p.set_defaults(func=set_parameter)
 
-    p = verbs.add_parser("dump", help="Show all of the parameters of a node in a YAML file format")
+    p = c.add_verb(verbs, "dump", "Show all of the parameters of a node in a YAML file format", dump)
     node_arguments(p)
     p.add_argument("--output-dir", default=".", help=argparse.SUPPRESS)
     p.add_argument("--print", action="store_true", help=argparse.SUPPRESS)
-    p.set_defaults(func=dump)
 
-    p = verbs.add_parser("load", help="Load parameter file for a node")
+    p = c.add_verb(verbs, "load", "Load parameter file for a node", load)
     node_arguments(p)
     p.add_argument("parameter_file", help="Parameter file")
     p.add_argument("--use-wildcard", action="store_true", help="Load parameters in the '/**' namespace into the node")
-    p.set_defaults(func=load)
 
-    p = verbs.add_parser("describe", help="Show descriptive information about declared parameters")
+    p = c.add_verb(verbs, "describe", "Show descriptive information about declared parameters", describe)
     node_arguments(p)
     p.add_argument("parameter_names", nargs="+", help="Names of the parameters")
-    p.set_defaults(func=describe)
 
-    p = verbs.add_parser("delete", help="Delete parameter")
+    p = c.add_verb(verbs, "delete", "Delete parameter", delete)
     node_arguments(p)
     p.add_argument("parameter_name", help="Name of the parameter")
-    p.set_defaults(func=delete)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -5,25 +5,21 @@ import argparse
 from typing import Any
 
 from . import _ament
+from . import _common as c
 
 
 def register(subparsers: Any) -> None:
-    parser = subparsers.add_parser("pkg", help="Various package related sub-commands")
-    verbs = parser.add_subparsers(title="Commands", dest="verb", metavar="Call `ros2 pkg <command> -h` for more detailed usage.")
-    parser.set_defaults(func=lambda args: parser.print_help() or 0)
+    verbs = c.add_command(subparsers, "pkg", "Various package related sub-commands")
 
-    p = verbs.add_parser("executables", help="Output a list of package specific executables")
+    p = c.add_verb(verbs, "executables", "Output a list of package specific executables", executables)
     p.add_argument("package_name", nargs="?", help="The package name")
     p.add_argument("--full-path", action="store_true", help="Output full path of executables")
-    p.set_defaults(func=executables)
 
-    p = verbs.add_parser("prefix", help="Output the prefix path of a package")
+    p = c.add_verb(verbs, "prefix", "Output the prefix path of a package", prefix)
     p.add_argument("package_name", help="The package name")
     p.add_argument("--share", action="store_true", help="Show share directory for the package")
-    p.set_defaults(func=prefix)
 
-    p = verbs.add_parser("list", help="Output a list of available packages")
-    p.set_defaults(func=list_packages)
+    c.add_verb(verbs, "list", "Output a list of available packages", list_packages)
 
 
 def _describe(package_name: str, executable: _ament.Executable, full_path: bool) -> str:

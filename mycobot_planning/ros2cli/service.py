@@ -9,38 +9,29 @@ from . import _common as c
 
 
 def register(subparsers: Any) -> None:
-    parser = subparsers.add_parser("service", help="Various service related sub-commands")
-    verbs = parser.add_subparsers(title="Commands", dest="verb", metavar="Call `ros2 service <command> -h` for more detailed usage.")
-    parser.set_defaults(func=lambda args: parser.print_help() or 0)
+    verbs = c.add_command(subparsers, "service", "Various service related sub-commands")
 
-    p = verbs.add_parser("list", help="Output a list of available services")
-    c.add_spin_time_argument(p)
+    p = c.add_verb(verbs, "list", "Output a list of available services", list_services, spin_time=True)
     p.add_argument("-t", "--show-types", action="store_true", help="Additionally show the service type")
     p.add_argument("-c", "--count-services", action="store_true", help="Only display the number of services discovered")
     p.add_argument("--include-hidden-services", action="store_true", help="Consider hidden services as well")
-    p.set_defaults(func=list_services)
 
-    p = verbs.add_parser("type", help="Output a service's type")
-    c.add_spin_time_argument(p)
+    p = c.add_verb(verbs, "type", "Output a service's type", service_type, spin_time=True)
     p.add_argument("service_name", help="Name of the ROS service to get type (e.g. '/talker/list_parameters')")
     p.add_argument("--include-hidden-services", action="store_true", help="Consider hidden services as well")
-    p.set_defaults(func=service_type)
 
-    p = verbs.add_parser("find", help="Output a list of available services of a given type")
-    c.add_spin_time_argument(p)
+    p = c.add_verb(verbs, "find", "Output a list of available services of a given type", find, spin_time=True)
     p.add_argument("service_type", help="Name of the ROS service type to filter for (e.g. 'rcl_interfaces/srv/ListParameters')")
     p.add_argument("-c", "--count-services", action="store_true", help="Only display the number of services discovered")
     p.add_argument("--include-hidden-services", action="store_true", help="Consider hidden services as well")
-    p.set_defaults(func=find)
 
-    p = verbs.add_parser("call", help="Call a service")
+    p = c.add_verb(verbs, "call", "Call a service", call)
     p.add_argument("service_name", help="Name of the ROS service to call to (e.g. '/add_two_ints')")
     p.add_argument("service_type", help="Type of the ROS service (e.g. 'std_srvs/srv/Empty')")
     p.add_argument("values", nargs="?", default="{}",
                    help="Values to fill the service request with in YAML format (e.g. '{a: 1, b: 2}'), "
                         "otherwise the service request will be published with default values")
     p.add_argument("-r", "--rate", metavar="N", type=c.positive_float, help="Repeat the call at a specific rate in Hz")
-    p.set_defaults(func=call)
 
 
 def _services(node: Any, include_hidden: bool) -> list[tuple[str, list[str]]]:
@@ -89,23 +80,17 @@ def find(args: argparse.Namespace) -> int:
 
 def call(args: argparse.Namespace) -> int | str:
     import rclpy
-    import yaml
 
-    from ._message import get_service, set_message_fields
+    from ._message import get_service, populate_from_yaml
 
     try:
         srv_class = get_service(args.service_type)
     except (AttributeError, ModuleNotFoundError, ValueError):
         return "The passed service type is invalid"
-    try:
-        values = yaml.safe_load(args.values)
-    except yaml.YAMLError as exc:
-        return f"Failed to populate field: {exc}"
     request = srv_class.Request()
-    try:
-        set_message_fields(request, values if values is not None else {})
-    except Exception as exc:
-        return "Failed to populate field: {0}".format(exc)
+    error = populate_from_yaml(request, args.values)
+    if error:
+        return error
 
     parts = args.service_type.split("/")
     package, name = parts[0], parts[-1]

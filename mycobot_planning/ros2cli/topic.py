@@ -15,33 +15,24 @@ PUBLISHER_WAIT = 2.0  # echo with an explicit type: how long to look for publish
 
 
 def register(subparsers: Any) -> None:
-    parser = subparsers.add_parser("topic", help="Various topic related sub-commands")
-    verbs = parser.add_subparsers(title="Commands", dest="verb", metavar="Call `ros2 topic <command> -h` for more detailed usage.")
-    parser.set_defaults(func=lambda args: _usage(parser))
+    verbs = c.add_command(subparsers, "topic", "Various topic related sub-commands", when_no_verb=_usage)
 
-    p = verbs.add_parser("list", help="Output a list of available topics")
-    c.add_spin_time_argument(p)
+    p = c.add_verb(verbs, "list", "Output a list of available topics", list_topics, spin_time=True)
     p.add_argument("-t", "--show-types", action="store_true", help="Additionally show the topic type")
     p.add_argument("-c", "--count-topics", action="store_true", help="Only display the number of topics discovered")
     p.add_argument("--include-hidden-topics", action="store_true", help="Consider hidden topics as well")
     p.add_argument("-v", "--verbose", action="store_true", help="List full details about each topic")
-    p.set_defaults(func=list_topics)
 
-    p = verbs.add_parser("info", help="Print information about a topic")
-    c.add_spin_time_argument(p)
+    p = c.add_verb(verbs, "info", "Print information about a topic", info, spin_time=True)
     p.add_argument("topic_name", help="Name of the ROS topic to get info (e.g. '/chatter')")
     p.add_argument("-v", "--verbose", action="store_true",
                    help="Prints detailed information like the node name, node namespace, topic type, "
                         "GUID and QoS Profile of the publishers and subscribers to this topic")
-    p.set_defaults(func=info)
 
-    p = verbs.add_parser("type", help="Print a topic's type")
-    c.add_spin_time_argument(p)
+    p = c.add_verb(verbs, "type", "Print a topic's type", topic_type, spin_time=True)
     p.add_argument("topic_name", help="Name of the ROS topic to get type (e.g. '/chatter')")
-    p.set_defaults(func=topic_type)
 
-    p = verbs.add_parser("echo", help="Output messages from a topic")
-    c.add_spin_time_argument(p)
+    p = c.add_verb(verbs, "echo", "Output messages from a topic", echo, spin_time=True)
     p.add_argument("topic_name", help="Name of the ROS topic to listen to (e.g. '/chatter')")
     p.add_argument("message_type", nargs="?", help="Type of the ROS message (e.g. 'std_msgs/msg/String')")
     c.add_qos_arguments(p, "subscribe", "sensor_data")
@@ -65,9 +56,8 @@ def register(subparsers: Any) -> None:
     p.add_argument("--once", action="store_true", help="Print the first message received and then exit.")
     p.add_argument("--timeout", metavar="N", type=c.positive_float, default=None, help="Set a timeout in seconds for waiting")
     p.add_argument("--include-message-info", "-i", action="store_true", help="Shows the associated message info.")
-    p.set_defaults(func=echo)
 
-    p = verbs.add_parser("pub", help="Publish a message to a topic")
+    p = c.add_verb(verbs, "pub", "Publish a message to a topic", pub)
     p.add_argument("topic_name", help="Name of the ROS topic to publish to (e.g. '/chatter')")
     p.add_argument("message_type", help="Type of the ROS message (e.g. 'std_msgs/String')")
     p.add_argument("values", nargs="?", default="{}",
@@ -87,9 +77,8 @@ def register(subparsers: Any) -> None:
                    help="Keep publishing node alive for N seconds after the last msg (default: 0.1)")
     p.add_argument("-n", "--node-name", help="Name of the created publishing node")
     c.add_qos_arguments(p, "publish", None)
-    p.set_defaults(func=pub)
 
-    p = verbs.add_parser("hz", help="Print the average publishing rate to screen")
+    p = c.add_verb(verbs, "hz", "Print the average publishing rate to screen", hz)
     p.add_argument("topic_name", help="Name of the ROS topic to listen to (e.g. '/chatter')")
     p.add_argument("--window", "-w", dest="window_size", type=c.nonnegative_int, default=DEFAULT_WINDOW_SIZE,
                    metavar="WINDOW",
@@ -98,7 +87,6 @@ def register(subparsers: Any) -> None:
                    help="only measure messages matching the specified Python expression")
     p.add_argument("--wall-time", dest="use_wtime", default=False, action="store_true",
                    help="calculates rate using wall time which can be helpful when clock is not published during simulation")
-    p.set_defaults(func=hz)
 
 
 def _usage(parser: argparse.ArgumentParser) -> int:
@@ -208,6 +196,18 @@ def _message_class(type_name: str | None, node: Any, topic: str, timeout: float)
         raise c.CliError("The passed message type is invalid") from None
 
 
+def _offered_by_all(publishers: list[Any], policy: str, strict: Any, lenient: Any, kind: str) -> Any:
+    """``strict`` when every publisher offers it for ``policy``, else ``lenient`` (which connects
+    to all of them), saying so when only some offer ``strict`` (ros2cli's words)."""
+    offering = sum(getattr(p.qos_profile, policy) == strict for p in publishers)
+    if offering == len(publishers):
+        return strict
+    if offering:
+        print(f"Some, but not all, publishers are offering {kind}.{strict.name}. Falling back to "
+              f"{kind}.{lenient.name} as it will connect to all publishers")
+    return lenient
+
+
 def _choose_echo_qos(node: Any, args: argparse.Namespace, topic: str) -> Any:
     """ros2cli's rule: follow the publishers (reliable / transient_local only if all offer it)."""
     from rclpy.qos import DurabilityPolicy, QoSPresetProfiles, ReliabilityPolicy
@@ -218,22 +218,10 @@ def _choose_echo_qos(node: Any, args: argparse.Namespace, topic: str) -> Any:
     publishers = node.get_publishers_info_by_topic(topic)
     if not publishers:
         return qos
-    reliable = sum(p.qos_profile.reliability == ReliabilityPolicy.RELIABLE for p in publishers)
-    transient = sum(p.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for p in publishers)
-    if reliable == len(publishers):
-        qos.reliability = ReliabilityPolicy.RELIABLE
-    else:
-        if reliable:
-            print("Some, but not all, publishers are offering QoSReliabilityPolicy.RELIABLE. Falling back to "
-                  "QoSReliabilityPolicy.BEST_EFFORT as it will connect to all publishers")
-        qos.reliability = ReliabilityPolicy.BEST_EFFORT
-    if transient == len(publishers):
-        qos.durability = DurabilityPolicy.TRANSIENT_LOCAL
-    else:
-        if transient:
-            print("Some, but not all, publishers are offering QoSDurabilityPolicy.TRANSIENT_LOCAL. Falling back to "
-                  "QoSDurabilityPolicy.VOLATILE as it will connect to all publishers")
-        qos.durability = DurabilityPolicy.VOLATILE
+    qos.reliability = _offered_by_all(publishers, "reliability", ReliabilityPolicy.RELIABLE,
+                                      ReliabilityPolicy.BEST_EFFORT, "QoSReliabilityPolicy")
+    qos.durability = _offered_by_all(publishers, "durability", DurabilityPolicy.TRANSIENT_LOCAL,
+                                     DurabilityPolicy.VOLATILE, "QoSDurabilityPolicy")
     return qos
 
 

@@ -6,6 +6,7 @@ subprocess protocol is exercised with a stand-in runner script run by this Pytho
 from __future__ import annotations
 
 import ast
+import io
 import json
 import math
 import sys
@@ -16,6 +17,7 @@ import pytest
 
 from mycobot_planning.bench import peers
 from mycobot_planning.bench.peers import problems as problems_mod
+from mycobot_planning.bench.peers import runner_protocol
 from mycobot_planning.bench.peers import venvs
 from mycobot_planning.bench.peers.problems import (
     ARM_JOINTS, DEFAULT_BOXES, TIP_LINK, absolute_mesh_urdf_text, checker_for, panda_pose_problems,
@@ -222,8 +224,12 @@ def test_compare_without_ours_and_report_records():
 
 # ---------------------------------------------------------------- runner isolation and protocol
 
-@pytest.mark.parametrize("runner", ["mplib_runner.py", "pyroboplan_runner.py", "roboplan_runner.py"])
+@pytest.mark.parametrize("runner", ["mplib_runner.py", "pyroboplan_runner.py", "roboplan_runner.py",
+                                    "runner_protocol.py"])
 def test_runner_scripts_import_only_stdlib_numpy_and_their_peer(runner: str):
+    # The runners run in a peer venv without mycobot_planning: besides their peer they may import
+    # only their sibling runner_protocol (by plain name, from the script's folder), which itself
+    # imports only the standard library and numpy.
     tree = ast.parse((PEERS_DIR / runner).read_text())
     imported = set()
     for node in ast.walk(tree):
@@ -233,10 +239,65 @@ def test_runner_scripts_import_only_stdlib_numpy_and_their_peer(runner: str):
             assert node.level == 0, f"{runner} has a relative import"
             imported.add(node.module.split(".")[0])
     peer_libs = {"mplib_runner.py": {"mplib"}, "pyroboplan_runner.py": {"pyroboplan", "pinocchio", "coal"},
-                 "roboplan_runner.py": {"roboplan"}}
+                 "roboplan_runner.py": {"roboplan"}, "runner_protocol.py": set()}
     allowed = set(sys.stdlib_module_names) | {"__future__", "numpy"} | peer_libs[runner]
+    if runner != "runner_protocol.py":
+        allowed.add("runner_protocol")
     assert "mycobot_planning" not in imported
     assert imported <= allowed, imported - allowed
+
+
+def test_runner_protocol_parts_lines_keep_going_past_a_failing_problem():
+    parts = {"ik": [{"index": 0}, {"index": 1}], "check": [[0.0], [2.0]], "plan": [{"index": 0}, {"index": 1}]}
+    calls = []
+
+    def solve_ik(problem):
+        calls.append(("ik", problem["index"]))
+        if problem["index"] == 1:
+            raise ValueError("no model")
+        return {"seconds": 0.5, "solution": [0.1]}
+
+    def plan(problem):
+        calls.append(("plan", problem["index"]))
+        if problem["index"] == 1:
+            raise RuntimeError("crashed")
+        return {"seconds": 0.25, "status": "Success", "path": [[0.0], [1.0]]}
+
+    out = io.StringIO()
+    assert runner_protocol.run_parts(out, "peer_that_is_not_installed", 1.23456, parts, solve_ik,
+                                     lambda q: q[0], lambda x: x > 1.0, plan) == 0
+    lines = [json.loads(line) for line in out.getvalue().splitlines()]
+    assert lines[0] == {"meta": True, "peer": "peer_that_is_not_installed", "version": "unknown",
+                        "setup_seconds": 1.2346}
+    assert lines[1] == {"part": "ik", "index": 0, "seconds": 0.5, "solution": [0.1]}
+    assert lines[2] == {"part": "ik", "index": 1, "seconds": None, "solution": None,
+                        "status": "error: ValueError: no model"}
+    assert lines[3]["part"] == "check" and lines[3]["colliding"] == [False, True]
+    assert len(lines[3]["seconds"]) == 2
+    assert lines[4] == {"part": "plan", "index": 0, "seconds": 0.25, "status": "Success", "path": [[0.0], [1.0]]}
+    assert list(lines[5]) == ["part", "index", "seconds", "status", "path"]
+    assert lines[5]["status"] == "error: RuntimeError: crashed" and lines[5]["path"] is None
+    assert calls[:2] == [("ik", 0), ("plan", 0)]  # the untimed warm-ups come before the meta line
+
+
+def test_runner_protocol_pose_lines_judge_the_goal_errors():
+    problems = [{"index": 0}, {"index": 1}, {"index": 2}]
+    paths = {0: [[0.0, 0.0], [3.0, 4.0]], 1: None}
+
+    def solve(problem):
+        if problem["index"] == 2:
+            raise RuntimeError("lost")
+        return 0.1, "Success" if paths[problem["index"]] else "IK failed", paths[problem["index"]]
+
+    out = io.StringIO()
+    runner_protocol.run_pose_problems(out, "x", 0.0, problems, solve, lambda problem, path: (0.005, 0.03))
+    records = [json.loads(line) for line in out.getvalue().splitlines()][1:]
+    assert records[0]["waypoints"] == 2 and records[0]["path_length"] == 5.0
+    assert records[0]["claimed_success"] and not records[0]["success"]  # 0.03 rad is past 0.02
+    assert records[1] == {"index": 1, "success": False, "claimed_success": False, "seconds": 0.1,
+                          "status": "IK failed"}
+    assert records[2] == {"index": 2, "success": False, "claimed_success": False, "seconds": None,
+                          "status": "error: RuntimeError: lost"}
 
 
 def test_every_peer_has_a_runner_and_pinned_spec():

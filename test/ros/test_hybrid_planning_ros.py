@@ -40,10 +40,9 @@ from mycobot_planning.core.robot_state.robot_state import RobotState
 from mycobot_planning.core.trajectory_execution.path_ahead import PathAhead
 from mycobot_planning.ros.bringup import robot as bringup
 from mycobot_planning.ros.move_group.moveit_translation import joint_trajectory_from_ros
+from mycobot_arm import ARM, tip_pose
 from ros_testing import ProbeNode, robot_processes, wait_until
 
-ARM = ["link1_to_link2", "link2_to_link3", "link3_to_link4", "link4_to_link5", "link5_to_link6",
-       "link6_to_link6_flange"]
 START = [0.0, -0.8, -0.8, 0.0, 0.0, 0.0]
 GOAL = [1.2, -0.8, -0.8, 0.0, 0.0, 0.0]
 BOX_SIZE = 0.04
@@ -122,11 +121,6 @@ def client(processes):
         user.close()
 
 
-@pytest.fixture(scope="module")
-def model() -> RobotModel:
-    return RobotModel.mycobot()
-
-
 def move_to(client: Client, values) -> None:
     answer, _ = client.run(joint_goal(values))
     assert answer.status == GoalStatus.STATUS_SUCCEEDED, answer.result.error_message
@@ -138,11 +132,9 @@ def test_a_joint_goal_is_reached(client: Client) -> None:
     assert wait_until(lambda: np.max(np.abs(client.arm() - START)) <= 0.01, 2.0), client.arm()
 
 
-def box_at_flange(model: RobotModel, arm: np.ndarray) -> CollisionObject:
-    state = RobotState(model)
-    state.set_joint_positions(dict(zip(ARM, arm)))
+def box_at_flange(mycobot: RobotModel, arm: np.ndarray) -> CollisionObject:
     pose = np.eye(4)
-    pose[:3, 3] = state.frame_pose("link6_flange")[:3, 3]
+    pose[:3, 3] = tip_pose(mycobot, arm)[:3, 3]
     return CollisionObject.box("box", [BOX_SIZE] * 3, Pose.from_matrix(pose))
 
 
@@ -157,7 +149,7 @@ def box_msg(box: CollisionObject) -> CollisionObjectRos:
     return msg
 
 
-def test_a_box_on_the_path_ahead_is_avoided_by_replanning(client: Client, model: RobotModel) -> None:
+def test_a_box_on_the_path_ahead_is_avoided_by_replanning(client: Client, mycobot: RobotModel) -> None:
     move_to(client, START)
     with client.lock:
         client.solutions.clear()
@@ -166,10 +158,10 @@ def test_a_box_on_the_path_ahead_is_avoided_by_replanning(client: Client, model:
     assert wait_until(lambda: len(client.solutions) >= 1, 15.0), "no global solution published"
     first, _ = joint_trajectory_from_ros(client.solutions[0].trajectory)
     halfway = first.points[len(first.points) // 2].positions
-    box = box_at_flange(model, np.array(halfway))
-    blocked = PlanningScene(model)
+    box = box_at_flange(mycobot, np.array(halfway))
+    blocked = PlanningScene(mycobot)
     blocked.add_object(box)
-    assert PathAhead(model, first).first_collision(blocked, 0.0) is not None  # the box is on the first plan
+    assert PathAhead(mycobot, first).first_collision(blocked, 0.0) is not None  # the box is on the first plan
     assert wait_until(lambda: np.max(np.abs(client.arm() - START)) > 0.02, 5.0), "the arm did not start"
     client.objects.publish(box_msg(box))  # mid-motion, ahead of the arm
 
@@ -191,7 +183,7 @@ def test_a_box_on_the_path_ahead_is_avoided_by_replanning(client: Client, model:
         # the arm took, and may cut a corner of the detour around the box
         steps = 1 if stamps[k + 1] - stamps[k] > 0.025 else max(1, int(np.ceil(np.max(np.abs(b - a)) / 0.01)))
         for s in np.linspace(0.0, 1.0, steps + 1):
-            state = RobotState(model)
+            state = RobotState(mycobot)
             state.set_joint_positions(dict(zip(ARM, a + s * (b - a))))
             assert not blocked.is_state_colliding(state), f"the executed motion touches the box at sample {k}"
     client.objects.publish(CollisionObjectRos(id="box", operation=CollisionObjectRos.REMOVE))
@@ -246,7 +238,7 @@ def test_a_bad_goal_is_aborted_with_the_reason(client: Client, goal, code: int, 
     assert words in answer.result.error_message
 
 
-def test_single_plan_execution_holds_the_arm_without_replanning(client: Client, model: RobotModel) -> None:
+def test_single_plan_execution_holds_the_arm_without_replanning(client: Client, mycobot: RobotModel) -> None:
     """planner_logic_plugin_name set at run time (MoveIt's plugin name; a bad one is refused):
     "Collision ahead" then leaves the arm held, with no new global plan, until the cancel."""
     refused = client.set_param("hybrid_planning_manager",
@@ -261,7 +253,7 @@ def test_single_plan_execution_holds_the_arm_without_replanning(client: Client, 
         handle, feedback = client.send(joint_goal(GOAL, scaling=0.2))
         assert wait_until(lambda: len(client.solutions) >= 1, 15.0), "no global solution published"
         first, _ = joint_trajectory_from_ros(client.solutions[0].trajectory)
-        box = box_at_flange(model, np.array(first.points[len(first.points) // 2].positions))
+        box = box_at_flange(mycobot, np.array(first.points[len(first.points) // 2].positions))
         client.objects.publish(box_msg(box))
         assert wait_until(lambda: "Collision ahead" in feedback, 10.0)
         time.sleep(1.0)

@@ -189,6 +189,15 @@ def arm_target(probe: Probe, offset: float) -> list[float]:
     return [float(np.clip(q + (offset if q < 1.0 else -offset), -2.5, 2.5)) for q in here]
 
 
+def start_slow_motion(probe: Probe, goal_id: str) -> list[float]:
+    """Send the arm on a 4 s trajectory (goal ``goal_id``) to a target 1 rad away and wait until
+    arm_controller executes it; the target."""
+    far = arm_target(probe, 1.0)
+    probe.send("arm_controller", goal_id, ARM, [(4.0, far)])
+    probe.wait_status("arm_controller", goal_id, ["executing"])
+    return far
+
+
 # ---------------------------------------------------------------- /joint_states
 
 
@@ -266,9 +275,7 @@ def test_gripper_moves_and_mimic_joints_follow(probe, model):
 
 
 def test_new_trajectory_preempts_the_running_one_without_a_jump(probe):
-    far = arm_target(probe, 1.0)
-    probe.send("arm_controller", "pre-old", ARM, [(4.0, far)])
-    probe.wait_status("arm_controller", "pre-old", ["executing"])
+    start_slow_motion(probe, "pre-old")
     start = probe.arm()
     assert wait_until(lambda: np.max(np.abs(probe.arm() - start)) > 0.05, WAIT)
     back = [float(v) for v in start]
@@ -284,9 +291,7 @@ def test_new_trajectory_preempts_the_running_one_without_a_jump(probe):
 
 
 def test_stop_service_holds_the_current_position(probe):
-    far = arm_target(probe, 1.0)
-    probe.send("arm_controller", "to-stop", ARM, [(4.0, far)])
-    probe.wait_status("arm_controller", "to-stop", ["executing"])
+    far = start_slow_motion(probe, "to-stop")
     start = probe.arm()
     assert wait_until(lambda: np.max(np.abs(probe.arm() - start)) > 0.05, WAIT)
     response = probe.stop("arm_controller")
@@ -304,9 +309,7 @@ def test_stop_service_holds_the_current_position(probe):
 
 
 def test_empty_trajectory_stops_like_jtc(probe):
-    far = arm_target(probe, 1.0)
-    probe.send("arm_controller", "to-empty", ARM, [(4.0, far)])
-    probe.wait_status("arm_controller", "to-empty", ["executing"])
+    start_slow_motion(probe, "to-empty")
     empty = JointTrajectory()
     empty.joint_names = ARM
     probe.send_raw("arm_controller", empty)

@@ -3,7 +3,9 @@ hand-written client sends them: every service and action on its default name, an
 codes a MoveIt user relies on. planning_server + mock_controllers run in real processes."""
 from __future__ import annotations
 
+import contextlib
 import time
+from collections.abc import Iterator
 
 import numpy as np
 import pytest
@@ -41,12 +43,9 @@ from std_msgs.msg import String
 from interfaces_py.action_client import ActionClient
 from mycobot_planning.core.robot_model.robot_model import RobotModel
 from mycobot_planning.core.robot_state.robot_state import RobotState
+from mycobot_arm import ARM, READY, TIP, tip_pose
 from ros_testing import ProbeNode, wait_until, robot_processes
 
-ARM = ["link1_to_link2", "link2_to_link3", "link3_to_link4", "link4_to_link5", "link5_to_link6",
-       "link6_to_link6_flange"]
-TIP = "link6_flange"
-READY = [0.0, -0.3, 0.6, 0.2, 0.0, 0.0]
 FAR = [1.0, -1.0, -0.8, 0.3, 0.5, 0.8]
 C = MoveItErrorCodes
 
@@ -102,9 +101,21 @@ class Client(ProbeNode):
         result = self.call(SetParameters, "/controller_manager/set_parameters", request)
         assert result.results[0].successful, result.results[0].reason
 
+    @contextlib.contextmanager
+    def mock_fault(self, name: str, after: float) -> Iterator[None]:
+        """mock_controllers' fault ``name`` (e.g. arm_controller.fail_after) armed at ``after`` s
+        into a trajectory while the block runs, disarmed (-1) after it."""
+        self.set_mock_param(name, after)
+        try:
+            yield
+        finally:
+            self.set_mock_param(name, -1.0)
 
-@pytest.fixture(scope="module")
-def client():
+
+@contextlib.contextmanager
+def move_group_client() -> Iterator[Client]:
+    """planning_server + mock_controllers up, and a Client of theirs (``.server``: the server's
+    process); all closed at exit."""
     with robot_processes() as (_, server):
         user = Client()
         user.server = server
@@ -115,14 +126,9 @@ def client():
 
 
 @pytest.fixture(scope="module")
-def model() -> RobotModel:
-    return RobotModel.mycobot()
-
-
-def tip_pose(model: RobotModel, arm) -> np.ndarray:
-    state = RobotState(model)
-    state.set_joint_positions(dict(zip(ARM, arm)))
-    return state.frame_pose(TIP)
+def client():
+    with move_group_client() as user:
+        yield user
 
 
 def joint_goal(values, group: str = "arm") -> GetMotionPlan.Request:
@@ -198,8 +204,8 @@ def test_unknown_group_is_invalid_group_name(client: Client) -> None:
     assert "arm" in code.message and code.source
 
 
-def test_pose_goal_with_position_and_orientation_constraints(client: Client, model: RobotModel) -> None:
-    goal = tip_pose(model, FAR)
+def test_pose_goal_with_position_and_orientation_constraints(client: Client, mycobot: RobotModel) -> None:
+    goal = tip_pose(mycobot, FAR)
     request = GetMotionPlan.Request()
     r = request.motion_plan_request
     r.group_name, r.allowed_planning_time = "arm", 5.0
@@ -219,13 +225,13 @@ def test_pose_goal_with_position_and_orientation_constraints(client: Client, mod
     r.goal_constraints = [Constraints(position_constraints=[position], orientation_constraints=[orientation])]
     response = client.call(GetMotionPlan, "/plan_kinematic_path", request).motion_plan_response
     assert response.error_code.val == C.SUCCESS, response.error_code.message
-    end = tip_pose(model, response.trajectory.joint_trajectory.points[-1].positions)
+    end = tip_pose(mycobot, response.trajectory.joint_trajectory.points[-1].positions)
     assert np.linalg.norm(end[:3, 3] - goal[:3, 3]) < 1e-3
     assert Rotation.from_matrix(end[:3, :3].T @ goal[:3, :3]).magnitude() < 0.01
 
 
-def test_goal_and_start_in_collision(client: Client, model: RobotModel) -> None:
-    obstacle = tip_pose(model, FAR)[:3, 3]
+def test_goal_and_start_in_collision(client: Client, mycobot: RobotModel) -> None:
+    obstacle = tip_pose(mycobot, FAR)[:3, 3]
     assert apply(client, box("blocker", obstacle))
     try:
         response = client.call(GetMotionPlan, "/plan_kinematic_path", joint_goal(FAR)).motion_plan_response
@@ -247,7 +253,7 @@ def test_goal_and_start_in_collision(client: Client, model: RobotModel) -> None:
 
 
 # ------------------------------------------------------------------------------- kinematics
-def test_compute_fk_in_a_link_frame_and_unknown_links(client: Client, model: RobotModel) -> None:
+def test_compute_fk_in_a_link_frame_and_unknown_links(client: Client, mycobot: RobotModel) -> None:
     from moveit_msgs.msg import RobotState as RobotStateMsg
 
     request = GetPositionFK.Request(fk_link_names=[TIP, "link3"],
@@ -256,7 +262,7 @@ def test_compute_fk_in_a_link_frame_and_unknown_links(client: Client, model: Rob
     response = client.call(GetPositionFK, "/compute_fk", request)
     assert response.error_code.val == C.SUCCESS
     assert list(response.fk_link_names) == [TIP, "link3"]
-    state = RobotState(model)
+    state = RobotState(mycobot)
     state.set_joint_positions(dict(zip(ARM, FAR)))
     expected = np.linalg.inv(state.frame_pose("link2")) @ state.frame_pose(TIP)
     p = response.pose_stamped[0].pose.position
@@ -266,8 +272,8 @@ def test_compute_fk_in_a_link_frame_and_unknown_links(client: Client, model: Rob
     assert bad.error_code.val == C.INVALID_LINK_NAME and "no_such_link" in bad.error_code.message
 
 
-def test_compute_ik_solves_and_reports_no_ik_solution(client: Client, model: RobotModel) -> None:
-    goal = tip_pose(model, FAR)
+def test_compute_ik_solves_and_reports_no_ik_solution(client: Client, mycobot: RobotModel) -> None:
+    goal = tip_pose(mycobot, FAR)
     from scipy.spatial.transform import Rotation
 
     request = GetPositionIK.Request()
@@ -280,15 +286,15 @@ def test_compute_ik_solves_and_reports_no_ik_solution(client: Client, model: Rob
     response = client.call(GetPositionIK, "/compute_ik", request)
     assert response.error_code.val == C.SUCCESS
     values = dict(zip(response.solution.joint_state.name, response.solution.joint_state.position))
-    assert np.linalg.norm(tip_pose(model, [values[j] for j in ARM])[:3, 3] - goal[:3, 3]) < 1e-4
+    assert np.linalg.norm(tip_pose(mycobot, [values[j] for j in ARM])[:3, 3] - goal[:3, 3]) < 1e-4
     pose.position.x = 3.0  # far out of reach
     response = client.call(GetPositionIK, "/compute_ik", request)
     assert response.error_code.val == C.NO_IK_SOLUTION and response.error_code.message
 
 
-def test_compute_cartesian_path_straight_down(client: Client, model: RobotModel) -> None:
+def test_compute_cartesian_path_straight_down(client: Client, mycobot: RobotModel) -> None:
     move(client, READY)
-    start = tip_pose(model, READY)
+    start = tip_pose(mycobot, READY)
     from scipy.spatial.transform import Rotation
 
     request = GetCartesianPath.Request(group_name="arm", link_name=TIP, max_step=0.005, avoid_collisions=True)
@@ -301,9 +307,9 @@ def test_compute_cartesian_path_straight_down(client: Client, model: RobotModel)
     response = client.call(GetCartesianPath, "/compute_cartesian_path", request)
     assert response.error_code.val == C.SUCCESS and response.fraction == pytest.approx(1.0)
     points = response.solution.joint_trajectory.points
-    heights = [tip_pose(model, p.positions)[2, 3] for p in points]
+    heights = [tip_pose(mycobot, p.positions)[2, 3] for p in points]
     assert heights[-1] == pytest.approx(start[2, 3] - 0.03, abs=1e-4)
-    xy = [tip_pose(model, p.positions)[:2, 3] for p in points]
+    xy = [tip_pose(mycobot, p.positions)[:2, 3] for p in points]
     assert max(np.linalg.norm(v - start[:2, 3]) for v in xy) < 1e-3  # straight
 
 
@@ -416,10 +422,15 @@ def _plan(client: Client, values) -> object:
     return response.trajectory
 
 
+def _execute_plan_to(client: Client, values) -> ExecuteTrajectory.Result:
+    """Plan to ``values``, execute the plan through execute_trajectory; its result."""
+    handle = client.send(client.execute, ExecuteTrajectory.Goal(trajectory=_plan(client, values)))
+    return client.spin_until(handle.get_result_async()).result
+
+
 def test_execute_trajectory_and_the_stop_event(client: Client) -> None:
     move(client, READY)
-    handle = client.send(client.execute, ExecuteTrajectory.Goal(trajectory=_plan(client, FAR)))
-    result = client.spin_until(handle.get_result_async()).result
+    result = _execute_plan_to(client, FAR)
     assert result.error_code.val == C.SUCCESS
     assert np.allclose(client.arm(), FAR, atol=0.01)
     handle = client.send(client.execute, ExecuteTrajectory.Goal(trajectory=_plan(client, READY)))
@@ -434,25 +445,17 @@ def test_execute_trajectory_and_the_stop_event(client: Client) -> None:
 
 def test_controller_abort_is_control_failed(client: Client) -> None:
     move(client, READY)
-    client.set_mock_param("arm_controller.fail_after", 0.2)
-    try:
-        handle = client.send(client.execute, ExecuteTrajectory.Goal(trajectory=_plan(client, FAR)))
-        result = client.spin_until(handle.get_result_async()).result
+    with client.mock_fault("arm_controller.fail_after", 0.2):
+        result = _execute_plan_to(client, FAR)
         assert result.error_code.val == C.CONTROL_FAILED
         assert "arm_controller" in result.error_code.message
-    finally:
-        client.set_mock_param("arm_controller.fail_after", -1.0)
 
 
 def test_stalled_controller_is_timed_out(client: Client) -> None:
     move(client, READY)
-    client.set_mock_param("arm_controller.stall_after", 0.2)
-    try:
-        handle = client.send(client.execute, ExecuteTrajectory.Goal(trajectory=_plan(client, FAR)))
-        result = client.spin_until(handle.get_result_async()).result
+    with client.mock_fault("arm_controller.stall_after", 0.2):
+        result = _execute_plan_to(client, FAR)
         assert result.error_code.val == C.TIMED_OUT, result.error_code.message
-    finally:
-        client.set_mock_param("arm_controller.stall_after", -1.0)
     move(client, READY)  # the controller follows again
 
 
@@ -471,18 +474,18 @@ def test_bad_requests_get_error_codes_and_the_node_survives(client: Client) -> N
     move(client, READY)
 
 
-def test_path_constraints_are_honoured(client: Client, model: RobotModel) -> None:
+def test_path_constraints_are_honoured(client: Client, mycobot: RobotModel) -> None:
     """An orientation path constraint (keep the flange pointing down) on GetMotionPlan and
     GetCartesianPath; every point of the answers is checked here."""
     from mycobot_planning.core.kinematics.ik_solver import solve_ik
     from mycobot_planning.core.planning_scene.planning_scene import PlanningScene
     from mycobot_planning.core.transforms import make_pose
 
-    scene = PlanningScene(model)
+    scene = PlanningScene(mycobot)
     down = [0.0, 1.0, 0.0, 0.0]
-    start = solve_ik(model, "arm", make_pose([0.15, 0.05, 0.25], quat_xyzw=down), seed=RobotState(model),
+    start = solve_ik(mycobot, "arm", make_pose([0.15, 0.05, 0.25], quat_xyzw=down), seed=RobotState(mycobot),
                      scene=scene, timeout=1.0, rng=0)[0]
-    goal = solve_ik(model, "arm", make_pose([0.17, -0.04, 0.2], quat_xyzw=down), seed=start, scene=scene,
+    goal = solve_ik(mycobot, "arm", make_pose([0.17, -0.04, 0.2], quat_xyzw=down), seed=start, scene=scene,
                     timeout=1.0, rng=0)[0]
     move(client, start.group_positions("arm").tolist())
     keep_down = Constraints(orientation_constraints=[OrientationConstraint(
@@ -493,7 +496,7 @@ def test_path_constraints_are_honoured(client: Client, model: RobotModel) -> Non
     o.x, o.y, o.z, o.w = down
 
     def tilt(positions) -> float:
-        z = tip_pose(model, positions)[:3, 2]
+        z = tip_pose(mycobot, positions)[:3, 2]
         return float(np.arccos(np.clip(-z[2], -1.0, 1.0)))
 
     request = joint_goal(goal.group_positions("arm"))
@@ -515,7 +518,7 @@ def test_path_constraints_are_honoured(client: Client, model: RobotModel) -> Non
     # from the goal (clear of the arm itself): a Cartesian path down, then one that would tilt the
     # flange by 0.4 rad: it stops early
     move(client, goal.group_positions("arm").tolist())
-    begin = tip_pose(model, goal.group_positions("arm"))
+    begin = tip_pose(mycobot, goal.group_positions("arm"))
     from scipy.spatial.transform import Rotation
 
     def cartesian(rotation) -> GetCartesianPath.Response:
@@ -542,10 +545,10 @@ SWEEP_START = [-1.2, -0.8, -0.6, 0.0, 0.0, 0.0]
 SWEEP_END = [1.2, -0.8, -0.6, 0.0, 0.0, 0.0]
 
 
-def flange_position(model: RobotModel, joint1: float) -> np.ndarray:
+def flange_position(mycobot: RobotModel, joint1: float) -> np.ndarray:
     values = list(SWEEP_START)
     values[0] = joint1
-    return tip_pose(model, values)[:3, 3]
+    return tip_pose(mycobot, values)[:3, 3]
 
 
 def sweep_goal(replan: bool = False, attempts: int = 0, delay: float = 0.0) -> MoveGroup.Goal:
@@ -592,19 +595,19 @@ def run_with_intrusion(client: Client, action, goal, obj: CollisionObject | None
     return result_future.result(), states, recording
 
 
-def assert_recorded_motion_free(model: RobotModel, recording, *objects) -> None:
+def assert_recorded_motion_free(mycobot: RobotModel, recording, *objects) -> None:
     """Every recorded /joint_states state is free of collisions in the scene with ``objects``
     (the plain exact all-pairs check)."""
     from interfaces_py.msgs import CollisionObject as SceneObject
     from mycobot_planning.core.planning_scene.planning_scene import PlanningScene
     from mycobot_planning.core.transforms import make_pose
 
-    scene = PlanningScene(model)
+    scene = PlanningScene(mycobot)
     for obj in objects:  # boxes as box() makes them
         p = obj.pose.position
         scene.add_object(SceneObject.box(obj.id, list(obj.primitives[0].dimensions), make_pose([p.x, p.y, p.z])))
-    names = [n for n in recording[0].name if n in model.variable_names]
-    index = np.array([model.variable_index(n) for n in names])
+    names = [n for n in recording[0].name if n in mycobot.variable_names]
+    index = np.array([mycobot.variable_index(n) for n in names])
     rows = np.array([[dict(zip(m.name, m.position))[n] for n in names] for m in recording])
     assert len(rows) > 20
     hits = scene.colliding_rows(index, None, rows, all_pairs=True)
@@ -623,16 +626,16 @@ def at_rest(client: Client) -> bool:
 
 
 @pytest.mark.parametrize("replan", [False, True])
-def test_move_action_reacts_to_an_object_appearing_on_its_path(client: Client, model: RobotModel, replan) -> None:
+def test_move_action_reacts_to_an_object_appearing_on_its_path(client: Client, mycobot: RobotModel, replan) -> None:
     """The issue's scene: joint 1 sweeps from -1.2 to +1.2 rad; during the motion a 6 cm box
     appears where the flange passes at mid-sweep. Without replanning the arm stops short
     (MOTION_PLAN_INVALIDATED_BY_ENVIRONMENT_CHANGE); with it, it plans around and arrives."""
     move(client, SWEEP_START)
-    intruder = box("intruder", flange_position(model, 0.0))
+    intruder = box("intruder", flange_position(mycobot, 0.0))
     try:
         response, states, recording = run_with_intrusion(client, client.move, sweep_goal(replan, 3), intruder)
         code = response.result.error_code
-        assert_recorded_motion_free(model, recording, intruder)
+        assert_recorded_motion_free(mycobot, recording, intruder)
         if replan:
             assert code.val == C.SUCCESS, code.message
             assert "replan" in code.message
@@ -649,25 +652,25 @@ def test_move_action_reacts_to_an_object_appearing_on_its_path(client: Client, m
         remove(client, "intruder")
 
 
-def test_execute_trajectory_stops_short_of_an_object_on_its_path(client: Client, model: RobotModel) -> None:
+def test_execute_trajectory_stops_short_of_an_object_on_its_path(client: Client, mycobot: RobotModel) -> None:
     move(client, SWEEP_START)
     request = joint_goal(SWEEP_END)
     request.motion_plan_request.max_velocity_scaling_factor = 0.3
     request.motion_plan_request.max_acceleration_scaling_factor = 0.3
     response = client.call(GetMotionPlan, "/plan_kinematic_path", request).motion_plan_response
     assert response.error_code.val == C.SUCCESS
-    intruder = box("intruder", flange_position(model, 0.0))
+    intruder = box("intruder", flange_position(mycobot, 0.0))
     try:
         result, _, recording = run_with_intrusion(client, client.execute,
                                                   ExecuteTrajectory.Goal(trajectory=response.trajectory), intruder)
         assert result.result.error_code.val == C.MOTION_PLAN_INVALIDATED_BY_ENVIRONMENT_CHANGE
-        assert_recorded_motion_free(model, recording, intruder)
+        assert_recorded_motion_free(mycobot, recording, intruder)
         assert at_rest(client)
     finally:
         remove(client, "intruder")
 
 
-def test_an_object_away_from_the_path_does_not_stop_the_motion(client: Client, model: RobotModel) -> None:
+def test_an_object_away_from_the_path_does_not_stop_the_motion(client: Client, mycobot: RobotModel) -> None:
     move(client, SWEEP_START)
     far = box("bystander", [0.0, -0.35, 0.05], size=(0.05, 0.05, 0.05))
     try:
@@ -798,19 +801,19 @@ def run_solution(client: Client, solution, at: float, act) -> object:
     return response, recording
 
 
-def test_a_task_solution_stops_at_the_step_whose_path_became_invalid(client: Client, model: RobotModel) -> None:
+def test_a_task_solution_stops_at_the_step_whose_path_became_invalid(client: Client, mycobot: RobotModel) -> None:
     """A box appears on the second sub-trajectory's path: the execution stops there short of the
     box and fails naming that step (MTC does not replan); the third never runs."""
     move(client, SWEEP_START)
     solution, first = three_step_solution(client)
-    intruder = box("intruder", flange_position(model, 0.3))
+    intruder = box("intruder", flange_position(mycobot, 0.3))
     try:
         response, recording = run_solution(client, solution, first + 0.3,
                                            lambda handle: client.object_pub.publish(intruder))
         code = response.result.error_code
         assert code.val == C.MOTION_PLAN_INVALIDATED_BY_ENVIRONMENT_CHANGE, code.message
         assert "step 1" in code.message and "intruder" in code.message
-        assert_recorded_motion_free(model, recording, intruder)
+        assert_recorded_motion_free(mycobot, recording, intruder)
         arm = client.arm()
         assert -0.6 < arm[0] < 0.3 and at_rest(client)  # stopped in the sweep, before the box; never returned
     finally:

@@ -15,45 +15,26 @@ import subprocess
 import numpy as np
 import pytest
 from rclpy.parameter import Parameter
-from std_msgs.msg import String
 
 from interfaces_py.clients import PlanningSceneInterface
 from interfaces_py.msgs import TaskSolution, TaskStatistics
 from mycobot_planning.core import RobotModel
 from mycobot_planning.ros.task.task_node import EXIT_PLANNING_FAILED
-from mycobot_planning.ros.task.task_topics import SOLUTION_QOS, STATISTICS_QOS, task_topics
+from mycobot_planning.ros.task.task_topics import task_topics
 from mycobot_planning.paths import config_file
 from mycobot_planning.demos.pick_place import PickPlaceParameters, expected_place_pose
-from ros_testing import PYTHON, REPO, NodeProcess, ProbeNode, ros_env, wait_until, robot_processes
+from ros_testing import PYTHON, REPO, NodeProcess, TaskProbe, ros_env, wait_until, robot_processes
 from task_helpers import replay_task_solution
 
 PARAMS_FILE = str(config_file("mtc_node_params.yaml"))
 
 
-class Probe(ProbeNode):
+class Probe(TaskProbe):
     """In-test node (private context): mtc_node's task topics, services and parameters."""
 
     def __init__(self) -> None:
-        super().__init__("mtc_node_test_probe")
-        self.received: dict[str, list[str]] = {}
-        for node in ("mtc_node", "pick_place_demo"):
-            topics = task_topics(node)
-            for topic, qos in ((topics.statistics, STATISTICS_QOS), (topics.solution, SOLUTION_QOS)):
-                self.received[topic] = []
-                self.node.create_subscription(String, topic, lambda m, t=topic: self._on(t, m.data), qos)
+        super().__init__("mtc_node_test_probe", ("mtc_node", "pick_place_demo"), description=False)
         self.spin_in_background()
-
-    def _on(self, topic: str, data: str) -> None:
-        with self.lock:
-            self.received[topic].append(data)
-
-    def count(self, topic: str) -> int:
-        with self.lock:
-            return len(self.received[topic])
-
-    def latest(self, topic: str) -> str:
-        with self.lock:
-            return self.received[topic][-1]
 
 
 @pytest.fixture(scope="module")

@@ -20,35 +20,28 @@ from std_srvs.srv import Trigger
 
 from interfaces_py.json_rpc import JsonRpcClient
 from mycobot_planning.behavior_tree.behaviors import WaypointStore
-from mycobot_planning.paths import config_dir, config_file
+from mycobot_planning.paths import config_dir
 from mycobot_planning.ros.objectives.objective_client import ObjectiveClient
-from ros_testing import PYTHON, REPO, NodeProcess, ProbeNode, ros_env, use_session_domain, wait_until
+from ros_testing import (PERCEPTION_STACK_READY, PYTHON, REPO, NodeProcess, ProbeNode, close_stack, perception_stack,
+                         ros_env, wait_until)
 
 C = MoveItErrorCodes
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 WAYPOINTS = WaypointStore(config_dir() / "waypoints" / "mycobot_waypoints.yaml")
 ARM = WAYPOINTS.get("Home").joint_names
-SMALL = ["-p", "width:=320", "-p", "height:=240"]
 
 
 @pytest.fixture(scope="module")
 def system():
-    use_session_domain()
     procs = {
-        "controllers": NodeProcess("mycobot_planning.nodes.mock_controllers"),
-        "server": NodeProcess("mycobot_planning.nodes.planning_server",
-                              ["--ros-args", "--params-file", str(config_file("planning_server.yaml"))]),
-        "camera": NodeProcess("mycobot_planning.nodes.camera_simulator", ["--ros-args", *SMALL, "-p", "rate:=2.0"]),
-        "perception": NodeProcess("mycobot_planning.nodes.perception_server",
-                                  ["--ros-args", "--params-file", str(config_file("perception_server.yaml"))]),
+        **perception_stack(),
         "objectives": NodeProcess("mycobot_planning.nodes.objective_server"),
         "viewer": NodeProcess("mycobot_planning.nodes.task_viewer", ["--ros-args", "-p", "port:=0"]),
     }
     probe = client = None
     try:
-        for key, text in (("controllers", "controller_manager ready"), ("server", "planning_server ready"),
-                          ("camera", "camera_simulator ready"), ("perception", "perception_server ready"),
-                          ("objectives", "objective_server ready"), ("viewer", "task_viewer: open http")):
+        for key, text in (*PERCEPTION_STACK_READY.items(), ("objectives", "objective_server ready"),
+                          ("viewer", "task_viewer: open http")):
             assert procs[key].wait_for_output(text, 60), procs[key].output()
         probe = ProbeNode("objective_server_test")
         probe.listen_to_joint_states()
@@ -64,12 +57,7 @@ def system():
         yield {"probe": probe, "client": client, "statuses": statuses, "prompts": prompts, "procs": procs,
                "viewer": rpc}
     finally:
-        if client is not None:
-            client.close()
-        if probe is not None:
-            probe.close()
-        for proc in reversed(list(procs.values())):
-            proc.stop()
+        close_stack((client, probe), procs)
 
 
 def arm(probe) -> list[float]:

@@ -57,14 +57,14 @@ from mycobot_planning.perception import (
     pack_xyzrgb,
 )
 from mycobot_planning.demos.pick_place import PickPlaceParameters, expected_place_pose, load_parameters
-from ros_testing import PYTHON, REPO, NodeProcess, ProbeNode, ros_env, use_session_domain, wait_until
+from ros_testing import (PERCEPTION_STACK_READY, PYTHON, REPO, NodeProcess, ProbeNode, close_stack, perception_stack,
+                         ros_env, wait_until)
 
 TOPIC = "/camera_head/depth/color/points"
 GARBAGE_TOPIC = "/garbage/points"
 CYLINDER = ("cylinder", [0.35, 0.0125])
 CAMERA, SCENE = load_camera_scene(config_file("camera_scene.yaml"))
 GT_CYLINDER, GT_BOX = SCENE.cylinders[0], SCENE.boxes[0]
-SMALL = ["-p", "width:=320", "-p", "height:=240"]
 
 
 # ---------------------------------------------------------------------------- ROS-free glue
@@ -164,23 +164,15 @@ class Probe(ProbeNode):
 
 @pytest.fixture(scope="module")
 def system():
-    use_session_domain()
     procs = {
-        "controllers": NodeProcess("mycobot_planning.nodes.mock_controllers"),
-        "server": NodeProcess("mycobot_planning.nodes.planning_server",
-                              ["--ros-args", "--params-file", str(config_file("planning_server.yaml"))]),
-        "camera": NodeProcess("mycobot_planning.nodes.camera_simulator", ["--ros-args", *SMALL, "-p", "rate:=2.0"]),
-        "perception": NodeProcess("mycobot_planning.nodes.perception_server",
-                                  ["--ros-args", "--params-file", str(config_file("perception_server.yaml"))]),
+        **perception_stack(),
         "garbage": NodeProcess("mycobot_planning.nodes.perception_server",
                                ["--ros-args", "-r", "__node:=perception_garbage",
                                 "-p", f"point_cloud_topic:={GARBAGE_TOPIC}"], name="perception_garbage"),
     }
     probe = scene = perception = garbage = None
     try:
-        for key, text in (("controllers", "controller_manager ready"), ("server", "planning_server ready"),
-                          ("camera", "camera_simulator ready"), ("perception", "perception_server ready"),
-                          ("garbage", "perception_server ready")):
+        for key, text in (*PERCEPTION_STACK_READY.items(), ("garbage", "perception_server ready")):
             assert procs[key].wait_for_output(text, 30), procs[key].output()
         probe = Probe()
         scene = PlanningSceneInterface(timeout=10.0)
@@ -190,13 +182,7 @@ def system():
         assert procs["perception"].wait_for_output("first point cloud received", 20), procs["perception"].output()
         yield {"probe": probe, "scene": scene, "perception": perception, "garbage": garbage, "procs": procs}
     finally:
-        for client in (garbage, perception, scene):
-            if client is not None:
-                client.close()
-        if probe is not None:
-            probe.close()
-        for proc in reversed(list(procs.values())):
-            proc.stop()
+        close_stack((garbage, perception, scene, probe), procs)
 
 
 def _check_against_ground_truth(result: PerceptionResult) -> None:

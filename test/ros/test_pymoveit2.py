@@ -15,15 +15,11 @@ from rclpy.executors import MultiThreadedExecutor
 from scipy.spatial.transform import Rotation
 
 from mycobot_planning.core.robot_model.robot_model import RobotModel
-from mycobot_planning.core.robot_state.robot_state import RobotState
-from ros_testing import ProbeNode, wait_until, robot_processes
+from mycobot_arm import ARM, READY, TIP, tip_pose
+from ros_testing import ProbeNode, pymoveit2_joints, wait_until, robot_processes
 
 pymoveit2 = pytest.importorskip("pymoveit2", reason="pymoveit2 is installed by scripts/setup.sh")
 
-ARM = ["link1_to_link2", "link2_to_link3", "link3_to_link4", "link4_to_link5", "link5_to_link6",
-       "link6_to_link6_flange"]
-TIP = "link6_flange"
-READY = [0.0, -0.3, 0.6, 0.2, 0.0, 0.0]
 
 
 class Client(ProbeNode):
@@ -46,11 +42,7 @@ class Client(ProbeNode):
 
     def joints(self, names: list[str]) -> np.ndarray:
         """Positions from the newest /joint_states message received after this call."""
-        self.moveit2.reset_new_joint_state_checker()
-        assert wait_until(lambda: self.moveit2.new_joint_state_available, 5.0)
-        state = self.moveit2.joint_state
-        index = {n: i for i, n in enumerate(state.name)}
-        return np.array([state.position[index[n]] for n in names])
+        return pymoveit2_joints(self.moveit2, names)
 
 
 @pytest.fixture(scope="module")
@@ -63,17 +55,6 @@ def client():
             yield user
         finally:
             user.close()
-
-
-@pytest.fixture(scope="module")
-def model() -> RobotModel:
-    return RobotModel.mycobot()
-
-
-def tip_pose(model: RobotModel, arm: np.ndarray) -> np.ndarray:
-    state = RobotState(model)
-    state.set_joint_positions(dict(zip(ARM, arm)))
-    return state.frame_pose(TIP)
 
 
 def move_to(client: Client, target: list[float], action: bool = False) -> None:
@@ -96,24 +77,24 @@ def test_move_to_configuration_through_move_action(client: Client) -> None:
 
 
 @pytest.mark.parametrize("action", [False, True], ids=["plan+execute", "move_action"])
-def test_move_to_pose_reaches_the_pose(client: Client, model: RobotModel, action: bool) -> None:
+def test_move_to_pose_reaches_the_pose(client: Client, mycobot: RobotModel, action: bool) -> None:
     move_to(client, READY)
-    goal = tip_pose(model, np.array([0.5, -0.4, 0.8, 0.1, 0.3, 0.2]))
+    goal = tip_pose(mycobot, np.array([0.5, -0.4, 0.8, 0.1, 0.3, 0.2]))
     quat = Rotation.from_matrix(goal[:3, :3]).as_quat()
     moveit2 = client.moveit2_action if action else client.moveit2
     assert moveit2.move_to_pose(position=goal[:3, 3].tolist(), quat_xyzw=quat.tolist())
     assert moveit2.wait_until_executed()
-    reached = tip_pose(model, client.joints(ARM))
+    reached = tip_pose(mycobot, client.joints(ARM))
     assert np.linalg.norm(reached[:3, 3] - goal[:3, 3]) < 2e-3
     assert np.degrees(Rotation.from_matrix(reached[:3, :3].T @ goal[:3, :3]).magnitude()) < 1.0
 
 
-def test_compute_fk_and_ik_agree_with_our_kinematics(client: Client, model: RobotModel) -> None:
+def test_compute_fk_and_ik_agree_with_our_kinematics(client: Client, mycobot: RobotModel) -> None:
     arm = np.array([0.2, -0.5, 0.7, 0.3, -0.2, 0.4])
     from sensor_msgs.msg import JointState
 
     fk = client.moveit2.compute_fk(joint_state=JointState(name=ARM, position=arm.tolist()))
-    ours = tip_pose(model, arm)
+    ours = tip_pose(mycobot, arm)
     got = fk[0] if isinstance(fk, list) else fk
     assert got.header.frame_id == "base_link"
     p, q = got.pose.position, got.pose.orientation
@@ -122,7 +103,7 @@ def test_compute_fk_and_ik_agree_with_our_kinematics(client: Client, model: Robo
     solution = client.moveit2.compute_ik(position=[p.x, p.y, p.z], quat_xyzw=[q.x, q.y, q.z, q.w])
     assert solution is not None
     values = dict(zip(solution.name, solution.position))
-    solved = tip_pose(model, np.array([values[j] for j in ARM]))
+    solved = tip_pose(mycobot, np.array([values[j] for j in ARM]))
     assert np.linalg.norm(solved[:3, 3] - ours[:3, 3]) < 1e-4
     assert Rotation.from_matrix(solved[:3, :3].T @ ours[:3, :3]).magnitude() < 1e-3
 
@@ -159,15 +140,15 @@ def test_collision_box_add_attach_detach_remove(client: Client) -> None:
     assert wait_until(lambda: "pm2_box" not in [o.id for o in _scene(client).world.collision_objects], 5.0)
 
 
-def test_cartesian_move_goes_straight_down(client: Client, model: RobotModel) -> None:
+def test_cartesian_move_goes_straight_down(client: Client, mycobot: RobotModel) -> None:
     move_to(client, READY)
-    start = tip_pose(model, client.joints(ARM))
+    start = tip_pose(mycobot, client.joints(ARM))
     goal = start.copy()
     goal[2, 3] -= 0.04
     quat = Rotation.from_matrix(goal[:3, :3]).as_quat()
     assert client.moveit2.move_to_pose(position=goal[:3, 3].tolist(), quat_xyzw=quat.tolist(), cartesian=True)
     assert client.moveit2.wait_until_executed()
-    reached = tip_pose(model, client.joints(ARM))
+    reached = tip_pose(mycobot, client.joints(ARM))
     assert np.linalg.norm(reached[:3, 3] - goal[:3, 3]) < 2e-3
     assert Rotation.from_matrix(reached[:3, :3].T @ goal[:3, :3]).magnitude() < 0.02
 

@@ -39,15 +39,13 @@ from std_srvs.srv import SetBool
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from interfaces_py.msgs import CollisionObject as CoreCollisionObject
-from mycobot_planning.core import PlanningScene, RobotModel, RobotState
+from mycobot_planning.core import PlanningScene, RobotState
 from mycobot_planning.core.servo import StatusCode
 from mycobot_planning.core.transforms import make_pose, matrix_to_quat
 from mycobot_planning.paths import config_file
+from mycobot_arm import ARM, tip_pose
 from ros_testing import NodeProcess, ProbeNode, REPO, ros_env, robot_processes, wait_until
 
-ARM = ["link1_to_link2", "link2_to_link3", "link3_to_link4", "link4_to_link5", "link5_to_link6",
-       "link6_to_link6_flange"]
-TIP = "link6_flange"
 WORK = [0.0, -0.5, -1.0, -0.2, 0.3, 0.0]  # +y from here extends the arm: the elbow singularity
 START = [0.0, 0.3, -1.6, 0.0, 0.3, 0.0]  # room (10 cm) along +y and -x before any singularity
 PERIOD, TIMEOUT = 0.01, 0.1
@@ -227,17 +225,6 @@ class Probe(ProbeNode):
         return scene is not None and any(o.id == name for o in scene.world.collision_objects)
 
 
-@pytest.fixture(scope="module")
-def model() -> RobotModel:
-    return RobotModel.mycobot()
-
-
-def tip_pose(model: RobotModel, arm) -> np.ndarray:
-    state = RobotState(model)
-    state.set_joint_positions(dict(zip(ARM, arm)))
-    return state.frame_pose(TIP)
-
-
 def angle_deg(a, b) -> float:
     return math.degrees(math.acos(np.clip(np.dot(a, b) / (np.linalg.norm(a) * np.linalg.norm(b)), -1, 1)))
 
@@ -263,11 +250,11 @@ def logged_after(node, mark: int, words: str) -> bool:
     return words in node.output()[mark:]
 
 
-def tip_moved(model, probe: Probe, start_tip: np.ndarray, since: float, distance: float) -> bool:
+def tip_moved(mycobot, probe: Probe, start_tip: np.ndarray, since: float, distance: float) -> bool:
     """Whether the servo's newest command (stamped after ``since``) puts the flange ``distance``
     from ``start_tip``."""
     commanded = probe.commanded_after(since)
-    return commanded is not None and np.linalg.norm(tip_pose(model, commanded)[:3, 3] - start_tip) >= distance
+    return commanded is not None and np.linalg.norm(tip_pose(mycobot, commanded)[:3, 3] - start_tip) >= distance
 
 
 def joint_moved(probe: Probe, joint: int, start: np.ndarray, since: float, distance: float) -> bool:
@@ -275,6 +262,24 @@ def joint_moved(probe: Probe, joint: int, start: np.ndarray, since: float, dista
     ``distance`` (signed) from ``start``."""
     commanded = probe.commanded_after(since)
     return commanded is not None and (commanded[joint] - start[joint]) * math.copysign(1.0, distance) >= abs(distance)
+
+
+def jog_first_joint(probe: Probe, start: np.ndarray, since: float, distance: float, failure: str) -> float:
+    """Jog link1_to_link2 at full speed (the sign of ``distance``) until the servo's newest
+    command has it ``distance`` from ``start``; the stamp of the last command sent."""
+    speed = math.copysign(1.0, distance)
+    return probe.drive(lambda: probe.send_jog(["link1_to_link2"], [speed]),
+                       lambda: joint_moved(probe, 0, start, since, distance), failure)
+
+
+def assert_commands_ignored(probe: Probe, node, send, says: str, before: np.ndarray, since: float,
+                            failure: str) -> None:
+    """``send`` commands until the servo logs ``says``, and as long again: the arm stays at
+    ``before`` and the servo publishes nothing after ``since``."""
+    mark = len(node.output())
+    probe.drive(send, lambda: logged_after(node, mark, says), failure)
+    probe.stream(send, 0.3)
+    assert np.max(np.abs(probe.settle() - before)) < 1e-9 and probe.outputs_after(since) == []
 
 
 def test_commands_are_ignored_until_the_command_type_is_set(servo):
@@ -293,17 +298,17 @@ def test_commands_are_ignored_until_the_command_type_is_set(servo):
     assert np.max(np.abs(after - before)) < 1e-9 and probe.outputs_after(since) == []
 
 
-def test_twist_moves_the_flange_along_the_command(servo, model):
+def test_twist_moves_the_flange_along_the_command(servo, mycobot):
     probe, _ = servo
     probe.move_to(START)
     assert probe.switch(ServoCommandType.Request.TWIST)
-    start = tip_pose(model, probe.arm())
+    start = tip_pose(mycobot, probe.arm())
     first = probe.mark_status()
     since = time.time()
     last = probe.drive(lambda: probe.send_twist((0.0, 1.0, 0.0)),
-                       lambda: tip_moved(model, probe, start[:3, 3], since, 0.06),
+                       lambda: tip_moved(mycobot, probe, start[:3, 3], since, 0.06),
                        "the servo did not command 6 cm of motion")
-    end = tip_pose(model, probe.wait_rest(last))
+    end = tip_pose(mycobot, probe.wait_rest(last))
     moved = end[:3, 3] - start[:3, 3]
     assert set(probe.statuses_since(first)) == {StatusCode.NO_WARNING}
     assert np.linalg.norm(moved) > 0.03
@@ -321,9 +326,7 @@ def test_joint_jog_moves_only_the_jogged_joint(servo):
     ready(probe, ServoCommandType.Request.JOINT_JOG)
     before = probe.arm()
     since = time.time()
-    last = probe.drive(lambda: probe.send_jog(["link1_to_link2"], [1.0]),
-                       lambda: joint_moved(probe, 0, before, since, 0.15),
-                       "the servo did not jog the joint by 0.15 rad")
+    last = jog_first_joint(probe, before, since, 0.15, "the servo did not jog the joint by 0.15 rad")
     moved = probe.wait_rest(last) - before
     steps = [np.array(m.points[0].positions) for m in probe.outputs_after(since)]
     assert 0.1 < moved[0] <= 0.5 * PERIOD * len(steps) + 1e-9  # scale.joint: 0.5 rad/s, period by period
@@ -331,15 +334,15 @@ def test_joint_jog_moves_only_the_jogged_joint(servo):
     assert np.all(np.abs(moved[1:]) < 1e-9)
 
 
-def test_pose_tracking_ends_within_the_tolerances(servo, model):
+def test_pose_tracking_ends_within_the_tolerances(servo, mycobot):
     probe, _ = servo
     ready(probe, ServoCommandType.Request.POSE)
-    target = tip_pose(model, probe.arm())
+    target = tip_pose(mycobot, probe.arm())
     target[:3, 3] += [-0.03, 0.02, -0.02]
     target[:3, :3] = target[:3, :3] @ make_pose(rpy=[0.1, 0.0, -0.1])[:3, :3]
 
     def reached(arm) -> bool:
-        pose = tip_pose(model, arm)
+        pose = tip_pose(mycobot, arm)
         cos = (np.trace(pose[:3, :3].T @ target[:3, :3]) - 1) / 2
         return np.linalg.norm(pose[:3, 3] - target[:3, 3]) <= 0.001 and math.acos(min(1.0, cos)) <= 0.01
 
@@ -348,7 +351,7 @@ def test_pose_tracking_ends_within_the_tolerances(servo, model):
                        lambda: probe.commanded_after(since) is not None and reached(probe.commanded_after(since)),
                        "the servo did not command the pose target")
     final = probe.wait_rest(last)
-    assert reached(final), tip_pose(model, final)
+    assert reached(final), tip_pose(mycobot, final)
 
 
 def test_a_stopped_command_stream_halts(servo):
@@ -356,9 +359,7 @@ def test_a_stopped_command_stream_halts(servo):
     ready(probe, ServoCommandType.Request.JOINT_JOG)
     start = probe.arm()
     since = time.time()
-    last_sent = probe.drive(lambda: probe.send_jog(["link1_to_link2"], [1.0]),
-                            lambda: joint_moved(probe, 0, start, since, 0.2),
-                            "the servo did not jog the joint by 0.2 rad")
+    last_sent = jog_first_joint(probe, start, since, 0.2, "the servo did not jog the joint by 0.2 rad")
     probe.wait_rest(last_sent)
     outputs = probe.outputs_after(since)
     deadline = last_sent + TIMEOUT + PERIOD  # the last command's stamp: the servo's clock of its age
@@ -382,25 +383,17 @@ def test_pause_and_switch_command_type_behave_as_moveits(servo):
     probe.pause(True)
     since = time.time()
     # paused: until the servo says it drops them, and as long again, nothing may happen
-    mark = len(node.output())
-    probe.drive(lambda: probe.send_jog(["link1_to_link2"], [1.0]),
-                lambda: logged_after(node, mark, "ignoring a command sent while servoing was paused"),
-                "the paused servo did not say it drops commands")
-    probe.stream(lambda: probe.send_jog(["link1_to_link2"], [1.0]), 0.3)
-    assert np.max(np.abs(probe.settle() - before)) < 1e-9 and probe.outputs_after(since) == []
+    assert_commands_ignored(probe, node, lambda: probe.send_jog(["link1_to_link2"], [1.0]),
+                            "ignoring a command sent while servoing was paused", before, since,
+                            "the paused servo did not say it drops commands")
     probe.pause(False)
     # twists are ignored while the type is JOINT_JOG: until the servo says so, and as long again
-    mark = len(node.output())
     since = time.time()
-    probe.drive(lambda: probe.send_twist((1.0, 0.0, 0.0)),
-                lambda: logged_after(node, mark, "ignoring a TWIST command: the command type is JOINT_JOG"),
-                "the servo did not say it ignores twists in JOINT_JOG")
-    probe.stream(lambda: probe.send_twist((1.0, 0.0, 0.0)), 0.3)
-    assert np.max(np.abs(probe.settle() - before)) < 1e-9 and probe.outputs_after(since) == []
+    assert_commands_ignored(probe, node, lambda: probe.send_twist((1.0, 0.0, 0.0)),
+                            "ignoring a TWIST command: the command type is JOINT_JOG", before, since,
+                            "the servo did not say it ignores twists in JOINT_JOG")
     since = time.time()
-    last = probe.drive(lambda: probe.send_jog(["link1_to_link2"], [-1.0]),
-                       lambda: joint_moved(probe, 0, before, since, -0.08),
-                       "the servo did not jog the joint after the pause")
+    last = jog_first_joint(probe, before, since, -0.08, "the servo did not jog the joint after the pause")
     assert probe.wait_rest(last)[0] < before[0] - 0.05
 
 
@@ -417,39 +410,34 @@ def test_parameters_are_checked_one_by_one_and_together(servo):
     assert probe.set_param("servo_node", Parameter("moveit_servo.scale.joint", value=0.5)).successful
 
 
-def test_humble_start_and_stop_servo(servo, model):
+def test_humble_start_and_stop_servo(servo, mycobot):
     probe, node = servo
     ready(probe, ServoCommandType.Request.POSE)
     assert probe.trigger("/servo_node/stop_servo").success
     before = probe.arm()
     since = time.time()
     # stopped: until the servo says it drops them, and as long again, nothing may happen
-    mark = len(node.output())
-    probe.drive(lambda: probe.send_jog(["link1_to_link2"], [1.0]),
-                lambda: logged_after(node, mark, "ignoring a command sent while servoing was paused"),
-                "the stopped servo did not say it drops commands")
-    probe.stream(lambda: probe.send_jog(["link1_to_link2"], [1.0]), 0.3)
-    assert np.max(np.abs(probe.settle() - before)) < 1e-9 and probe.outputs_after(since) == []
+    assert_commands_ignored(probe, node, lambda: probe.send_jog(["link1_to_link2"], [1.0]),
+                            "ignoring a command sent while servoing was paused", before, since,
+                            "the stopped servo did not say it drops commands")
     assert probe.trigger("/servo_node/start_servo").success
     # Humble's servo takes twists and joint jogs alike, without switch_command_type
     since = time.time()
-    last = probe.drive(lambda: probe.send_jog(["link1_to_link2"], [1.0]),
-                       lambda: joint_moved(probe, 0, before, since, 0.08),
-                       "the started servo did not jog the joint")
+    last = jog_first_joint(probe, before, since, 0.08, "the started servo did not jog the joint")
     jogged = probe.wait_rest(last)
     assert jogged[0] > before[0] + 0.05
-    start = tip_pose(model, jogged)[:3, 3]
+    start = tip_pose(mycobot, jogged)[:3, 3]
     since = time.time()
     last = probe.drive(lambda: probe.send_twist((-1.0, 0.0, 0.0)),
-                       lambda: tip_moved(model, probe, start, since, 0.03),
+                       lambda: tip_moved(mycobot, probe, start, since, 0.03),
                        "the started servo did not follow the twist")
     assert np.max(np.abs(probe.wait_rest(last) - jogged)) > 0.01
 
 
-def test_toward_a_box_the_arm_decelerates_and_halts_short_of_it(servo, model):
+def test_toward_a_box_the_arm_decelerates_and_halts_short_of_it(servo, mycobot):
     probe, _ = servo
     ready(probe, ServoCommandType.Request.TWIST)
-    tip = tip_pose(model, probe.arm())[:3, 3]
+    tip = tip_pose(mycobot, probe.arm())[:3, 3]
     center = tip + [0.0, 0.10, 0.0]
     box = CollisionObject()
     box.id, box.header.frame_id, box.operation = "servo_box", "world", CollisionObject.ADD
@@ -474,9 +462,9 @@ def test_toward_a_box_the_arm_decelerates_and_halts_short_of_it(servo, model):
         statuses = probe.statuses_since(first)
         assert StatusCode.DECELERATE_FOR_COLLISION in statuses and StatusCode.HALT_FOR_COLLISION in statuses
         assert statuses.index(StatusCode.DECELERATE_FOR_COLLISION) < statuses.index(StatusCode.HALT_FOR_COLLISION)
-        scene = PlanningScene(model)
+        scene = PlanningScene(mycobot)
         scene.add_object(CoreCollisionObject.box("servo_box", [0.1, 0.04, 0.1], make_pose(center)))
-        state = RobotState(model)
+        state = RobotState(mycobot)
         state.set_joint_positions(dict(zip(ARM, final)))
         clearance = scene.distance(state, include_self=False).min_distance
         assert 0.0 < clearance < 0.005
@@ -506,10 +494,10 @@ def test_toward_a_singularity_the_arm_halts(servo):
     assert np.max(np.abs(probe.wait_rest(last) - held)) < 1e-3
 
 
-def test_toward_a_joint_limit_the_joint_halts_inside_it(servo, model):
+def test_toward_a_joint_limit_the_joint_halts_inside_it(servo, mycobot):
     probe, _ = servo
     ready(probe, ServoCommandType.Request.JOINT_JOG, arm=[2.5, *START[1:]])
-    upper = model.joint("link1_to_link2").upper
+    upper = mycobot.joint("link1_to_link2").upper
     first = probe.mark_status()
     last = probe.drive(lambda: probe.send_jog(["link1_to_link2"], [1.0]),
                        lambda: StatusCode.JOINT_BOUND in probe.statuses_since(first),
@@ -593,7 +581,7 @@ def test_a_command_flood_moves_the_arm_smoothly(servo):
     assert no_jump(probe, started) <= 1.05  # and the controller follows without one
 
 
-def pymoveit2_twist(probe: Probe, model, legacy: bool) -> None:
+def pymoveit2_twist(probe: Probe, mycobot, legacy: bool) -> None:
     pymoveit2 = pytest.importorskip("pymoveit2", reason="pymoveit2 5.0.0 comes with scripts/requirements.txt")
     from rclpy.callback_groups import ReentrantCallbackGroup
 
@@ -601,7 +589,7 @@ def pymoveit2_twist(probe: Probe, model, legacy: bool) -> None:
                                     legacy_interface=legacy)
     try:
         assert client.uses_legacy_interface == legacy
-        start = tip_pose(model, probe.arm())
+        start = tip_pose(mycobot, probe.arm())
         since = time.time()
         last = [since]
 
@@ -610,9 +598,9 @@ def pymoveit2_twist(probe: Probe, model, legacy: bool) -> None:
                 last[0] = time.time()  # at or after the twist's stamp
             return last[0]
 
-        sent = probe.drive(send, lambda: tip_moved(model, probe, start[:3, 3], since, 0.05),
+        sent = probe.drive(send, lambda: tip_moved(mycobot, probe, start[:3, 3], since, 0.05),
                            "pymoveit2's twists did not move the arm 5 cm")
-        final = tip_pose(model, probe.wait_rest(sent))
+        final = tip_pose(mycobot, probe.wait_rest(sent))
     finally:
         # pymoveit2 pauses (stops) the servo asynchronously, and only when no request of its own is
         # in flight: the test's own pause, answered, leaves the servo paused whatever it did (the
@@ -624,17 +612,17 @@ def pymoveit2_twist(probe: Probe, model, legacy: bool) -> None:
     assert angle_deg(direction, [0.0, 1.0, 0.0]) <= 2.0
 
 
-def test_pymoveit2_servo_moves_the_arm_with_the_jazzy_interface(servo, model):
+def test_pymoveit2_servo_moves_the_arm_with_the_jazzy_interface(servo, mycobot):
     probe, _ = servo
     ready(probe, ServoCommandType.Request.JOINT_JOG)  # pymoveit2 switches to TWIST itself
-    pymoveit2_twist(probe, model, legacy=False)
+    pymoveit2_twist(probe, mycobot, legacy=False)
 
 
-def test_pymoveit2_servo_moves_the_arm_with_the_legacy_interface(servo, model):
+def test_pymoveit2_servo_moves_the_arm_with_the_legacy_interface(servo, mycobot):
     probe, _ = servo
     ready(probe, ServoCommandType.Request.POSE)
     probe.pause(True)  # Humble clients start the servo with start_servo
-    pymoveit2_twist(probe, model, legacy=True)
+    pymoveit2_twist(probe, mycobot, legacy=True)
 
 
 class Terminal:
@@ -671,7 +659,7 @@ class Terminal:
         os.close(self.master)
 
 
-def test_keyboard_teleop_drives_the_arm(servo, model):
+def test_keyboard_teleop_drives_the_arm(servo, mycobot):
     probe, node = servo
     probe.pause(False)
     probe.move_to(START)
@@ -686,13 +674,13 @@ def test_keyboard_teleop_drives_the_arm(servo, model):
     try:
         assert wait_until(lambda: "twist mode" in terminal.read(), 60.0), terminal.read()
         assert "Use arrow keys and the '.' and ';' keys to Cartesian jog" in terminal.text
-        start = tip_pose(model, probe.arm())
+        start = tip_pose(mycobot, probe.arm())
         since = time.time()
         # right arrow: +y in the base frame, pressed (as a held key repeats) until the servo moved 2 cm
-        last = probe.drive(press("\x1b[C"), lambda: tip_moved(model, probe, start[:3, 3], since, 0.02),
+        last = probe.drive(press("\x1b[C"), lambda: tip_moved(mycobot, probe, start[:3, 3], since, 0.02),
                            "the arrow key did not move the arm", rate=33.0)
         after_twist = probe.wait_rest(last)
-        moved = tip_pose(model, after_twist)[:3, 3] - start[:3, 3]
+        moved = tip_pose(mycobot, after_twist)[:3, 3] - start[:3, 3]
         assert np.linalg.norm(moved) > 0.01 and angle_deg(moved, [0.0, 1.0, 0.0]) <= 5.0
         mark = len(node.output())
         terminal.press("j")

@@ -17,7 +17,7 @@ from scipy.spatial.transform import Rotation
 from mycobot_planning.core.robot_model.robot_model import RobotModel
 from mycobot_planning.core.robot_state.robot_state import RobotState
 from mycobot_planning.paths import example_robot_data_dir
-from ros_testing import ProbeNode, robot_processes, wait_until
+from ros_testing import ProbeNode, pymoveit2_joints, robot_processes
 
 pymoveit2 = pytest.importorskip("pymoveit2", reason="pymoveit2 is installed by scripts/setup.sh")
 
@@ -48,11 +48,7 @@ class Client(ProbeNode):
         self.spin_in_background()
 
     def joints(self) -> np.ndarray:
-        self.moveit2.reset_new_joint_state_checker()
-        assert wait_until(lambda: self.moveit2.new_joint_state_available, 5.0)
-        state = self.moveit2.joint_state
-        index = {n: i for i, n in enumerate(state.name)}
-        return np.array([state.position[index[n]] for n in ARM])
+        return pymoveit2_joints(self.moveit2, ARM)
 
 
 @pytest.fixture(scope="module")

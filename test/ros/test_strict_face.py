@@ -24,19 +24,15 @@ from moveit_msgs.srv import (
 
 from mycobot_planning.core.robot_model.robot_model import RobotModel
 from mycobot_planning.core.robot_state.robot_state import RobotState
-from ros_testing import robot_processes, wait_until
-from test_move_group_api import ARM, FAR, READY, C, Client, box, joint_goal, world_ids
+from mycobot_arm import ARM, READY
+from ros_testing import wait_until
+from test_move_group_api import FAR, C, Client, box, joint_goal, move_group_client, world_ids
 
 
 @pytest.fixture(scope="module")
 def client():
-    with robot_processes() as (_, server):
-        user = Client()
-        user.server = server
-        try:
-            yield user
-        finally:
-            user.close()
+    with move_group_client() as user:
+        yield user
 
 
 def _move_goal(values, group: str = "arm", plan_only: bool = True, *objects) -> MoveGroup.Goal:

@@ -19,45 +19,31 @@ import pytest
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
-from std_msgs.msg import String
 from trajectory_msgs.msg import JointTrajectory as JointTrajectoryMsg
 
 from interfaces_py.msgs import TaskDescription, TaskSolution, TaskStatistics
-from mycobot_planning.core import PlanningScene, RobotModel
-from mycobot_planning.core.trajectory_processing import TimedTrajectory
-from mycobot_planning.core.trajectory_processing.trajectory_validator import validate_trajectory
+from mycobot_planning.core import RobotModel
 from mycobot_planning.paths import use_fast_discovery
 from mycobot_planning.ros.task.task_node import EXIT_PLANNING_FAILED
-from mycobot_planning.core.robot_trajectory.robot_trajectory import joint_trajectory_to_timed
-from mycobot_planning.ros.task.task_topics import SOLUTION_QOS, STATISTICS_QOS, task_topics
-from ros_testing import PYTHON, REPO, NodeProcess, ProbeNode, robot_processes, ros_env, use_session_domain, wait_until
+from mycobot_planning.ros.task.task_topics import task_topics
+from ros_testing import PYTHON, REPO, NodeProcess, TaskProbe, robot_processes, ros_env, use_session_domain, wait_until
+from task_helpers import replay_task_solution
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 NODES = {"modular": "modular_demo", "fallbacks_move_to": "fallbacks_move_to_demo",
          "ik_clearance_cost": "ik_clearance_cost_demo"}
 
 
-class Probe(ProbeNode):
+class Probe(TaskProbe):
     """In-test node (private context): task topics of the three demos, display path, joint states."""
 
     def __init__(self) -> None:
-        super().__init__("task_nodes_test_probe")
-        self.received: dict[str, list[str]] = {}
+        super().__init__("task_nodes_test_probe", NODES.values())
         self.display: list[JointTrajectoryMsg] = []
         self.joint_history: list[tuple[float, dict[str, float]]] = []
-        for node in NODES.values():
-            topics = task_topics(node)
-            for topic, qos in ((topics.description, STATISTICS_QOS), (topics.statistics, STATISTICS_QOS),
-                               (topics.solution, SOLUTION_QOS)):
-                self.received[topic] = []
-                self.node.create_subscription(String, topic, lambda m, t=topic: self._on(t, m.data), qos)
         self.node.create_subscription(JointTrajectoryMsg, "/planned_path", self._on_display, LATCHED)
         self.node.create_subscription(JointState, "/joint_states", self._on_js, 10)
         self.spin_in_background()
-
-    def _on(self, topic: str, data: str) -> None:
-        with self.lock:
-            self.received[topic].append(data)
 
     def _on_display(self, msg: JointTrajectoryMsg) -> None:
         with self.lock:
@@ -67,14 +53,6 @@ class Probe(ProbeNode):
         with self.lock:
             self.joint_history.append((time.monotonic(), dict(zip(msg.name, msg.position))))
             del self.joint_history[:-10000]
-
-    def count(self, topic: str) -> int:
-        with self.lock:
-            return len(self.received[topic])
-
-    def latest(self, topic: str) -> str:
-        with self.lock:
-            return self.received[topic][-1]
 
     def joints(self) -> dict[str, float]:
         with self.lock:
@@ -140,27 +118,11 @@ def _state_line(lines: list[str], name: str) -> list[str]:
     return [line.split(" / ", 1)[0].split() for line in lines if line.split(" / ", 1)[1] == name]
 
 
-def _timed(jt) -> TimedTrajectory:
-    return joint_trajectory_to_timed(jt)
-
-
 def _replay_and_validate(model: RobotModel, msg: TaskSolution) -> np.ndarray:
     """Validate every sub-trajectory in the scene replayed from the start scene and the diffs
     (each must start where the previous one ended); returns the final joint positions."""
-    scene = PlanningScene.from_msg(model, msg.start_scene)
-    checked = 0
-    for k, sub in enumerate(msg.sub_trajectory):
-        jt = sub.trajectory.joint_trajectory
-        if jt.points:
-            group = sub.trajectory.group_name
-            report = validate_trajectory(scene, _timed(jt), group, scene.current_state)
-            assert report.valid, f"step {k} ({sub.info.stage_name}): {report.problems}"
-            state = scene.current_state.copy()
-            state.set_joint_positions(dict(zip(jt.joint_names, jt.points[-1].positions)))
-            scene.set_current_state(state)
-            checked += 1
-        scene.apply_planning_scene_msg(sub.scene_diff)
-    assert checked > 0
+    scene, moved = replay_task_solution(model, msg)
+    assert moved > 0
     return scene.current_state.positions.copy()
 
 

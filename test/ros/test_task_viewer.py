@@ -33,7 +33,7 @@ from interfaces_py.msgs import JointTrajectory, JointTrajectoryPoint
 from interfaces_py.ros_conversions import joint_trajectory_to_msg
 from mycobot_planning.ros.task.task_topics import TaskIntrospection, parse_task_topic, task_topics
 from ros_testing import NodeProcess, use_session_domain, wait_until
-from task_helpers import build_pick_place, table_scene
+from task_helpers import planned_pick_place, table_scene
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 TASK_NODE = "pick_place_demo"
@@ -90,9 +90,7 @@ class TaskNode:
 
 @pytest.fixture(scope="module")
 def planned(mycobot):
-    task = build_pick_place(mycobot)
-    assert task.plan(max_solutions=1), task.explainFailure(stream=None)
-    return task
+    return planned_pick_place(mycobot)
 
 
 @pytest.fixture(scope="module")

@@ -10,7 +10,7 @@ import pytest
 
 from interfaces_py.msgs import TaskSolution
 from mycobot_planning.core import PlanningScene
-from task_helpers import CONTROLLERS, GRASP_FRAME, GRIPPER_FRAME, PLACE, assert_solution_valid, build_pick_place, chain_is_continuous
+from task_helpers import CONTROLLERS, GRASP_FRAME, GRIPPER_FRAME, PLACE, assert_solution_valid, planned_pick_place, chain_is_continuous
 
 
 
@@ -18,10 +18,7 @@ from task_helpers import CONTROLLERS, GRASP_FRAME, GRIPPER_FRAME, PLACE, assert_
 
 @pytest.fixture(scope="module")
 def planned(mycobot):
-    task = build_pick_place(mycobot)
-    result = task.plan(max_solutions=1)
-    assert result, task.explainFailure(stream=None)
-    return task
+    return planned_pick_place(mycobot)
 
 
 def _step(solution, path):

@@ -38,16 +38,14 @@ from mycobot_planning.visualization.geometry import (
 from mycobot_planning.visualization.playback import Timeline, timeline_from_json
 from mycobot_planning.visualization.plots import plot_scene, plot_trajectory, read_plot_info, snapshot_states
 from mycobot_planning.visualization.task_tree import CHECK, CROSS, PENDING, TaskRegistry, TaskTree
-from task_helpers import build_pick_place, table_scene
+from task_helpers import planned_pick_place, table_scene
 
 ARM = ["link1_to_link2", "link2_to_link3", "link3_to_link4", "link4_to_link5", "link5_to_link6", "link6_to_link6_flange"]
 
 
 @pytest.fixture(scope="module")
 def planned(mycobot):
-    task = build_pick_place(mycobot)
-    assert task.plan(max_solutions=1), task.explainFailure(stream=None)
-    return task
+    return planned_pick_place(mycobot)
 
 
 @pytest.fixture(scope="module")

@@ -4,36 +4,13 @@ The full story: docs/bench.md, section mycobot_planning.bench.peers.pyroboplan_r
 """
 from __future__ import annotations
 
-import json
-import os
+import functools
 import sys
 import time
 
+from runner_protocol import run_parts, run_pose_problems, serve
+
 PEER = "pyroboplan"
-
-
-def _json_out():
-    sys.stdout.flush()
-    out = os.fdopen(os.dup(1), "w", buffering=1)
-    os.dup2(2, 1)
-    sys.stdout = sys.stderr
-    return out
-
-
-def _read_request() -> dict:
-    if len(sys.argv) > 1 and sys.argv[1] != "-":
-        with open(sys.argv[1]) as handle:
-            return json.load(handle)
-    return json.load(sys.stdin)
-
-
-def _version() -> str:
-    try:
-        import importlib.metadata as metadata
-
-        return metadata.version("pyroboplan")
-    except Exception:
-        return "unknown"
 
 
 def _reduced_models(request: dict, spec: dict):
@@ -43,7 +20,6 @@ def _reduced_models(request: dict, spec: dict):
     parts); every joint that is not a planned arm joint (the fingers) is locked at its value.
     """
     import coal
-    import numpy as np
     import pinocchio
     from pyroboplan.core.utils import set_collisions
 
@@ -65,26 +41,49 @@ def _reduced_models(request: dict, spec: dict):
     pinocchio.removeCollisionPairs(model, collision_model, request["srdf"])
     robot_geoms = [g.name for g in collision_model.geometryObjects]
     for box in spec.get("obstacles", []):
-        x, y, z, w = box["orientation_xyzw"]
-        rotation = pinocchio.Quaternion(w, x, y, z).normalized().matrix()
-        placement = pinocchio.SE3(rotation, np.asarray(box["position"], dtype=float))
         collision_model.addGeometryObject(
-            pinocchio.GeometryObject(box["id"], 0, placement, coal.Box(*map(float, box["size"]))))
+            pinocchio.GeometryObject(box["id"], 0, _se3(box), coal.Box(*map(float, box["size"]))))
         for geom in robot_geoms:
             set_collisions(model, collision_model, box["id"], geom, True)
     return model, collision_model
 
 
-def main() -> int:
-    out = _json_out()
-    request = _read_request()
-    if "parts" in request:
-        return _run_parts(out, request)
+def _se3(pose: dict):
+    """The pinocchio SE3 of a ``{"position", "orientation_xyzw"}`` pose."""
     import numpy as np
     import pinocchio
+
+    x, y, z, w = pose["orientation_xyzw"]
+    rotation = pinocchio.Quaternion(w, x, y, z).normalized().matrix()
+    return pinocchio.SE3(rotation, np.asarray(pose["position"], dtype=float))
+
+
+def _ik_and_planner(model, collision_model, data, collision_data, time_limit: float):
+    """DifferentialIk and RRT-Connect with the settings of pyroboplan's Panda examples."""
     from pyroboplan.ik.differential_ik import DifferentialIk, DifferentialIkOptions
-    from pyroboplan.planning.path_shortcutting import shortcut_path
     from pyroboplan.planning.rrt import RRTPlanner, RRTPlannerOptions
+
+    ik_options = DifferentialIkOptions(damping=0.0001, min_step_size=0.025, max_step_size=0.1)
+    ik = DifferentialIk(model, data=data, collision_model=collision_model,
+                        collision_data=collision_data, options=ik_options)
+    rrt_options = RRTPlannerOptions(
+        max_step_size=0.05, max_connection_dist=0.5, rrt_connect=True, bidirectional_rrt=True,
+        rrt_star=False, max_planning_time=time_limit, fast_return=True,
+        goal_biasing_probability=0.15, collision_distance_padding=0.0,
+    )
+    return ik, RRTPlanner(model, collision_model, options=rrt_options)
+
+
+def main() -> int:
+    return serve(_run_pose_problems, _run_parts)
+
+
+def _run_pose_problems(out, request: dict) -> int:
+    """The pose-goal problems: DifferentialIk from the start, then RRT-Connect and the
+    shortcutter, timed together."""
+    import numpy as np
+    import pinocchio
+    from pyroboplan.planning.path_shortcutting import shortcut_path
 
     time_limit = float(request.get("time_limit", 1.0))
     problems = request["problems"]
@@ -94,26 +93,12 @@ def main() -> int:
 
     model, collision_model = _reduced_models(request, first)
     data = model.createData()
-    collision_data = collision_model.createData()
+    ik, planner = _ik_and_planner(model, collision_model, data, collision_model.createData(), time_limit)
     tip_id = model.getFrameId(tip)
-    ik_options = DifferentialIkOptions(damping=0.0001, min_step_size=0.025, max_step_size=0.1)
-    ik = DifferentialIk(model, data=data, collision_model=collision_model,
-                        collision_data=collision_data, options=ik_options)
-    rrt_options = RRTPlannerOptions(
-        max_step_size=0.05, max_connection_dist=0.5, rrt_connect=True, bidirectional_rrt=True,
-        rrt_star=False, max_planning_time=time_limit, fast_return=True,
-        goal_biasing_probability=0.15, collision_distance_padding=0.0,
-    )
-    planner = RRTPlanner(model, collision_model, options=rrt_options)
-
-    def goal_se3(problem: dict):
-        x, y, z, w = problem["goal"]["orientation_xyzw"]
-        rotation = pinocchio.Quaternion(w, x, y, z).normalized().matrix()
-        return pinocchio.SE3(rotation, np.asarray(problem["goal"]["position"], dtype=float))
 
     def solve(problem: dict):
         q_start = np.asarray(problem["start"], dtype=float)
-        target = goal_se3(problem)
+        target = _se3(problem["goal"])
         t0 = time.perf_counter()
         q_goal = ik.solve(tip, target, init_state=q_start.copy())  # solve() edits init_state
         if q_goal is None:
@@ -124,46 +109,21 @@ def main() -> int:
         path = shortcut_path(model, collision_model, path)
         return time.perf_counter() - t0, "Success", path
 
-    setup_seconds = time.perf_counter() - started
-    if problems:
-        solve(problems[0])  # warm-up, untimed
-    out.write(json.dumps({"meta": True, "peer": PEER, "version": _version(),
-                          "setup_seconds": round(setup_seconds, 4)}) + "\n")
+    def goal_errors(problem: dict, path: np.ndarray) -> tuple[float, float]:
+        pinocchio.framesForwardKinematics(model, data, path[-1])
+        reached = data.oMf[tip_id]
+        target = _se3(problem["goal"])
+        return (float(np.linalg.norm(reached.translation - target.translation)),
+                float(np.linalg.norm(pinocchio.log3(target.rotation.T @ reached.rotation))))
 
-    for problem in problems:
-        record = {"index": problem["index"], "success": False, "claimed_success": False}
-        try:
-            seconds, status, path = solve(problem)
-            record.update(seconds=seconds, status=status, claimed_success=path is not None)
-            if path is not None:
-                arr = np.asarray(path, dtype=float)
-                record["waypoints"] = int(len(arr))
-                record["path_length"] = float(np.sum(np.linalg.norm(np.diff(arr, axis=0), axis=1)))
-                record["path"] = [[float(v) for v in q] for q in arr]
-                pinocchio.framesForwardKinematics(model, data, arr[-1])
-                reached = data.oMf[tip_id]
-                target = goal_se3(problem)
-                record["goal_position_error"] = float(
-                    np.linalg.norm(reached.translation - target.translation))
-                record["goal_rotation_error"] = float(
-                    np.linalg.norm(pinocchio.log3(target.rotation.T @ reached.rotation)))
-                record["success"] = (record["goal_position_error"] < 1e-2
-                                     and record["goal_rotation_error"] < 2e-2)
-        except Exception as error:  # one bad problem must not lose the others' results
-            record.setdefault("seconds", None)
-            record["status"] = f"error: {type(error).__name__}: {error}"
-        out.write(json.dumps(record) + "\n")
-    return 0
+    return run_pose_problems(out, PEER, time.perf_counter() - started, problems, solve, goal_errors)
 
 
 def _run_parts(out, request: dict) -> int:
     """The three parts (IK, validity checks, joint-goal plans); see docs/bench.md."""
     import numpy as np
-    import pinocchio
     from pyroboplan.core.utils import check_collisions_at_state
-    from pyroboplan.ik.differential_ik import DifferentialIk, DifferentialIkOptions
     from pyroboplan.planning.path_shortcutting import shortcut_path
-    from pyroboplan.planning.rrt import RRTPlanner, RRTPlannerOptions
 
     parts = request["parts"]
     time_limit = float(request.get("time_limit", 1.0))
@@ -173,61 +133,32 @@ def _run_parts(out, request: dict) -> int:
     data = model.createData()
     collision_data = collision_model.createData()
     tip = parts["tip_link"]
-    ik = DifferentialIk(model, data=data, collision_model=collision_model, collision_data=collision_data,
-                        options=DifferentialIkOptions(damping=0.0001, min_step_size=0.025, max_step_size=0.1))
-    planner = RRTPlanner(model, collision_model, options=RRTPlannerOptions(
-        max_step_size=0.05, max_connection_dist=0.5, rrt_connect=True, bidirectional_rrt=True,
-        rrt_star=False, max_planning_time=time_limit, fast_return=True,
-        goal_biasing_probability=0.15, collision_distance_padding=0.0))
+    ik, planner = _ik_and_planner(model, collision_model, data, collision_data, time_limit)
     start = np.asarray(parts["start"], dtype=float)
 
-    def solve_ik(problem: dict):
-        x, y, z, w = problem["goal"]["orientation_xyzw"]
-        target = pinocchio.SE3(pinocchio.Quaternion(w, x, y, z).normalized().matrix(),
-                               np.asarray(problem["goal"]["position"], dtype=float))
+    def solve_ik(problem: dict) -> dict:
+        target = _se3(problem["goal"])
         t0 = time.perf_counter()
         q = ik.solve(tip, target, init_state=start.copy())  # solve() edits init_state
         seconds = time.perf_counter() - t0
-        return seconds, None if q is None else [float(v) for v in q]
+        return {"seconds": seconds, "solution": None if q is None else [float(v) for v in q]}
 
-    def plan(problem: dict):
+    def plan(problem: dict) -> dict:
         t0 = time.perf_counter()
         path = planner.plan(np.asarray(problem["start"], dtype=float), np.asarray(problem["goal"], dtype=float))
         if not path:
-            return time.perf_counter() - t0, "RRT failed", None
+            return {"seconds": time.perf_counter() - t0, "status": "RRT failed", "path": None}
         path = shortcut_path(model, collision_model, path)
-        return time.perf_counter() - t0, "Success", [[float(v) for v in q] for q in path]
+        return {"seconds": time.perf_counter() - t0, "status": "Success",
+                "path": [[float(v) for v in q] for q in path]}
 
-    setup_seconds = time.perf_counter() - started
-    if parts["ik"]:
-        solve_ik(parts["ik"][0])  # warm-up, untimed
-    if parts["plan"]:
-        plan(parts["plan"][0])
-    out.write(json.dumps({"meta": True, "peer": PEER, "version": _version(),
-                          "setup_seconds": round(setup_seconds, 4)}) + "\n")
-    for problem in parts["ik"]:
-        record = {"part": "ik", "index": problem["index"]}
-        try:
-            record["seconds"], record["solution"] = solve_ik(problem)
-        except Exception as error:  # one bad problem must not lose the others' results
-            record.update(seconds=None, solution=None, status=f"error: {type(error).__name__}: {error}")
-        out.write(json.dumps(record) + "\n")
-    clock = time.perf_counter
-    seconds, colliding = [], []
-    for q in [np.asarray(q, dtype=float) for q in parts["check"]]:
-        t0 = clock()
-        hit = check_collisions_at_state(model, collision_model, q, data, collision_data)
-        seconds.append(clock() - t0)
-        colliding.append(bool(hit))
-    out.write(json.dumps({"part": "check", "seconds": seconds, "colliding": colliding}) + "\n")
-    for problem in parts["plan"]:
-        record = {"part": "plan", "index": problem["index"]}
-        try:
-            record["seconds"], record["status"], record["path"] = plan(problem)
-        except Exception as error:
-            record.update(seconds=None, status=f"error: {type(error).__name__}: {error}", path=None)
-        out.write(json.dumps(record) + "\n")
-    return 0
+    def state(q) -> np.ndarray:
+        return np.asarray(q, dtype=float)
+
+    # A partial, not a closure of ours: the timed call goes straight into pyroboplan.
+    colliding = functools.partial(check_collisions_at_state, model, collision_model,
+                                  data=data, collision_data=collision_data)
+    return run_parts(out, PEER, time.perf_counter() - started, parts, solve_ik, state, colliding, plan)
 
 
 if __name__ == "__main__":

@@ -13,7 +13,6 @@ the arm arrived and never touched the box.
 """
 from __future__ import annotations
 
-import os
 import sys
 import threading
 import time
@@ -265,7 +264,6 @@ def main(argv: list[str] | None = None) -> int:
     demo = Demo("react demo", "react-demo")
 
     def body() -> int:
-        demo.say(f"ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}; logs in {demo.dir}")
         demo.say("starting the mock controllers and the planning_server")
         demo.start_robot()
         return react(demo.say)

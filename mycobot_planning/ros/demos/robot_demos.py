@@ -232,10 +232,12 @@ def show_detections(params_path: str, timeout: float, truth: Callable[[str], Any
 
 
 def run_demo(demo: Demo, body: Callable[[], int]) -> int:
-    """Run ``body`` and stop everything the demo started, whatever happens (Ctrl-C: 130)."""
+    """Say where the demo runs (its ROS domain, its log folder), run ``body`` and stop everything
+    the demo started, whatever happens (Ctrl-C: 130)."""
     previous = {sig: signal.signal(sig, _interrupt) for sig in (signal.SIGINT, signal.SIGTERM)}
     code = 1
     try:
+        demo.say(f"ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}; logs in {demo.dir}")
         code = body()
     except Interrupted:
         code = 130
@@ -314,7 +316,6 @@ def pick_place_demo(argv: list[str]) -> int:
     demo = Demo("demo", "demo", hardware)
 
     def body() -> int:
-        demo.say(f"ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}; logs in {demo.dir}")
         if hardware:
             where = "the emulated arm" if hardware == "emulated" else hardware
             demo.say(f"starting mycobot_driver on {where} and the planning_server")
@@ -344,7 +345,6 @@ def sim_pick_place_demo(sim: str, argv: list[str]) -> int:
     demo = Demo("demo", "demo", sim=sim)
 
     def body() -> int:
-        demo.say(f"ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}; logs in {demo.dir}")
         demo.say("starting mujoco_sim (the MuJoCo twin) and the planning_server")
         demo.start_robot()
         demo.start_extras(demo.viewer_node())
@@ -376,7 +376,6 @@ def sim_perception_demo(sim: str, argv: list[str]) -> int:
     perception_params = str(config_file("perception_server.yaml"))
 
     def body() -> int:
-        demo.say(f"ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}; logs in {demo.dir}")
         demo.say("starting mujoco_sim (the MuJoCo twin, its depth camera at 1 Hz) and the planning_server")
         demo.start_robot()
         demo.say("starting the perception_server on the twin's rendered cloud")
@@ -416,7 +415,6 @@ def perception_demo(argv: list[str]) -> int:
     perception_params = str(config_file("perception_server.yaml"))
 
     def body() -> int:
-        demo.say(f"ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}; logs in {demo.dir}")
         demo.say("starting the mock controllers and the planning_server")
         demo.start_robot()
         demo.say("starting the camera_simulator and the perception_server")

@@ -19,12 +19,10 @@ from typing import Any
 from moveit_msgs.action import GlobalPlanner
 from moveit_msgs.msg import MotionPlanResponse, MoveItErrorCodes, RobotState
 from moveit_msgs.srv import GetMotionPlan
-from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import ReentrantCallbackGroup
-from rclpy.node import Node
 
 from interfaces_py import names
-from mycobot_planning.ros.action_servers import ACTION_SERVER_OPTIONS
+from mycobot_planning.ros.hybrid_planning.component import HybridPlanningComponent
 from mycobot_planning.ros.hybrid_planning.goal_checks import GoalError, motion_plan_request
 from mycobot_planning.ros.node_runtime import ParameterSpec, Parameters
 
@@ -43,7 +41,7 @@ def _global_planner_name(value: Any) -> str | None:
         f"global_planner_name must be one of {', '.join(GLOBAL_PLANNER_NAMES)} (got '{value}')"
 
 
-class GlobalPlannerComponent(Node):
+class GlobalPlannerComponent(HybridPlanningComponent):
     def __init__(self, node_name: str = "global_planner_component", **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
         self._params = Parameters(self, [
@@ -59,23 +57,11 @@ class GlobalPlannerComponent(Node):
                           "move_group's GetMotionPlan service that plans", non_empty=True, read_only=True),
         ])
         group = ReentrantCallbackGroup()
-        self._closing = False
         self._publisher = self.create_publisher(MotionPlanResponse, self._params.get("global_solution_topic"), 1)
         self._plan_client = self.create_client(GetMotionPlan, self._params.get("plan_service"), callback_group=group)
-        self._server = ActionServer(self, GlobalPlanner, self._params.get("global_planning_action_name"),
-                                    self._execute, goal_callback=lambda goal: GoalResponse.ACCEPT,
-                                    cancel_callback=lambda handle: CancelResponse.ACCEPT, callback_group=group,
-                                    **ACTION_SERVER_OPTIONS)
+        self.serve(GlobalPlanner, self._params.get("global_planning_action_name"), self._execute, group)
         self.get_logger().info(f"global planner ready: {self._params.get('global_planning_action_name')} plans "
                                f"through {self._params.get('plan_service')}")
-
-    def close(self) -> None:
-        self._closing = True
-        self._server.destroy()
-
-    def going_down(self) -> bool:
-        """SIGINT/SIGTERM or close(): nothing can reach a client any more."""
-        return self._closing or not self.context.ok()
 
     def _answer(self, goal_handle: Any, code: int, message: str, group: str = "") -> GlobalPlanner.Result:
         result = GlobalPlanner.Result()

@@ -21,9 +21,7 @@ from typing import Any
 
 from moveit_msgs.action import LocalPlanner
 from moveit_msgs.msg import MotionPlanResponse, MoveItErrorCodes, PlanningScene as PlanningSceneRos
-from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
-from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory as JointTrajectoryRos
@@ -33,10 +31,10 @@ from interfaces_py.moveit_conversions import planning_scene_from_msg
 from interfaces_py.msgs import JointTrajectory
 from interfaces_py.ros_conversions import joint_trajectory_to_msg
 from interfaces_py.ros_message_reading import ConversionError
-from mycobot_planning.ros.action_servers import ACTION_SERVER_OPTIONS
 from mycobot_planning.core.hybrid_planning import ForwardTrajectory
 from mycobot_planning.core.planning_scene.planning_scene import PlanningScene
 from mycobot_planning.core.robot_model.robot_model import RobotModel
+from mycobot_planning.ros.hybrid_planning.component import HybridPlanningComponent
 from mycobot_planning.ros.move_group.moveit_translation import joint_trajectory_from_ros
 from mycobot_planning.ros.node_runtime import ParameterSpec, Parameters
 from mycobot_planning.ros.node_waiter import NodeWaiter
@@ -56,7 +54,7 @@ def _one_of(name: str, allowed: tuple[str, ...]) -> Any:
     return check
 
 
-class LocalPlannerComponent(Node):
+class LocalPlannerComponent(HybridPlanningComponent):
     def __init__(self, node_name: str = "local_planner_component", **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
         self._params = Parameters(self, [
@@ -111,7 +109,6 @@ class LocalPlannerComponent(Node):
         self._scene_msg: PlanningSceneRos | None = None
         self._scene_version = 0
         self._active = False
-        self._closing = False
         self._goal_counter = 0
         inputs = MutuallyExclusiveCallbackGroup()
         self.create_subscription(MotionPlanResponse, self._params.get("global_solution_topic"),
@@ -121,22 +118,12 @@ class LocalPlannerComponent(Node):
         self.create_subscription(PlanningSceneRos, self._params.get("monitored_planning_scene_topic"),
                                  self._on_scene, LATCHED_QOS, callback_group=inputs)
         self._command_pub = self.create_publisher(JointTrajectoryRos, self._params.get("local_solution_topic"), 10)
-        self._server = ActionServer(self, LocalPlanner, self._params.get("local_planning_action_name"),
-                                    self._execute, goal_callback=self._on_goal,
-                                    cancel_callback=lambda handle: CancelResponse.ACCEPT,
-                                    callback_group=ReentrantCallbackGroup(), **ACTION_SERVER_OPTIONS)
+        self.serve(LocalPlanner, self._params.get("local_planning_action_name"), self._execute,
+                   ReentrantCallbackGroup())
         self.get_logger().info(
             f"local planner ready: {self._params.get('local_planning_action_name')} follows "
             f"{self._params.get('global_solution_topic')} at {self._params.get('local_planning_frequency'):g} Hz "
             f"on {self._params.get('local_solution_topic')}")
-
-    def close(self) -> None:
-        self._closing = True
-        self._server.destroy()
-
-    def going_down(self) -> bool:
-        """SIGINT/SIGTERM or close(): nothing can reach a client (nor the controller) any more."""
-        return self._closing or not self.context.ok()
 
     # ------------------------------------------------------------------ inputs
     def _on_global_trajectory(self, msg: MotionPlanResponse) -> None:
@@ -164,9 +151,6 @@ class LocalPlannerComponent(Node):
             self._scene_version += 1
 
     # ------------------------------------------------------------------ the action
-    def _on_goal(self, goal: Any) -> GoalResponse:
-        return GoalResponse.ACCEPT
-
     def _finish(self, goal_handle: Any, code: int, message: str, how: str) -> LocalPlanner.Result:
         result = LocalPlanner.Result(error_message=message)
         result.error_code = MoveItErrorCodes(val=code, message=message, source="local_planner_component")

@@ -20,18 +20,16 @@ from typing import Any
 from action_msgs.msg import GoalStatus
 from moveit_msgs.action import GlobalPlanner, HybridPlanner, LocalPlanner
 from moveit_msgs.msg import MotionPlanResponse, MoveItErrorCodes
-from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import ReentrantCallbackGroup
-from rclpy.node import Node
 
 from interfaces_py.action_client import ActionClient
-from mycobot_planning.ros.action_servers import ACTION_SERVER_OPTIONS
 from mycobot_planning.core.hybrid_planning import (
     PLANNER_LOGIC_PLUGINS,
     HybridPlanningAction,
     HybridPlanningEvent,
     planner_logic,
 )
+from mycobot_planning.ros.hybrid_planning.component import HybridPlanningComponent
 from mycobot_planning.ros.hybrid_planning.goal_checks import GoalError, motion_plan_request
 from mycobot_planning.ros.node_runtime import ParameterSpec, Parameters
 
@@ -79,7 +77,7 @@ class _Run:
             return not (self.global_pending or self.local_pending or self.global_goal or self.local_goal)
 
 
-class HybridPlanningManager(Node):
+class HybridPlanningManager(HybridPlanningComponent):
     def __init__(self, node_name: str = "hybrid_planning_manager", **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
         self._params = Parameters(self, [
@@ -98,7 +96,6 @@ class HybridPlanningManager(Node):
                           read_only=True),
         ])
         group = ReentrantCallbackGroup()
-        self._closing = False
         self._run: _Run | None = None
         self._run_lock = threading.Lock()
         self._global = ActionClient(self, GlobalPlanner, self._params.get("global_planning_action_name"),
@@ -107,20 +104,9 @@ class HybridPlanningManager(Node):
                                    callback_group=group)
         self.create_subscription(MotionPlanResponse, self._params.get("global_solution_topic"),
                                  self._on_global_solution, 1, callback_group=group)
-        self._server = ActionServer(self, HybridPlanner, self._params.get("hybrid_planning_action_name"),
-                                    self._execute, goal_callback=lambda goal: GoalResponse.ACCEPT,
-                                    cancel_callback=lambda handle: CancelResponse.ACCEPT, callback_group=group,
-                                    **ACTION_SERVER_OPTIONS)
+        self.serve(HybridPlanner, self._params.get("hybrid_planning_action_name"), self._execute, group)
         self.get_logger().info(f"hybrid planning manager ready: {self._params.get('hybrid_planning_action_name')} "
                                f"with {self._params.get('planner_logic_plugin_name')}")
-
-    def close(self) -> None:
-        self._closing = True
-        self._server.destroy()
-
-    def going_down(self) -> bool:
-        """SIGINT/SIGTERM or close(): nothing can reach a client any more."""
-        return self._closing or not self.context.ok()
 
     # ------------------------------------------------------------------ events
     def _on_global_solution(self, msg: MotionPlanResponse) -> None:
