@@ -444,7 +444,9 @@ def test_a_failed_vamp_build_makes_it_unavailable_with_the_compiler_error(monkey
     monkeypatch.setenv("MYCOBOT_PEERS_DIR", str(tmp_path))
     monkeypatch.delenv("MYCOBOT_VAMP_SOURCES", raising=False)
     log = ["Building wheel for vamp-planner (pyproject.toml): started",
-           "CMake Error at cmake/FetchInitCPM.cmake:1 (file): file DOWNLOAD HASH mismatch"]
+           "  CMake Error at cmake/FetchInitCPM.cmake:1 (file):",
+           "    file DOWNLOAD cannot compute hash on failed download", "",
+           '      status: [6;"Could not resolve hostname"]']
     log += [f"  noise line {i}" for i in range(40)]
     log += ["error: subprocess-exited-with-error", "ERROR: Failed to build installable wheels for some "
             "pyproject.toml based projects (vamp-planner)"]
@@ -460,13 +462,15 @@ def test_a_failed_vamp_build_makes_it_unavailable_with_the_compiler_error(monkey
     reason = caught.value.reason
     assert reason.startswith("source build failed (exit 1)")
     assert "CMake Error at cmake/FetchInitCPM.cmake" in reason  # the cause, far above the tail
+    assert 'status: [6;"Could not resolve hostname"]' in reason  # and why
     assert reason.endswith("(vamp-planner)")
     assert venvs.read_stamp("vamp") is None  # not stamped: rebuilt next time
 
 
-def test_failure_excerpt_keeps_first_errors_and_the_tail_once():
-    lines = ["a", "x.cc:1: error: no member", "b", "c", "error: last"]
-    assert venvs.failure_excerpt(lines, tail=2) == "x.cc:1: error: no member\n...\nc\nerror: last"
+def test_failure_excerpt_keeps_first_errors_with_their_context_and_the_tail_once():
+    lines = ["a", "x.cc:1: error: no member", "  named foo", "", "b", "c", "d", "e", "error: last"]
+    assert venvs.failure_excerpt(lines, context=2, tail=2) == (
+        "x.cc:1: error: no member\nnamed foo\n...\ne\nerror: last")
     assert venvs.failure_excerpt(["ok", "done"], tail=5) == "ok\ndone"
 
 

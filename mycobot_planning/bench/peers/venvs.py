@@ -209,12 +209,25 @@ def _run(cmd: list[str], what: str, name: str, env: dict[str, str] | None = None
         raise PeerUnavailable(name, f"{what} failed (exit {proc.returncode}): {failure_excerpt(lines)}")
 
 
-def failure_excerpt(lines: list[str], first_errors: int = 5, tail: int = 15) -> str:
-    """The first few error lines (``error:``, ``CMake Error``, ``fatal:``) and the last lines."""
+def failure_excerpt(lines: list[str], first_errors: int = 3, context: int = 4, tail: int = 15) -> str:
+    """The first few error lines (``error:``, ``CMake Error``, ``fatal:``), each with up to
+    ``context`` following non-blank lines (where CMake says why, e.g. a failed download's
+    status), then the last ``tail`` lines; nothing twice."""
     marks = ("error:", "cmake error", "fatal:", "fatal error")
-    errors = [line.strip() for line in lines if any(m in line.lower() for m in marks)][:first_errors]
     end = lines[-tail:]
-    head = [line for line in errors if line not in {e.strip() for e in end}]
+    seen = {line.strip() for line in end}
+    head: list[str] = []
+    errors = 0
+    i = 0
+    while i < len(lines) - tail and errors < first_errors:
+        if any(m in lines[i].lower() for m in marks) and lines[i].strip() not in seen:
+            errors += 1
+            block = [lines[i]] + [line for line in lines[i + 1:i + 1 + context] if line.strip()]
+            head += [line.strip() for line in block if line.strip() not in seen]
+            seen.update(line.strip() for line in block)
+            i += 1 + context
+            continue
+        i += 1
     return "\n".join(head + (["..."] if head else []) + end)
 
 
