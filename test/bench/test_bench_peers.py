@@ -9,6 +9,7 @@ import ast
 import io
 import json
 import math
+import subprocess
 import sys
 from pathlib import Path
 
@@ -225,7 +226,7 @@ def test_compare_without_ours_and_report_records():
 # ---------------------------------------------------------------- runner isolation and protocol
 
 @pytest.mark.parametrize("runner", ["mplib_runner.py", "pyroboplan_runner.py", "roboplan_runner.py",
-                                    "runner_protocol.py"])
+                                    "runner_protocol.py", "vamp_runner.py"])
 def test_runner_scripts_import_only_stdlib_numpy_and_their_peer(runner: str):
     # The runners run in a peer venv without mycobot_planning: besides their peer they may import
     # only their sibling runner_protocol (by plain name, from the script's folder), which itself
@@ -239,7 +240,7 @@ def test_runner_scripts_import_only_stdlib_numpy_and_their_peer(runner: str):
             assert node.level == 0, f"{runner} has a relative import"
             imported.add(node.module.split(".")[0])
     peer_libs = {"mplib_runner.py": {"mplib"}, "pyroboplan_runner.py": {"pyroboplan", "pinocchio", "coal"},
-                 "roboplan_runner.py": {"roboplan"}, "runner_protocol.py": set()}
+                 "roboplan_runner.py": {"roboplan"}, "runner_protocol.py": set(), "vamp_runner.py": {"vamp"}}
     allowed = set(sys.stdlib_module_names) | {"__future__", "numpy"} | peer_libs[runner]
     if runner != "runner_protocol.py":
         allowed.add("runner_protocol")
@@ -301,14 +302,16 @@ def test_runner_protocol_pose_lines_judge_the_goal_errors():
 
 
 def test_every_peer_has_a_runner_and_pinned_spec():
-    # The planner peers of the "peers" scenario, plus toppra, which the time_parameterization
-    # scenario runs through its own runner.
-    assert set(peers.PEER_NAMES) == set(peers.RUNNERS)
+    # The planner peers of the "peers" scenario (vamp only in its parts: it has no IK for the
+    # pose-goal problems), plus toppra, which the time_parameterization scenario runs through its
+    # own runner.
+    assert set(peers.PEER_NAMES) | {"vamp"} == set(peers.RUNNERS)
     assert set(venvs.PEERS) == set(peers.RUNNERS) | {"toppra"}
     for name, spec in venvs.PEERS.items():
         runner = peers.runner_path(name) if name in peers.RUNNERS else peers.runner_path("mplib").with_name("toppra_runner.py")
         assert runner.is_file(), name
-        assert all("==" in req for req in spec.requirements + spec.no_deps), name
+        assert all("==" in req for req in spec.pins), name
+    assert venvs.PEERS["vamp"].pins[-1] == "vamp-planner==0.6.4"
 
 
 def test_run_peer_reports_an_unavailable_peer_instead_of_raising(monkeypatch):
@@ -417,3 +420,125 @@ def test_peers_root_defaults_to_the_gitignored_checkout_folder(monkeypatch):
     if (repo / "setup.py").is_file():
         assert root == repo / ".venv-peers"
         assert ".venv-peers/" in (repo / ".gitignore").read_text()
+
+
+# ---------------------------------------------------------------- vamp: built from its sdist
+
+def _fake_venv(root: Path, name: str) -> Path:
+    venv = root / name
+    (venv / "bin").mkdir(parents=True)
+    (venv / "bin" / "python").write_text("")
+    return venv
+
+
+def test_other_peers_stamps_do_not_change_with_source_builds():
+    assert "source_build" not in venvs._stamp_for(venvs.PEERS["mplib"])
+    assert venvs._stamp_for(venvs.PEERS["vamp"])["source_build"] == "vamp-planner==0.6.4"
+
+
+def test_vamp_build_options_build_the_panda_only_and_find_the_venvs_eigen(monkeypatch, tmp_path: Path):
+    monkeypatch.delenv("MYCOBOT_VAMP_SOURCES", raising=False)
+    venv = tmp_path / "vamp"
+    prefix = venv / "lib" / "python3.11" / "site-packages" / "cmeel.prefix"
+    prefix.mkdir(parents=True)
+    args, env = venvs.vamp_build_options(venv)
+    assert "--config-settings=cmake.define.VAMP_ROBOT_MODULES=panda" in args
+    assert "--config-settings=cmake.define.VAMP_ROBOT_STRUCTS=Panda" in args
+    assert not any("CPM_" in a for a in args)
+    assert env == {"CMAKE_PREFIX_PATH": str(prefix)}
+
+
+def test_vamp_sources_folder_replaces_the_github_downloads(monkeypatch, tmp_path: Path):
+    sources = tmp_path / "src"
+    monkeypatch.setenv("MYCOBOT_PEERS_DIR", str(tmp_path / "peers"))
+    monkeypatch.setenv("MYCOBOT_VAMP_SOURCES", str(sources))
+    sources.mkdir()
+    (sources / "CPM.cmake").write_text("# cpm")
+    with pytest.raises(venvs.PeerUnavailable, match="lacks nanobind, nigh, pdqsort, SIMDxorshift"):
+        venvs.vamp_build_options(tmp_path / "vamp")
+    for dep in venvs.VAMP_GITHUB_SOURCES:
+        (sources / dep).mkdir()
+    args, _ = venvs.vamp_build_options(tmp_path / "vamp")
+    settings = dict(a.removeprefix("--config-settings=").split("=", 1) for a in args)
+    for dep in venvs.VAMP_GITHUB_SOURCES:
+        assert settings[f"cmake.define.CPM_{dep}_SOURCE"] == str(sources / dep)
+    seed = Path(settings["cmake.define.CMAKE_PROJECT_vamp_INCLUDE"])
+    assert seed.is_file() and str(sources / "CPM.cmake") in seed.read_text()
+    assert "${CMAKE_BINARY_DIR}/cmake" in seed.read_text()  # where vamp's FetchInitCPM downloads it
+
+
+class _Proc:
+    def __init__(self, returncode: int = 0, stdout: str = ""):
+        self.returncode, self.stdout = returncode, stdout
+
+
+def test_vamp_venv_is_compiled_niced_with_one_job_and_stamped(monkeypatch, tmp_path: Path):
+    monkeypatch.setenv("MYCOBOT_PEERS_DIR", str(tmp_path))
+    monkeypatch.delenv("MYCOBOT_VAMP_SOURCES", raising=False)
+    monkeypatch.delenv("MYCOBOT_PEERS_BUILD_JOBS", raising=False)
+    calls = []
+
+    def fake_run(cmd, **kwargs):
+        calls.append((cmd, kwargs.get("env")))
+        if cmd[1:3] == ["-m", "venv"]:
+            _fake_venv(tmp_path, "vamp")
+        if "importlib.metadata" in " ".join(cmd):
+            return _Proc(0, "0.6.4\n")
+        return _Proc()
+
+    monkeypatch.setattr(venvs.subprocess, "run", fake_run)
+    python = venvs.ensure_peer_venv("vamp")
+    assert python == tmp_path / "vamp" / "bin" / "python"
+    build = [(cmd, env) for cmd, env in calls if "--no-binary" in cmd]
+    assert len(build) == 1
+    cmd, env = build[0]
+    assert cmd[1:3] == ["-n", "19"] and cmd[cmd.index("--no-binary") + 1] == "vamp-planner"
+    assert "vamp-planner==0.6.4" in cmd and env["CMAKE_BUILD_PARALLEL_LEVEL"] == "1"
+    stamp = venvs.read_stamp("vamp")
+    assert stamp["source_build"] == "vamp-planner==0.6.4" and stamp["version"] == "0.6.4"
+    calls.clear()
+    assert venvs.ensure_peer_venv("vamp") == python and calls == []  # reused, nothing run
+
+
+def test_a_failed_vamp_build_makes_it_unavailable_with_the_compiler_error(monkeypatch, tmp_path: Path):
+    monkeypatch.setenv("MYCOBOT_PEERS_DIR", str(tmp_path))
+    monkeypatch.delenv("MYCOBOT_VAMP_SOURCES", raising=False)
+    log = ["Building wheel for vamp-planner (pyproject.toml): started",
+           "  CMake Error at cmake/FetchInitCPM.cmake:1 (file):",
+           "    file DOWNLOAD cannot compute hash on failed download", "",
+           '      status: [6;"Could not resolve hostname"]']
+    log += [f"  noise line {i}" for i in range(40)]
+    log += ["error: subprocess-exited-with-error", "ERROR: Failed to build installable wheels for some "
+            "pyproject.toml based projects (vamp-planner)"]
+
+    def fake_run(cmd, **kwargs):
+        if cmd[1:3] == ["-m", "venv"]:
+            _fake_venv(tmp_path, "vamp")
+        return _Proc(1, "\n".join(log)) if "--no-binary" in cmd else _Proc()
+
+    monkeypatch.setattr(venvs.subprocess, "run", fake_run)
+    with pytest.raises(venvs.PeerUnavailable) as caught:
+        venvs.ensure_peer_venv("vamp")
+    reason = caught.value.reason
+    assert reason.startswith("source build failed (exit 1)")
+    assert "CMake Error at cmake/FetchInitCPM.cmake" in reason  # the cause, far above the tail
+    assert 'status: [6;"Could not resolve hostname"]' in reason  # and why
+    assert reason.endswith("(vamp-planner)")
+    assert venvs.read_stamp("vamp") is None  # not stamped: rebuilt next time
+
+
+def test_failure_excerpt_keeps_first_errors_with_their_context_and_the_tail_once():
+    lines = ["a", "x.cc:1: error: no member", "  named foo", "", "b", "c", "d", "e", "error: last"]
+    assert venvs.failure_excerpt(lines, context=2, tail=2) == (
+        "x.cc:1: error: no member\nnamed foo\n...\ne\nerror: last")
+    assert venvs.failure_excerpt(["ok", "done"], tail=5) == "ok\ndone"
+
+
+def test_vamp_pose_problems_are_answered_not_supported(tmp_path: Path):
+    # The runner's pose-goal branch imports neither vamp nor numpy: run it with this Python.
+    request = {"problems": [{"index": 0}, {"index": 1}]}
+    proc = subprocess.run([sys.executable, str(PEERS_DIR / "vamp_runner.py")], input=json.dumps(request),
+                          capture_output=True, text=True, check=True)
+    records = [json.loads(line) for line in proc.stdout.splitlines()]
+    assert records[0]["meta"] and [r["index"] for r in records[1:]] == [0, 1]
+    assert all("no IK" in r["status"] for r in records[1:])

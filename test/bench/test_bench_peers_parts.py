@@ -169,3 +169,67 @@ def test_ours_parts_checker_agrees_with_the_reference_on_colliding_states(small)
     reference = reference_colliding(small)
     assert any(reference)
     assert [not ours.check(np.asarray(q)) for q in small["check"]] == reference
+
+
+# ---------------------------------------------------------------- vamp (check and plan parts only)
+
+def test_vamp_figures_and_ratios_on_synthetic_runs():
+    ours = summarize_parts([_run([0.001], [True], [6e-6, 6e-6], [0.01, 0.02, 0.03], [True] * 3)])
+    vamp = summarize_parts([_run([], [], [2e-6, 2e-6], [0.001, 0.002, 0.5], [True, True, False])])
+    figures = parts_mod.vamp_figures({"ours": ours, "vamp": vamp})
+    assert figures["vamp_check_us"] == pytest.approx(2.0) and figures["check_ratio_vamp"] == pytest.approx(3.0)
+    assert figures["vamp_plan_ms"] == pytest.approx(1.5) and figures["plan_ratio_vamp"] == pytest.approx(20 / 1.5,
+                                                                                                          abs=1e-3)
+    assert figures["vamp_success_rate"] == pytest.approx(2 / 3, abs=1e-4) and figures["vamp_invalid_paths"] == 1
+    unavailable = parts_mod.vamp_figures({"ours": ours})
+    assert set(unavailable) == set(figures) and all(v is None for v in unavailable.values())
+
+
+def test_vamp_is_asked_no_ik_and_its_summary_says_so(monkeypatch, tmp_path: Path, small):
+    script = tmp_path / "fake.py"
+    script.write_text(FAKE_PARTS_RUNNER.replace('print("library noise")',
+                                                'print("library noise"); assert parts["ik"] == []'))
+    monkeypatch.setenv("MYCOBOT_PEERS_DIR", str(tmp_path / "peers"))
+    monkeypatch.setattr(parts_mod, "ensure_peer_venv", lambda name: Path(sys.executable))
+    monkeypatch.setattr(parts_mod, "runner_path", lambda name: script)
+    run = run_peer_parts("vamp", small)
+    assert run["available"] and run["ik"] == [] and run["pins"][-1] == "vamp-planner==0.6.4"
+    judge_parts(small, run, reference_colliding(small))
+    summary = summarize_parts([run])
+    assert summary["ik_problems"] == 0 and summary["ik_success_rate"] is None
+    assert summary["check_states"] == 60 and summary["plan_problems"] == 3
+    # the fake calls every state free: each colliding one is a miss
+    assert summary["check_missed"] == sum(reference_colliding(small)) > 0
+
+
+def test_bench_summary_has_the_vamp_keys_even_without_vamp():
+    records = []
+    summary = parts_mod.bench_peers_parts(1, 0, emit=records.append, peers=(), ik_count=1, check_count=5,
+                                          plan_count=1)
+    keys = {"vamp_check_us", "vamp_plan_ms", "vamp_success_rate", "vamp_invalid_paths", "check_ratio_vamp",
+            "plan_ratio_vamp"}
+    assert keys <= set(summary) and all(summary[k] is None for k in keys)
+    assert "vamp" in parts_mod.PARTS_PEERS
+
+
+def _rotation(xyzw) -> np.ndarray:
+    x, y, z, w = np.asarray(xyzw, float) / np.linalg.norm(xyzw)
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+def test_vamp_cuboids_get_the_boxes_pose_and_half_sizes():
+    from mycobot_planning.bench.peers.vamp_runner import cuboid_args
+
+    rng = np.random.default_rng(3)
+    for xyzw in [[0, 0, 0, 1], [0, 0, 0.7071068, 0.7071068], *rng.normal(size=(20, 4))]:
+        center, (roll, pitch, yaw), half = cuboid_args({"size": [0.2, 0.4, 0.6], "position": [0.5, 0.0, 0.5],
+                                                        "orientation_xyzw": list(xyzw)})
+        cx, sx, cy, sy, cz, sz = np.cos(roll), np.sin(roll), np.cos(pitch), np.sin(pitch), np.cos(yaw), np.sin(yaw)
+        rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+        ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+        rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+        # vamp's factory: rotation = AngleAxis(yaw, Z) * AngleAxis(pitch, Y) * AngleAxis(roll, X)
+        assert np.allclose(rz @ ry @ rx, _rotation(xyzw), atol=1e-9)
+        assert center == [0.5, 0.0, 0.5] and half == pytest.approx([0.1, 0.2, 0.3])

@@ -1,4 +1,5 @@
-"""The peers benchmarks: the same Panda problems solved by us, mplib, pyroboplan and roboplan.
+"""The peers benchmarks: the same Panda problems solved by us, mplib, pyroboplan, roboplan (and
+VAMP for the check and plan parts).
 
 The full story: docs/bench.md, section mycobot_planning.bench.peers.__init__.
 """
@@ -20,7 +21,8 @@ __all__ = [
 ]
 
 PEER_NAMES: tuple[str, ...] = ("mplib", "pyroboplan", "roboplan")
-RUNNERS = {"mplib": "mplib_runner.py", "pyroboplan": "pyroboplan_runner.py", "roboplan": "roboplan_runner.py"}
+RUNNERS = {"mplib": "mplib_runner.py", "pyroboplan": "pyroboplan_runner.py", "roboplan": "roboplan_runner.py",
+           "vamp": "vamp_runner.py"}  # vamp: parts only (no IK, so no pose-goal problems)
 DEFAULT_TIME_LIMIT = 1.0
 GOAL_POSITION_TOLERANCE = 1e-2
 GOAL_ROTATION_TOLERANCE = 2e-2
@@ -137,7 +139,7 @@ def run_peer(name: str, problems: list[dict], time_limit: float = DEFAULT_TIME_L
     stamp = read_stamp(name) or {}
     return {"available": True, "peer": name,
             "version": meta.get("version") or stamp.get("version", "unknown"),
-            "pins": list(PEERS[name].requirements) + list(PEERS[name].no_deps),
+            "pins": PEERS[name].pins,
             "setup_seconds": meta.get("setup_seconds"), "results": results}
 
 

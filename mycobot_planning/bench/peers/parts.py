@@ -1,5 +1,5 @@
 """The `peers` benchmark's three parts (IK, validity check, joint-goal RRTConnect) for us, mplib,
-pyroboplan and roboplan in one run, judged by one independent checker.
+pyroboplan, roboplan and VAMP (check and plan only) in one run, judged by one independent checker.
 
 The full story: docs/bench.md, section mycobot_planning.bench.peers.parts.
 """
@@ -16,9 +16,10 @@ from .problems import checker_for, panda_parts_problems, panda_srdf_path, write_
 from .venvs import PEERS, cache_dir, ensure_peer_venv, log, read_stamp, run_runner
 
 __all__ = ["PARTS_PEERS", "OursParts", "run_ours_parts", "run_peer_parts", "judge_parts",
-           "summarize_parts", "parts_ratios", "bench_peers_parts"]
+           "summarize_parts", "parts_ratios", "vamp_figures", "bench_peers_parts"]
 
-PARTS_PEERS: tuple[str, ...] = PEER_NAMES
+PARTS_PEERS: tuple[str, ...] = PEER_NAMES + ("vamp",)
+NO_IK_PEERS: frozenset[str] = frozenset({"vamp"})  # asked only the check and plan parts
 TIME_LIMIT = 1.0  # s of planning time per joint-goal problem, every planner
 RECHECK_STEP = 0.01  # rad: the independent recheck of every returned path
 IK_POSITION_TOLERANCE = 2e-3  # m, judged by our independent FK (roboplan's own tolerance is 1e-3)
@@ -141,6 +142,8 @@ def run_peer_parts(name: str, parts: dict, time_limit: float = TIME_LIMIT, seed:
     venv cannot be built or the runner gives nothing (never raises for a peer's failure)."""
     if name not in RUNNERS:
         raise KeyError(f"unknown peer '{name}'; known: {', '.join(RUNNERS)}")
+    if name in NO_IK_PEERS:
+        parts = {**parts, "ik": []}
     request = {"urdf": str(write_absolute_urdf(cache_dir())), "srdf": str(panda_srdf_path()),
                "time_limit": float(time_limit), "seed": int(seed), "parts": parts}
     timeout = 300.0 + len(parts["plan"]) * (3.0 * time_limit + 5.0) + len(parts["ik"]) * 2.0
@@ -158,7 +161,7 @@ def run_peer_parts(name: str, parts: dict, time_limit: float = TIME_LIMIT, seed:
     return {
         "available": True, "peer": name,
         "version": meta.get("version") or stamp.get("version", "unknown"),
-        "pins": list(PEERS[name].requirements) + list(PEERS[name].no_deps),
+        "pins": PEERS[name].pins,
         "setup_seconds": meta.get("setup_seconds"),
         "ik": [ik.get(p["index"]) or {"part": "ik", "index": p["index"], "seconds": None, "solution": None,
                                        "status": missing} for p in parts["ik"]],
@@ -232,7 +235,8 @@ def recheck_path(parts: dict, problem: dict, path: Any) -> tuple[bool, bool, str
 
 def judge_parts(parts: dict, run: dict, reference: list[bool]) -> dict:
     """Adds ``ok`` to every IK record, ``reaches``/``valid``/``problem`` to every plan record and
-    ``agree`` (count of verdicts equal to the reference) to the check record, in place."""
+    ``agree`` (count of verdicts equal to the reference) and ``missed`` (colliding states called
+    free) to the check record, in place."""
     by_index = {p["index"]: p for p in parts["ik"]}
     for record in run["ik"]:
         record["ok"] = _ik_ok(parts, by_index[record["index"]], record.get("solution"))
@@ -242,6 +246,7 @@ def judge_parts(parts: dict, run: dict, reference: list[bool]) -> dict:
         record["reaches"], record["valid"], record["problem"] = reaches, valid, why
     verdicts = run["check"].get("colliding") or []
     run["check"]["agree"] = int(sum(bool(a) == b for a, b in zip(verdicts, reference)))
+    run["check"]["missed"] = int(sum(b and not a for a, b in zip(verdicts, reference)))
     return run
 
 
@@ -270,6 +275,8 @@ def summarize_parts(runs: list[dict]) -> dict[str, Any]:
         "check_states": len(checks),
         "check_median_us": round(float(np.median(checks)) * 1e6, 3) if checks else None,
         "check_agreement": round(agree / len(checks), 5) if checks else None,
+        # colliding by the reference, called free: the unsafe side of a disagreement
+        "check_missed": sum(run["check"].get("missed", 0) for run in runs),
         "plan_problems": len(plans),
         "plan_solved": len(solved),
         "plan_success_rate": round(len(solved) / len(plans), 4) if plans else None,
@@ -296,6 +303,25 @@ def parts_ratios(summaries: dict[str, dict]) -> dict[str, Any]:
         "check_ratio": _ratio(ours.get("check_median_us"), peer.get("check_median_us")),
         "plan_ratio": _ratio(ours.get("plan_median_ms"), peer.get("plan_median_ms")),
         "invalid_paths": {name: s.get("invalid_paths") for name, s in summaries.items() if s},
+    }
+
+
+def vamp_figures(summaries: dict[str, dict]) -> dict[str, Any]:
+    """VAMP's figures and ours / VAMP's ratios: ``vamp_check_us`` (median per state),
+    ``vamp_plan_ms`` (median over solved plans, RRTConnect + simplification), ``vamp_success_rate``
+    (plans reaching the goal and passing our recheck), ``vamp_invalid_paths`` (returned paths
+    failing it), ``vamp_check_agreement``/``vamp_check_missed`` (its sphere-model verdicts against
+    our exact meshes), ``check_ratio_vamp``, ``plan_ratio_vamp``; all None when VAMP did not run."""
+    ours, vamp = summaries.get("ours") or {}, summaries.get("vamp") or {}
+    return {
+        "vamp_check_us": vamp.get("check_median_us"),
+        "vamp_plan_ms": vamp.get("plan_median_ms"),
+        "vamp_success_rate": vamp.get("plan_success_rate"),
+        "vamp_invalid_paths": vamp.get("invalid_paths"),
+        "vamp_check_agreement": vamp.get("check_agreement"),
+        "vamp_check_missed": vamp.get("check_missed"),
+        "check_ratio_vamp": _ratio(ours.get("check_median_us"), vamp.get("check_median_us")),
+        "plan_ratio_vamp": _ratio(ours.get("plan_median_ms"), vamp.get("plan_median_ms")),
     }
 
 
@@ -334,7 +360,8 @@ def bench_peers_parts(repeat: int, seed: int, emit=None, peers: tuple[str, ...] 
     planners = {name: {**meta.get(name, {}), **summary} for name, summary in summaries.items()}
     for name, reason in unavailable.items():
         planners.setdefault(name, {"available": False, "reason": reason})
-    summary = {"scenario": "peers", "summary": True, **parts_ratios(summaries), "planners": planners,
+    summary = {"scenario": "peers", "summary": True, **parts_ratios(summaries), **vamp_figures(summaries),
+               "planners": planners,
                "time_limit_s": TIME_LIMIT, "recheck_step_rad": RECHECK_STEP, **machine()}
     emit(summary)
     return summary
