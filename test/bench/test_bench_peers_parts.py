@@ -219,7 +219,9 @@ def _rotation(xyzw) -> np.ndarray:
                      [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
 
 
-def test_vamp_cuboids_get_the_boxes_pose_and_half_sizes():
+def test_vamp_cuboids_get_the_boxes_pose_and_half_sizes(monkeypatch):
+    # the runner imports its sibling runner_protocol by plain name, as the peer venv runs it
+    monkeypatch.syspath_prepend(str(Path(parts_mod.__file__).resolve().parent))
     from mycobot_planning.bench.peers.vamp_runner import cuboid_args
 
     rng = np.random.default_rng(3)

@@ -11,36 +11,13 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import sys
 import time
 
+from runner_protocol import json_out, peer_version, read_request  # this script's sibling (docstring there)
+
 PEER = "vamp"
-
-
-def _json_out():
-    """A private copy of stdout for the JSON records; library prints go to stderr."""
-    sys.stdout.flush()
-    out = os.fdopen(os.dup(1), "w", buffering=1)
-    os.dup2(2, 1)
-    sys.stdout = sys.stderr
-    return out
-
-
-def _read_request() -> dict:
-    if len(sys.argv) > 1 and sys.argv[1] != "-":
-        with open(sys.argv[1]) as handle:
-            return json.load(handle)
-    return json.load(sys.stdin)
-
-
-def _version() -> str:
-    try:
-        import importlib.metadata as metadata
-
-        return metadata.version("vamp-planner")
-    except Exception:
-        return "unknown"
+DISTRIBUTION = "vamp-planner"
 
 
 def euler_xyz(xyzw) -> list[float]:
@@ -73,10 +50,10 @@ def _environment(boxes: list):
 
 
 def main() -> int:
-    out = _json_out()
-    request = _read_request()
+    out = json_out()
+    request = read_request()
     if "parts" not in request:  # the pose-goal problems need IK, which VAMP does not have
-        out.write(json.dumps({"meta": True, "peer": PEER, "version": _version(), "setup_seconds": 0.0}) + "\n")
+        out.write(json.dumps({"meta": True, "peer": PEER, "version": peer_version(DISTRIBUTION), "setup_seconds": 0.0}) + "\n")
         for problem in request.get("problems", []):
             out.write(json.dumps({"index": problem["index"], "success": False, "claimed_success": False,
                                   "seconds": None, "status": "not supported: VAMP has no IK for pose goals"})
@@ -118,7 +95,7 @@ def main() -> int:
     setup_seconds = time.perf_counter() - started
     if parts["plan"]:  # warm-up, untimed
         plan(parts["plan"][0], 1)
-    out.write(json.dumps({"meta": True, "peer": PEER, "version": _version(),
+    out.write(json.dumps({"meta": True, "peer": PEER, "version": peer_version(DISTRIBUTION),
                           "setup_seconds": round(setup_seconds, 4)}) + "\n")
 
     for problem in parts.get("ik", []):
