@@ -12,6 +12,8 @@ type is narrower (Marker colours are float32; times are integer nanoseconds).
 
 from __future__ import annotations
 
+from array import array
+
 import math
 from fractions import Fraction
 from typing import Any, Sequence, TypeVar
@@ -115,6 +117,10 @@ def joint_state_to_robot_state(msg: JointStateMsg) -> RobotState:
     )
 
 
+#: ns below which seconds_to_duration's float product is exact enough (see there)
+_FAST_NS_LIMIT = float(2 ** 50)
+
+
 def seconds_to_duration(seconds: float) -> DurationMsg:
     """builtin_interfaces/Duration nearest to ``seconds``, rounded to the nanosecond.
 
@@ -123,7 +129,13 @@ def seconds_to_duration(seconds: float) -> DurationMsg:
     """
     if not math.isfinite(seconds):
         raise MessageError("Duration", f"must be finite, got {seconds}")
-    total = round(Fraction(seconds) * _NS_PER_S)
+    scaled = seconds * 1e9
+    total = round(scaled)
+    # Below 2**50 ns the float product is within 0.125 of the exact one, so a product within 0.25
+    # of an integer has that integer as the exact nearest; otherwise (halfway cases, huge times)
+    # round the exact rational. The fast path keeps planned trajectories' hundreds of points cheap.
+    if not (abs(scaled) < _FAST_NS_LIMIT and abs(scaled - total) < 0.25):
+        total = round(Fraction(seconds) * _NS_PER_S)
     sec, nanosec = divmod(total, _NS_PER_S)
     return DurationMsg(sec=sec, nanosec=nanosec)
 
@@ -147,15 +159,16 @@ def joint_trajectory_to_msg(
         msg.header.stamp = stamp
     msg.header.frame_id = trajectory.frame_id
     msg.joint_names = list(trajectory.joint_names)
-    msg.points = [
-        JointTrajectoryPointMsg(
-            positions=list(p.positions),
-            velocities=list(p.velocities),
-            accelerations=list(p.accelerations),
-            time_from_start=seconds_to_duration(p.time_from_start),
-        )
-        for p in trajectory.points
-    ]
+    points = []
+    for p in trajectory.points:
+        point = JointTrajectoryPointMsg()
+        # array('d'): the generated setters and the C conversion take it without a per-value check
+        point.positions = array("d", p.positions)
+        point.velocities = array("d", p.velocities)
+        point.accelerations = array("d", p.accelerations)
+        point.time_from_start = seconds_to_duration(p.time_from_start)
+        points.append(point)
+    msg.points = points
     return msg
 
 

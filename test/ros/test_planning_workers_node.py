@@ -9,6 +9,8 @@ from action_msgs.msg import GoalStatus
 from moveit_msgs.action import MoveGroup
 from moveit_msgs.msg import CollisionObject
 from moveit_msgs.srv import GetMotionPlan, SetPlannerParams
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from trajectory_msgs.msg import JointTrajectory as JointTrajectoryMsg
 
 from mycobot_planning.core.robot_model.robot_model import RobotModel
 from mycobot_planning.core.robot_state.robot_state import RobotState
@@ -107,3 +109,21 @@ def test_cancelling_the_move_action_stops_the_workers_plan(client: Client) -> No
     response = client.spin_until(handle.get_result_async(), timeout=20.0)
     assert response.status == GoalStatus.STATUS_CANCELED
     assert response.result.error_code.val == C.PREEMPTED
+
+
+def test_a_late_subscriber_to_planned_path_gets_the_last_plan(client: Client) -> None:
+    """Nobody listens to /planned_path here, so the server builds no message per plan; a
+    subscriber that comes afterwards still gets the last plan, as the latched topic promises."""
+    goal = [0.4, -0.3, 0.2, 0.1, 0.3, -0.2]
+    response = client.call(GetMotionPlan, "/plan_kinematic_path", joint_goal(goal)).motion_plan_response
+    assert response.error_code.val == C.SUCCESS, response.error_code.message
+    received: list = []
+    latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    subscription = client.node.create_subscription(JointTrajectoryMsg, "/planned_path", received.append, latched)
+    try:
+        assert wait_until(lambda: (client.executor.spin_once(timeout_sec=0.05), bool(received))[1], 20.0)
+        names = list(received[-1].joint_names)
+        end = [received[-1].points[-1].positions[names.index(j)] for j in ARM]
+        np.testing.assert_allclose(end, goal, atol=2e-3)
+    finally:
+        client.node.destroy_subscription(subscription)

@@ -68,6 +68,7 @@ JOINT_STATES_IDLE_PERIOD = 0.05
 JOINT_STATES_FOLLOW = 2.0
 MARKER_FOLLOW_PERIOD = 0.1  # s: how often attached-object markers follow the moving robot
 DISPLAY_DELAY = 0.02  # s from a plan to its /display_planned_path and /planned_path messages
+DISPLAY_SUBSCRIBER_POLL = 0.25  # s between looks for a first /planned_path subscriber of a kept plan
 WORLD_COLOR = (0.5, 0.7, 1.0, 1.0)
 ATTACHED_COLOR = (0.6, 0.3, 0.8, 1.0)
 GOAL_TARGETS = ("goal.named_target", "goal.joint_values", "goal.pose")
@@ -604,26 +605,36 @@ class PlanningServer(Node):
             self._display_wake.notify()
 
     def _display_loop(self) -> None:
+        """Publishes each plan (the newest, if several queued) DISPLAY_DELAY after it. With nobody
+        subscribed to /planned_path nothing is built (a few ms per plan); the plan is kept, and
+        sent when a subscriber appears (looked for every DISPLAY_SUBSCRIBER_POLL s), so a late
+        subscriber still gets the last plan, as the latched topic promises."""
+        unsent: JointTrajectory | None = None
         while True:
             with self._display_wake:
-                while self._display_next is None:
-                    self._display_wake.wait()
-            time.sleep(DISPLAY_DELAY)
+                while self._display_next is None and (unsent is None or not self._display_listened()):
+                    self._display_wake.wait(None if unsent is None else DISPLAY_SUBSCRIBER_POLL)
+                fresh = self._display_next is not None
+            if fresh:
+                time.sleep(DISPLAY_DELAY)
             with self._display_wake:
-                trajectory, self._display_next = self._display_next, None
-            if trajectory is None:
-                continue
+                trajectory = self._display_next if self._display_next is not None else unsent
+                self._display_next = None
+            unsent = None
             try:
-                self._publish_display(trajectory)
+                if self._display_listened():
+                    self._display_pub.publish(joint_trajectory_to_msg(trajectory, self.get_clock().now().to_msg()))
+                else:
+                    unsent = trajectory
+                if fresh and getattr(self, "move_group", None) is not None:
+                    self.move_group.publish_display(trajectory)  # (built only for a subscriber, not latched)
             except Exception as exc:  # a context shut down under us, or a conversion bug: say so, go on
                 if not self.context.ok():
                     return
                 self.get_logger().error(f"publishing the planned path failed: {type(exc).__name__}: {exc}")
 
-    def _publish_display(self, trajectory: JointTrajectory) -> None:
-        self._display_pub.publish(joint_trajectory_to_msg(trajectory, self.get_clock().now().to_msg()))
-        if getattr(self, "move_group", None) is not None:
-            self.move_group.publish_display(trajectory)
+    def _display_listened(self) -> bool:
+        return self._display_pub.get_subscription_count() > 0
 
     # ------------------------------------------------------------------ topic inputs
     def _joint_state_loop(self) -> None:
