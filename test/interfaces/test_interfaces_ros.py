@@ -137,6 +137,19 @@ def test_seconds_to_duration(seconds, sec, nanosec):
     assert (d.sec, d.nanosec) == (sec, nanosec)
 
 
+def test_seconds_to_duration_rounds_as_exact_arithmetic_does():
+    """The float fast path gives the nanosecond the exact rational rounding gives: random times,
+    halfway cases (0.5 ns) and times beyond the fast path's 2**50 ns."""
+    from fractions import Fraction
+
+    rng = np.random.default_rng(11)
+    times = [*rng.uniform(0.0, 1e5, 20000).tolist(), *rng.uniform(0.0, 2e-6, 2000).tolist(),
+             0.5e-9, 1.5e-9, 2.5e-9, 1e7 + 0.5e-9, 2.0 ** 51 / 1e9, 3e6 + 1.5e-9]
+    for seconds in times:
+        d = seconds_to_duration(seconds)
+        assert d.sec * 10**9 + d.nanosec == round(Fraction(seconds) * 10**9), seconds
+
+
 def test_duration_round_trips_to_the_nanosecond():
     rng = np.random.default_rng(3)
     for total in [0, 1, 999_999_999, 1_000_000_000, *rng.integers(0, 10**15, size=2000).tolist()]:
