@@ -1,4 +1,4 @@
-"""Shared fixtures: the robots every core test runs on (built once per session)."""
+"""Shared fixtures: the robots every core test runs on (built once per session) and a planning pipeline."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -6,6 +6,7 @@ from pathlib import Path
 import pytest
 
 from mycobot_planning.core import RobotModel
+from mycobot_planning.core.planning_interface.planning_pipeline import PlanningPipeline
 from mycobot_planning.paths import example_robot_data_dir
 
 
@@ -19,6 +20,12 @@ def panda() -> RobotModel:
     """Franka Panda from example-robot-data: a URDF + SRDF we did not write, with meshes."""
     root = example_robot_data_dir() / "panda_description"
     return RobotModel.from_files(root / "urdf" / "panda.urdf", root / "srdf" / "panda.srdf")
+
+
+@pytest.fixture(scope="module")
+def pipeline() -> PlanningPipeline:
+    """A planning pipeline with every registered planner, one per test module."""
+    return PlanningPipeline()
 
 
 #: Names whose presence in a test module means it talks ROS (nodes, processes, rclpy contexts).

@@ -299,22 +299,6 @@ _ARM = ["link1_to_link2", "link2_to_link3", "link3_to_link4", "link4_to_link5", 
 _GOALS = ([0.0, -0.3, 0.6, 0.2, 0.0, 0.0], [1.0, -1.0, -0.8, 0.3, 0.5, 0.8])
 
 
-class _NoControllers:
-    """The in-process reference plans and solves IK only; nothing is ever sent to a controller."""
-
-    def is_available(self, controller: str) -> bool:
-        return False
-
-    def send(self, controller: str, trajectory: Any) -> None:
-        raise RuntimeError("the in-process reference executes nothing")
-
-    def stop(self, controller: str) -> None:
-        pass
-
-    def controller_state(self, controller: str, goal_id: str | None = None) -> None:
-        return None
-
-
 def bench_moveit_api(repeat: int, seed: int) -> None:
     """move_group's services end to end (GetMotionPlan with a joint goal and GetPositionIK, myCobot,
     empty scene) from a client process, against the same typed capability calls in-process
@@ -326,16 +310,15 @@ def bench_moveit_api(repeat: int, seed: int) -> None:
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.node import Node
 
-    from mycobot_planning.core.trajectory_execution import load_controllers
     from mycobot_planning.core.planning_interface.planning_pipeline import PlanningPipeline
     from mycobot_planning.capabilities import kinematics, plan
-    from mycobot_planning.capabilities.move_group_context import MoveGroupContext
+    from mycobot_planning.capabilities.move_group_context import MoveGroupContext, planning_only
     from mycobot_planning.core.planning_interface.planning_interface import JointGoal, MotionPlanRequest
     from mycobot_planning.core.robot_model.robot_model import RobotModel
     from mycobot_planning.core.robot_state.robot_state import RobotState
 
     model = RobotModel.mycobot()
-    local = MoveGroupContext(model, PlanningPipeline(), load_controllers(None), _NoControllers())
+    local = planning_only(MoveGroupContext, model, PlanningPipeline())
     poses = []
     for goal in _GOALS:
         state = RobotState(model)

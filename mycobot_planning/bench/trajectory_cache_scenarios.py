@@ -31,11 +31,10 @@ import numpy as np
 
 from interfaces_py.msgs import MoveItErrorCode
 from mycobot_planning.capabilities import plan, trajectory_cache
-from mycobot_planning.capabilities.move_group_context import MoveGroupContext
+from mycobot_planning.capabilities.move_group_context import MoveGroupContext, planning_only
 from mycobot_planning.core import RobotModel
 from mycobot_planning.core.planning_interface.planning_interface import JointGoal, MotionPlanRequest, NamedGoal
 from mycobot_planning.core.planning_interface.planning_pipeline import PlanningPipeline
-from mycobot_planning.core.trajectory_execution import load_controllers
 from mycobot_planning.demos.pick_place import PickPlaceParameters, seed_scene_objects
 
 from .common import emit, machine, spread
@@ -50,25 +49,9 @@ PLACE = [-0.35, -0.75, -0.6, 0.15, -0.1, 0.4]  # across the cylinder from PICK: 
 CYCLE: tuple[Any, ...] = ("home", PICK, PLACE, "ready")
 
 
-class _NoControllers:
-    """Plans only: nothing is ever sent to a controller."""
-
-    def is_available(self, controller: str) -> bool:
-        return False
-
-    def send(self, controller: str, trajectory: Any) -> None:
-        raise RuntimeError("the trajectory cache benchmark executes nothing")
-
-    def stop(self, controller: str) -> None:
-        pass
-
-    def controller_state(self, controller: str, goal_id: str | None = None) -> None:
-        return None
-
-
 def make_context(model: RobotModel, pipeline: PlanningPipeline) -> MoveGroupContext:
     """A context in the seeds' pick-and-place scene, at every joint 0, with the cache enabled."""
-    ctx = MoveGroupContext(model, pipeline, load_controllers(None), _NoControllers())
+    ctx = planning_only(MoveGroupContext, model, pipeline)
     for obj in seed_scene_objects(PickPlaceParameters()):
         if obj is not None:
             ctx.apply_collision_objects([obj.to_dict()])

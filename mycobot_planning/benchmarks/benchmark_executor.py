@@ -24,12 +24,11 @@ from interfaces_py.msgs import MoveItErrorCode
 
 from ..capabilities import plan
 from ..capabilities.json_face import MoveGroupJsonFace
-from ..capabilities.move_group_context import RequestError
+from ..capabilities.move_group_context import RequestError, planning_only
 from ..core.planning_interface.planning_pipeline import PlanningPipeline
 from ..core.planning_scene.planning_scene import PlanningScene
 from ..core.robot_model.robot_model import RobotModel
 from ..core.robot_state.robot_state import RobotState
-from ..core.trajectory_execution import ExecutionSettings, load_controllers
 from .benchmark_options import BenchmarkConfigError, BenchmarkOptions
 from .benchmark_queries import BenchmarkRequest
 
@@ -75,22 +74,6 @@ class PlannerResults:
     runs: list[RunResult]
 
 
-class _NoControllers:
-    """The benchmark plans only: nothing is ever sent to a controller."""
-
-    def is_available(self, controller: str) -> bool:
-        return False
-
-    def send(self, controller: str, trajectory: Any) -> None:
-        raise RuntimeError("the benchmark runner executes nothing")
-
-    def stop(self, controller: str) -> None:
-        pass
-
-    def controller_state(self, controller: str, goal_id: str | None = None) -> None:
-        return None
-
-
 _CONTEXT: dict[str, Any] = {}
 
 
@@ -99,8 +82,7 @@ def benchmark_context() -> MoveGroupJsonFace:
     face = _CONTEXT.get("face")
     if face is None:
         model = RobotModel.mycobot()
-        face = MoveGroupJsonFace(model, PlanningPipeline(), load_controllers(None), _NoControllers(),
-                                 ExecutionSettings(), log=lambda level, text: None)
+        face = planning_only(MoveGroupJsonFace, model, PlanningPipeline(), log=lambda level, text: None)
         _CONTEXT["face"] = face
         _CONTEXT["scene"] = None
     return face

@@ -14,7 +14,7 @@ from __future__ import annotations
 import threading
 import time
 from dataclasses import dataclass
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence, TypeVar
 
 import numpy as np
 
@@ -34,10 +34,17 @@ from ..core.planning_interface.planning_interface import JointGoal, MotionPlanRe
 from ..core.planning_scene.planning_scene import PlanningScene
 from ..core.planning_scene.planning_scene_monitor import PlanningSceneMonitor, RequestError
 from ..core.robot_model.robot_model import RobotModel
-from ..core.trajectory_execution import ControllerBus, ControllerInfo, ExecutionSettings, TrajectoryExecutionManager
+from ..core.trajectory_execution import (
+    ControllerBus,
+    ControllerInfo,
+    ExecutionSettings,
+    TrajectoryExecutionManager,
+    load_controllers,
+)
 from .state_queries import StateQueries
 
-__all__ = ["MoveGroupContext", "PlanningDefaults", "RequestError", "SOURCE", "check_number"]
+__all__ = ["MoveGroupContext", "NoControllers", "PlanningDefaults", "RequestError", "SOURCE", "check_number",
+           "planning_only"]
 
 #: the error codes' source when move_group itself refuses a request
 SOURCE = "planning_server"
@@ -96,6 +103,23 @@ def check_goal(model: Any, goal: Any) -> None:
         check_tolerance(goal.orientation_tolerance, "orientation tolerance")
         if not np.all(np.isfinite(np.asarray(goal.pose, dtype=float))):
             raise RequestError(bad, "goal pose must be finite")
+
+
+class NoControllers:
+    """A ControllerBus with no controller behind it, for a context that only plans (benches,
+    in-process references): nothing is ever sent to a controller."""
+
+    def is_available(self, controller: str) -> bool:
+        return False
+
+    def send(self, controller: str, trajectory: JointTrajectory) -> None:
+        raise RuntimeError("this move_group context only plans: it executes nothing")
+
+    def stop(self, controller: str) -> None:
+        pass
+
+    def controller_state(self, controller: str, goal_id: str | None = None) -> None:
+        return None
 
 
 class MoveGroupContext(PlanningSceneMonitor):
@@ -314,3 +338,12 @@ class MoveGroupContext(PlanningSceneMonitor):
             "trajectory_cache": (self.trajectory_cache.status(self.model) if self.trajectory_cache is not None
                                  else {"enabled": False}),
         }
+
+
+C = TypeVar("C", bound=MoveGroupContext)
+
+
+def planning_only(context_type: type[C], model: RobotModel, pipeline: Any, **kwargs: Any) -> C:
+    """An in-process ``context_type`` (MoveGroupContext or a face of it) that plans, solves IK and
+    keeps a scene but has no controllers: what benches and in-process references build."""
+    return context_type(model, pipeline, load_controllers(None), NoControllers(), **kwargs)

@@ -242,27 +242,11 @@ def _key(ctx: Any, tc: MoveGroupTrajectoryCache, features: Callable[[], CacheKey
 def fetch_plan(ctx: Any, scene: PlanningScene, request: MotionPlanRequest) -> CacheLookup:
     """A validated hit for a completed request (plan.complete_request), or none (cache disabled,
     no match, every match refused in ``scene``)."""
-    tc = _active(ctx)
-    if tc is None:
-        return CacheLookup()
-    started = time.perf_counter()
-    key = _key(ctx, tc, lambda: motion_plan_request_features(ctx.model, request))
-    if key is None:
-        tc.count(tc.plans, misses=1)
-        return CacheLookup()
-    s = tc.settings
-    try:
-        entries = tc.cache.fetch_all_matching_trajectories(tc.namespace(ctx.model), key, s.start_tolerance,
-                                                           s.goal_tolerance, metadata_only=True)
-    except TrajectoryCacheError as exc:
-        tc.problem(str(exc))
-        ctx.log("warning", f"trajectory cache: {exc}")
-        tc.count(tc.plans, misses=1)
-        return CacheLookup()
-    return _validated(ctx, tc, scene, request.group, request.start_state, entries, request.path_constraints,
-                      float(request.max_velocity_scaling_factor or 1.0),
-                      float(request.max_acceleration_scaling_factor or 1.0), tc.plans,
-                      time.perf_counter() - started, cartesian=False)
+    return _fetch(ctx, scene, request, lambda: motion_plan_request_features(ctx.model, request),
+                  lambda tc, key, s: tc.cache.fetch_all_matching_trajectories(
+                      tc.namespace(ctx.model), key, s.start_tolerance, s.goal_tolerance, metadata_only=True),
+                  float(request.max_velocity_scaling_factor or 1.0),
+                  float(request.max_acceleration_scaling_factor or 1.0), cartesian=False)
 
 
 def insert_plan(ctx: Any, request: MotionPlanRequest, response: MotionPlanResponse, refused: int = 0) -> bool:
@@ -280,26 +264,37 @@ def insert_plan(ctx: Any, request: MotionPlanRequest, response: MotionPlanRespon
 
 def fetch_cartesian_path(ctx: Any, scene: PlanningScene, request: GetCartesianPathRequest) -> CacheLookup:
     """A validated complete Cartesian path for ``request``, or none."""
+    return _fetch(ctx, scene, request, lambda: cartesian_path_request_features(ctx.model, request),
+                  lambda tc, key, s: tc.cache.fetch_all_matching_cartesian_trajectories(
+                      tc.namespace(ctx.model), key, s.start_tolerance, s.goal_tolerance, min_fraction=1.0,
+                      metadata_only=True),
+                  request.max_velocity_scaling_factor, request.max_acceleration_scaling_factor, cartesian=True)
+
+
+def _fetch(ctx: Any, scene: PlanningScene, request: Any, features: Callable[[], CacheKey],
+           matching: Callable[[MoveGroupTrajectoryCache, CacheKey, Any], list[CacheEntry]],
+           velocity_scaling: float, acceleration_scaling: float, cartesian: bool) -> CacheLookup:
+    """The lookup both fetches share: the request's key, the ``matching`` entries (metadata only),
+    the first of them valid in ``scene``; a cache failure is a miss, logged."""
     tc = _active(ctx)
     if tc is None:
         return CacheLookup()
+    counts = tc.cartesian if cartesian else tc.plans
     started = time.perf_counter()
-    key = _key(ctx, tc, lambda: cartesian_path_request_features(ctx.model, request))
+    key = _key(ctx, tc, features)
     if key is None:
-        tc.count(tc.cartesian, misses=1)
+        tc.count(counts, misses=1)
         return CacheLookup()
-    s = tc.settings
     try:
-        entries = tc.cache.fetch_all_matching_cartesian_trajectories(
-            tc.namespace(ctx.model), key, s.start_tolerance, s.goal_tolerance, min_fraction=1.0, metadata_only=True)
+        entries = matching(tc, key, tc.settings)
     except TrajectoryCacheError as exc:
         tc.problem(str(exc))
         ctx.log("warning", f"trajectory cache: {exc}")
-        tc.count(tc.cartesian, misses=1)
+        tc.count(counts, misses=1)
         return CacheLookup()
     return _validated(ctx, tc, scene, request.group, request.start_state, entries, request.path_constraints,
-                      request.max_velocity_scaling_factor, request.max_acceleration_scaling_factor, tc.cartesian,
-                      time.perf_counter() - started, cartesian=True)
+                      velocity_scaling, acceleration_scaling, counts, time.perf_counter() - started,
+                      cartesian=cartesian)
 
 
 def insert_cartesian_path(ctx: Any, request: GetCartesianPathRequest, trajectory: TimedTrajectory,

@@ -15,7 +15,6 @@ import pytest
 from interfaces_py.json_rpc import BAD_REQUEST, MAX_REQUEST_BYTES, RpcError, decode_request, log_safe
 from interfaces_py.msgs import MoveItErrorCode
 from mycobot_planning.core.trajectory_execution import ControllerInfo, ExecutionSettings
-from mycobot_planning.core.planning_interface.planning_pipeline import PlanningPipeline
 from interfaces_py.msgs import WORKSPACE_BOUND
 from mycobot_planning.capabilities.cartesian_path import MAX_WAYPOINTS
 from mycobot_planning.capabilities.json_face import MoveGroupJsonFace
@@ -48,11 +47,6 @@ def _core(model: RobotModel, pipeline) -> MoveGroupJsonFace:
     names = list(model.variable_names)
     assert core.update_joint_state(names, [0.0] * len(names)) is None
     return core
-
-
-@pytest.fixture(scope="module")
-def pipeline() -> PlanningPipeline:
-    return PlanningPipeline()
 
 
 @pytest.fixture()

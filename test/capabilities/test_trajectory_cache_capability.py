@@ -12,7 +12,6 @@ from interfaces_py.msgs import CollisionObject, JointTrajectory, MoveItErrorCode
     PlanningSceneWorld
 from mycobot_planning.capabilities import plan, trajectory_cache
 from mycobot_planning.core.planning_interface.planning_interface import JointGoal, MotionPlanRequest
-from mycobot_planning.core.planning_interface.planning_pipeline import PlanningPipeline
 from mycobot_planning.core.robot_state.robot_state import RobotState
 from mycobot_planning.core.robot_trajectory.robot_trajectory import joint_trajectory_to_timed
 from mycobot_planning.core.trajectory_cache import TrajectoryCacheError
@@ -22,11 +21,6 @@ from test_request_budgets import ARM, _core
 
 GOAL = [1.0, -1.0, -0.8, 0.3, 0.5, 0.8]
 REQUEST = {"group": "arm", "goal": {"joints": GOAL}, "seed": 3}
-
-
-@pytest.fixture(scope="module")
-def pipeline() -> PlanningPipeline:
-    return PlanningPipeline()
 
 
 @pytest.fixture()

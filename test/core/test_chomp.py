@@ -7,6 +7,7 @@ MoveIt) so the pipeline refuses a path that leaves them, and it is selectable wh
 collision spheres cover the links, and the distance field is the exact distance of primitives."""
 from __future__ import annotations
 
+import functools
 import threading
 
 import numpy as np
@@ -20,53 +21,27 @@ from mycobot_planning.core.planning_interface.planning_interface import (
     JointGoal,
     MotionPlanRequest,
     NamedGoal,
-    PoseGoal,
 )
-from mycobot_planning.core.planning_interface.planning_pipeline import PlanningPipeline
 from mycobot_planning.core.planning_scene.planning_scene import PlanningScene
-from mycobot_planning.core.robot_state.robot_state import RobotState
-from mycobot_planning.core.trajectory_processing.trajectory_validator import validate_trajectory
 from mycobot_planning.core.transforms import make_pose
-
-# Two myCobot arm states whose joint-space line sweeps the flange around the base, through a box.
-LEFT = np.array([-1.2, 0.0, 1.5708, 1.5708, 0.0, 0.0])
-RIGHT = np.array([1.2, 0.0, 1.5708, 1.5708, 0.0, 0.0])
-TIP = "link6_flange"
-# generous: CHOMP needs 0.2-0.5 s here; the budget only has to survive a loaded 2-core machine
-BUDGET_S = 30.0
-
-
-def arm_state(model, values) -> RobotState:
-    state = RobotState(model)
-    state.set_group_positions("arm", values)
-    return state
-
-
-@pytest.fixture(scope="module")
-def pipeline() -> PlanningPipeline:
-    return PlanningPipeline()
-
+from trajectory_optimizer_testing import (
+    LEFT,
+    RIGHT,
+    TIP,
+    arm_state,
+    assert_listed_and_selectable,
+    assert_parameters_refused,
+    assert_plain_valid,
+    boxed_scene,
+    optimizer_request,
+)
 
 @pytest.fixture(scope="module")
 def boxed(mycobot):
-    """A scene with a 4 cm box where the straight line from LEFT to RIGHT passes the flange."""
-    start = arm_state(mycobot, LEFT)
-    where = arm_state(mycobot, (LEFT + RIGHT) / 2).frame_pose(TIP)[:3, 3]
-    scene = PlanningScene(mycobot, start)
-    scene.add_object(CollisionObject.box("box", [0.04] * 3, make_pose(where)))
-    return scene, start
+    return boxed_scene(mycobot)
 
 
-def chomp_request(goal, start, seed=0, **kw) -> MotionPlanRequest:
-    return MotionPlanRequest("arm", goal, start_state=start, pipeline_id="chomp", seed=seed,
-                             allowed_planning_time=kw.pop("allowed_planning_time", BUDGET_S), **kw)
-
-
-def assert_plain_valid(scene, response, start, group="arm") -> None:
-    """The validator's plain exact check of every pair (all_pairs, the default) every 0.005 rad."""
-    assert response.success, response.error_code.message
-    report = validate_trajectory(scene, response.trajectory, group, start_state=start)
-    assert report.valid, report.problems
+chomp_request = functools.partial(optimizer_request, "chomp")
 
 
 def test_a_joint_goal_around_a_box(pipeline, boxed):
@@ -105,16 +80,6 @@ def test_lowercase_planner_id_named_goal_and_a_free_line(pipeline, mycobot):
     assert f"valid after {DEFAULT_PARAMS.max_iterations_after_collision_free} iterations" in response.message
     refused = pipeline.plan(scene, chomp_request(NamedGoal("home"), start, planner_id="RRTConnectkConfigDefault"))
     assert refused.error_code.val == MoveItErrorCode.INVALID_MOTION_PLAN and "CHOMP" in refused.message
-
-
-def test_a_pose_goal_through_ik(pipeline, boxed, mycobot):
-    scene, start = boxed
-    target = arm_state(mycobot, RIGHT).frame_pose(TIP)
-    response = pipeline.plan(scene, chomp_request(PoseGoal(target), start, seed=1))
-    assert_plain_valid(scene, response, start)
-    end = arm_state(mycobot, response.trajectory.positions[-1]).frame_pose(TIP)
-    assert np.linalg.norm(end[:3, 3] - target[:3, 3]) < 1e-3
-    assert np.allclose(end[:3, :3], target[:3, :3], atol=1e-2)
 
 
 def test_a_tiny_budget_times_out_and_too_few_iterations_fail(pipeline, boxed):
@@ -158,12 +123,7 @@ def test_cancel_is_preempted(boxed):
     ({"max_iterations": "50", "speed": "1"}, "unknown CHOMP parameters ['speed']"),
 ])
 def test_parameters_out_of_range_are_refused(params, words):
-    planner = ChompPlanner()
-    problem = planner.set_planner_params("CHOMP", params)
-    assert problem is not None and words in problem, problem
-    assert planner.params == DEFAULT_PARAMS  # all or nothing
-    with pytest.raises(ValueError, match="CHOMP parameter|unknown CHOMP"):
-        ChompPlanner(params)
+    assert_parameters_refused(ChompPlanner, "CHOMP", params, words)
 
 
 def test_parameters_have_moveits_defaults_and_can_be_set():
@@ -194,35 +154,8 @@ def test_fill_trajectory_is_refused_with_why(boxed):
 
 
 def test_listed_and_selectable_where_pipelines_are(mycobot, pipeline):
-    from mycobot_planning.capabilities.json_face import MoveGroupJsonFace
-    from mycobot_planning.core.trajectory_execution import ControllerInfo, ExecutionSettings
-    from mycobot_planning.task import core, stages
-    from task_helpers import assert_solution_valid, scene_at
-
-    assert "chomp" in pipeline.pipeline_ids and pipeline.planner_id_problem("CHOMP", ["arm"]) is None
-
-    class IdleBus:
-        def is_available(self, controller):
-            return False
-
-    arm = tuple(mycobot.group("arm").joint_names)
-    face = MoveGroupJsonFace(mycobot, pipeline, [ControllerInfo("arm_controller", arm)], IdleBus(), ExecutionSettings())
-    names = list(mycobot.variable_names)
-    assert face.update_joint_state(names, [0.0] * len(names)) is None
-    assert {"name": "CHOMP", "pipeline_id": "chomp", "planner_ids": ["CHOMP"]} in face.planner_interfaces()
-    assert face.get_planner_params("chomp", "CHOMP")["max_iterations"] == "200"
-    assert "learning_rate must be > 0" in face.set_planner_params("chomp", "CHOMP", {"learning_rate": "0"})
-    result = face.plan({"group": "arm", "goal": {"named": "ready"}, "pipeline_id": "chomp", "planner_id": "CHOMP"})
-    assert result["error_code"]["val"] == MoveItErrorCode.SUCCESS, result["error_code"]
-
-    task = core.Task("chomp", mycobot, scene_at(mycobot, "ready"))
-    task.add(stages.CurrentState("current"))
-    move = stages.MoveTo("home", core.PipelinePlanner("chomp", "CHOMP"))
-    move.group = "arm"
-    move.setGoal("home")
-    task.add(move)
-    assert task.plan()
-    assert_solution_valid(task.solutions[0])
+    assert_listed_and_selectable(mycobot, pipeline, "chomp", "CHOMP", "max_iterations", "200", {"learning_rate": "0"},
+                                 "learning_rate must be > 0")
 
 
 def test_path_constraints_are_not_planned_for_and_a_path_leaving_them_is_refused(pipeline, mycobot):

@@ -26,7 +26,6 @@ from interfaces_py.msgs import (
 from mycobot_planning.core import PlanningScene
 from mycobot_planning.core.trajectory_execution import ControllerInfo, ControllerState, ExecutionError, ExecutionSettings, TrajectoryExecutionManager, allowed_duration, check_controllers, check_start_state, load_controllers, parse_task_solution, parse_trajectory, prepare_trajectory, select_controllers, split_trajectory
 from mycobot_planning.core.robot_trajectory.robot_trajectory import timed_to_joint_trajectory
-from mycobot_planning.core.planning_interface.planning_pipeline import PlanningPipeline
 from mycobot_planning.capabilities.json_face import (
     MoveGroupJsonFace,
     RequestError,
@@ -665,11 +664,6 @@ def test_mtc_style_solution_fields_are_accepted():
 
 
 # ---------------------------------------------------------------------------- planning server core
-@pytest.fixture(scope="module")
-def pipeline():
-    return PlanningPipeline()
-
-
 @pytest.fixture()
 def server(mycobot, pipeline):
     bus = SimBus(mycobot)

@@ -44,11 +44,6 @@ def target(model: RobotModel) -> RobotState:
     return state
 
 
-@pytest.fixture(scope="module")
-def pipeline() -> PlanningPipeline:
-    return PlanningPipeline()
-
-
 @pytest.mark.parametrize("name", ["a", "b", "c"])
 def test_cartesian_fails_for_all_three(mycobot: RobotModel, name: str):
     scene, start = case(mycobot, name)

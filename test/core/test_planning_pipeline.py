@@ -13,11 +13,6 @@ from mycobot_planning.core.planning_interface.planning_pipeline import PlanningP
 from mycobot_planning.core.trajectory_processing.trajectory_validator import validate_trajectory
 
 
-@pytest.fixture(scope="module")
-def pipeline() -> PlanningPipeline:
-    return PlanningPipeline()
-
-
 @pytest.mark.parametrize(
     "pipeline_id,planner_id",
     [("ompl", ""), ("ompl", "RRTConnectkConfigDefault"), ("pilz_industrial_motion_planner", "PTP"), ("joint_interpolation", "")],

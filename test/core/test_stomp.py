@@ -5,6 +5,7 @@ parameters out of range are refused, a seed makes it repeatable, and it is selec
 pipeline is (the registry, the JSON face, MTC's PipelinePlanner)."""
 from __future__ import annotations
 
+import functools
 import time
 
 import numpy as np
@@ -18,54 +19,33 @@ from mycobot_planning.core.planning_interface.planning_interface import (
     JointGoal,
     MotionPlanRequest,
     NamedGoal,
-    PoseGoal,
 )
-from mycobot_planning.core.planning_interface.planning_pipeline import PlanningPipeline
 from mycobot_planning.core.planning_scene.planning_scene import PlanningScene
 from mycobot_planning.core.robot_state.robot_state import RobotState
 from mycobot_planning.core.trajectory_processing.trajectory_validator import validate_trajectory
 from mycobot_planning.core.transforms import make_pose
+from trajectory_optimizer_testing import (
+    BUDGET_S,
+    LEFT,
+    RIGHT,
+    TIP,
+    arm_state,
+    assert_listed_and_selectable,
+    assert_parameters_refused,
+    assert_plain_valid,
+    boxed_scene,
+    optimizer_request,
+)
 
-# Two myCobot arm states whose joint-space line sweeps the flange around the base, through a box.
-LEFT = np.array([-1.2, 0.0, 1.5708, 1.5708, 0.0, 0.0])
-RIGHT = np.array([1.2, 0.0, 1.5708, 1.5708, 0.0, 0.0])
-TIP = "link6_flange"
 DOWN = [0.0, 1.0, 0.0, 0.0]  # the flange's z axis along -world z
-# generous: STOMP needs 0.1-1 s here; the budget only has to survive a loaded 2-core machine
-BUDGET_S = 30.0
-
-
-def arm_state(model, values) -> RobotState:
-    state = RobotState(model)
-    state.set_group_positions("arm", values)
-    return state
-
-
-@pytest.fixture(scope="module")
-def pipeline() -> PlanningPipeline:
-    return PlanningPipeline()
 
 
 @pytest.fixture(scope="module")
 def boxed(mycobot):
-    """A scene with a 4 cm box where the straight line from LEFT to RIGHT passes the flange."""
-    start = arm_state(mycobot, LEFT)
-    where = arm_state(mycobot, (LEFT + RIGHT) / 2).frame_pose(TIP)[:3, 3]
-    scene = PlanningScene(mycobot, start)
-    scene.add_object(CollisionObject.box("box", [0.04] * 3, make_pose(where)))
-    return scene, start
+    return boxed_scene(mycobot)
 
 
-def stomp_request(goal, start, seed=0, **kw) -> MotionPlanRequest:
-    return MotionPlanRequest("arm", goal, start_state=start, pipeline_id="stomp", seed=seed,
-                             allowed_planning_time=kw.pop("allowed_planning_time", BUDGET_S), **kw)
-
-
-def assert_plain_valid(scene, response, start) -> None:
-    """The validator's plain exact check of every pair (all_pairs, the default) every 0.005 rad."""
-    assert response.success, response.error_code.message
-    report = validate_trajectory(scene, response.trajectory, "arm", start_state=start)
-    assert report.valid, report.problems
+stomp_request = functools.partial(optimizer_request, "stomp")
 
 
 def test_a_joint_goal_around_a_box(pipeline, boxed):
@@ -95,16 +75,6 @@ def test_lowercase_planner_id_and_named_goal(pipeline, mycobot):
     assert "straight line is valid" in response.message  # nothing in the way: no iteration needed
     refused = pipeline.plan(scene, stomp_request(NamedGoal("home"), start, planner_id="RRTConnectkConfigDefault"))
     assert refused.error_code.val == MoveItErrorCode.INVALID_MOTION_PLAN and "STOMP" in refused.message
-
-
-def test_a_pose_goal_through_ik(pipeline, boxed, mycobot):
-    scene, start = boxed
-    target = arm_state(mycobot, RIGHT).frame_pose(TIP)
-    response = pipeline.plan(scene, stomp_request(PoseGoal(target), start, seed=1))
-    assert_plain_valid(scene, response, start)
-    end = arm_state(mycobot, response.trajectory.positions[-1]).frame_pose(TIP)
-    assert np.linalg.norm(end[:3, 3] - target[:3, 3]) < 1e-3
-    assert np.allclose(end[:3, :3], target[:3, :3], atol=1e-2)
 
 
 def test_a_fixed_seed_gives_the_same_path(pipeline, boxed):
@@ -140,12 +110,7 @@ def test_a_tiny_budget_times_out_and_too_few_iterations_fail(pipeline, boxed):
     ({"num_timesteps": "50", "speed": "1"}, "unknown STOMP parameters ['speed']"),
 ])
 def test_parameters_out_of_range_are_refused(params, words):
-    planner = StompPlanner()
-    problem = planner.set_planner_params("STOMP", params)
-    assert problem is not None and words in problem, problem
-    assert planner.params == DEFAULT_PARAMS  # all or nothing
-    with pytest.raises(ValueError, match="STOMP parameter|unknown STOMP"):
-        StompPlanner(params)
+    assert_parameters_refused(StompPlanner, "STOMP", params, words)
 
 
 def test_parameters_have_moveits_defaults_and_can_be_set():
@@ -163,35 +128,8 @@ def test_parameters_have_moveits_defaults_and_can_be_set():
 
 
 def test_listed_and_selectable_where_pipelines_are(mycobot, pipeline):
-    from mycobot_planning.capabilities.json_face import MoveGroupJsonFace
-    from mycobot_planning.core.trajectory_execution import ControllerInfo, ExecutionSettings
-    from mycobot_planning.task import core, stages
-    from task_helpers import assert_solution_valid, scene_at
-
-    assert "stomp" in pipeline.pipeline_ids and pipeline.planner_id_problem("STOMP", ["arm"]) is None
-
-    class IdleBus:
-        def is_available(self, controller):
-            return False
-
-    arm = tuple(mycobot.group("arm").joint_names)
-    face = MoveGroupJsonFace(mycobot, pipeline, [ControllerInfo("arm_controller", arm)], IdleBus(), ExecutionSettings())
-    names = list(mycobot.variable_names)
-    assert face.update_joint_state(names, [0.0] * len(names)) is None
-    assert {"name": "STOMP", "pipeline_id": "stomp", "planner_ids": ["STOMP"]} in face.planner_interfaces()
-    assert face.get_planner_params("stomp", "STOMP")["num_timesteps"] == "40"
-    assert "num_rollouts must be >= 1" in face.set_planner_params("stomp", "STOMP", {"num_rollouts": "0"})
-    result = face.plan({"group": "arm", "goal": {"named": "ready"}, "pipeline_id": "stomp", "planner_id": "STOMP"})
-    assert result["error_code"]["val"] == MoveItErrorCode.SUCCESS, result["error_code"]
-
-    task = core.Task("stomp", mycobot, scene_at(mycobot, "ready"))
-    task.add(stages.CurrentState("current"))
-    move = stages.MoveTo("home", core.PipelinePlanner("stomp", "STOMP"))
-    move.group = "arm"
-    move.setGoal("home")
-    task.add(move)
-    assert task.plan()
-    assert_solution_valid(task.solutions[0])
+    assert_listed_and_selectable(mycobot, pipeline, "stomp", "STOMP", "num_timesteps", "40", {"num_rollouts": "0"},
+                                 "num_rollouts must be >= 1")
 
 
 def test_path_constraints_are_kept(pipeline, mycobot):

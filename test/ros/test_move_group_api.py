@@ -113,10 +113,13 @@ class Client(ProbeNode):
 
 
 @contextlib.contextmanager
-def move_group_client() -> Iterator[Client]:
-    """planning_server + mock_controllers up, and a Client of theirs (``.server``: the server's
-    process); all closed at exit."""
-    with robot_processes() as (_, server):
+def move_group_client(*server_params: str, ready: str | None = None) -> Iterator[Client]:
+    """planning_server (with ``server_params``) + mock_controllers up, and a Client of theirs
+    (``.server``: the server's process); all closed at exit. ``ready``: a line the server prints
+    once it is ready for the tests (waited for, 120 s)."""
+    with robot_processes(*server_params) as (_, server):
+        if ready is not None:
+            assert server.wait_for_output(ready, 120.0), server.output()[-2000:]
         user = Client()
         user.server = server
         try:

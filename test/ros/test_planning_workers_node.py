@@ -14,8 +14,8 @@ from trajectory_msgs.msg import JointTrajectory as JointTrajectoryMsg
 
 from mycobot_planning.core.robot_model.robot_model import RobotModel
 from mycobot_planning.core.robot_state.robot_state import RobotState
-from ros_testing import robot_processes, wait_until
-from test_move_group_api import ARM, FAR, C, Client, apply, box, joint_goal
+from ros_testing import wait_until
+from test_move_group_api import ARM, FAR, C, Client, apply, box, joint_goal, move_group_client
 
 pytestmark = pytest.mark.ros
 
@@ -25,14 +25,8 @@ GOALS = [list(np.asarray(FAR) + d) for d in (0.0, 0.05, -0.05, 0.08, -0.08, 0.03
 
 @pytest.fixture(scope="module")
 def client():
-    with robot_processes("planning_processes:=2") as (_, server):
-        assert server.wait_for_output("planning on 2 worker processes", 120.0), server.output()[-2000:]
-        user = Client()
-        user.server = server
-        try:
-            yield user
-        finally:
-            user.close()
+    with move_group_client("planning_processes:=2", ready="planning on 2 worker processes") as user:
+        yield user
 
 
 def _end(response) -> list[float]:

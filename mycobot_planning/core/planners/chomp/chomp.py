@@ -27,8 +27,8 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import asdict, dataclass, fields, replace
-from typing import Any, Callable, Mapping, Sequence
+from dataclasses import dataclass, replace
+from typing import Any, Callable, ClassVar, Mapping, Sequence
 
 import numpy as np
 import pinocchio as pin
@@ -42,28 +42,17 @@ from ...collision_distance_field.body_decomposition import (
     spheres_of_bodies,
 )
 from ...collision_distance_field.distance_field import WorldDistanceField
-from ...errors import PlanningError
 from ...planning_interface.planning_interface import (
-    JointGoal,
     MotionPlanRequest,
     MotionPlanResponse,
-    NamedGoal,
-    PlanningFailure,
-    PoseGoal,
-    check_group,
-    check_path_constraints_at_ends,
-    check_request_numbers,
-    check_scaling,
     failure,
-    goal_states,
     polyline_problem,
-    start_state_of,
-    success,
     timed_and_validated,
 )
 from ...planning_scene.planning_scene import PlanningScene
 from ...robot_model.robot_model import RobotModel
 from ...robot_state.robot_state import RobotState
+from .. import trajectory_optimization as optimization
 
 __all__ = ["CHOMP_PIPELINE_ID", "ChompParams", "ChompPlanner", "DEFAULT_PARAMS", "INITIALIZATION_METHODS",
            "PLANNER_ID", "plan_chomp"]
@@ -72,7 +61,6 @@ __all__ = ["CHOMP_PIPELINE_ID", "ChompParams", "ChompPlanner", "DEFAULT_PARAMS",
 CHOMP_PIPELINE_ID = "chomp"
 #: the planner id MoveIt's plugin lists (getPlanningAlgorithms: {"CHOMP"}); "chomp" is accepted too
 PLANNER_ID = "CHOMP"
-_PLANNER_IDS = ("", PLANNER_ID, "chomp")
 #: MoveIt's ChompParameters::VALID_INITIALIZATION_METHODS
 INITIALIZATION_METHODS = ("quintic-spline", "linear", "cubic", "fillTrajectory")
 
@@ -92,8 +80,6 @@ EXACT_CHECK_EVERY = 10
 CLEAR_CHECK_EVERY = 3
 #: spheres whose potential is below this add nothing to the gradient (MoveIt's 0.0001)
 MIN_POTENTIAL = 1e-4
-#: share of allowed_planning_time IK may use for a pose goal before the optimisation starts
-IK_TIME_SHARE = 0.25
 #: what enable_failure_recovery adds per attempt (MoveIt's ChompPlanner::solve)
 RECOVERY_LEARNING_RATE = 0.02
 RECOVERY_RIDGE_FACTOR = 0.002
@@ -102,7 +88,7 @@ RECOVERY_ITERATIONS = 50
 
 
 @dataclass(frozen=True)
-class ChompParams:
+class ChompParams(optimization.OptimizerParams):
     """MoveIt's CHOMP parameters, with CHOMPInterface::loadParams' defaults (those of moveit_resources'
     panda chomp_planning.yaml) but one: ``use_stochastic_descent`` is False here (MoveIt: True).
     MoveIt's stochastic descent takes the obstacle gradient of one random waypoint per iteration,
@@ -133,17 +119,10 @@ class ChompParams:
     enable_failure_recovery: bool = False
     max_recovery_attempts: int = 5
 
-    def problem(self) -> str | None:
-        """Why these values cannot be used (None: they can)."""
-        for f in fields(self):
-            value = getattr(self, f.name)
-            if f.type == "bool" and not isinstance(value, bool):
-                return f"CHOMP parameter {f.name} must be true or false, got {value!r}"
-            if f.type == "int" and (isinstance(value, bool) or not isinstance(value, int)):
-                return f"CHOMP parameter {f.name} must be an integer, got {value!r}"
-            if f.type == "float" and (isinstance(value, bool) or not isinstance(value, (int, float))
-                                      or not math.isfinite(value)):
-                return f"CHOMP parameter {f.name} must be a finite number, got {value!r}"
+    PLANNER: ClassVar[str] = "CHOMP"
+
+    def range_problem(self) -> str | None:
+        """Why these values are out of range (None: they are not)."""
         positive = ("planning_time_limit", "learning_rate", "joint_update_limit", "collision_clearance")
         for name in positive:
             if getattr(self, name) <= 0:
@@ -168,53 +147,13 @@ class ChompParams:
                     f"{list(INITIALIZATION_METHODS)}, got {self.trajectory_initialization_method!r}")
         return None
 
-    def as_strings(self) -> dict[str, str]:
-        return {k: (str(v).lower() if isinstance(v, bool) else str(v)) for k, v in asdict(self).items()}
-
 
 DEFAULT_PARAMS = ChompParams()
-_TYPES = {f.name: f.type for f in fields(ChompParams)}
-
-
-def _parse_value(key: str, text: Any) -> Any:
-    kind = _TYPES[key]
-    if kind == "str":
-        return str(text)
-    if kind == "bool":
-        if isinstance(text, bool):
-            return text
-        lowered = str(text).strip().lower()
-        if lowered in ("true", "1"):
-            return True
-        if lowered in ("false", "0"):
-            return False
-        raise ValueError(f"CHOMP parameter {key} must be true or false, got {text!r}")
-    try:
-        number = float(text)
-    except (TypeError, ValueError, OverflowError):
-        raise ValueError(f"CHOMP parameter {key} must be a number, got {text!r}") from None
-    if kind == "int":
-        if not number.is_integer():
-            raise ValueError(f"CHOMP parameter {key} must be an integer, got {text!r}")
-        return int(number)
-    return number
 
 
 def parse_params(base: ChompParams, params: Mapping[str, Any], replace_all: bool = False) -> ChompParams | str:
     """``base`` with ``params`` (strings, numbers or booleans) applied, checked; a message when refused."""
-    known = list(_TYPES)
-    unknown = sorted(set(params) - set(known))
-    if unknown:
-        return f"unknown CHOMP parameters {unknown}; known: {known}"
-    values: dict[str, Any] = {}
-    for key, text in params.items():
-        try:
-            values[key] = _parse_value(key, text)
-        except ValueError as exc:
-            return str(exc)
-    result = replace(DEFAULT_PARAMS if replace_all else base, **values)
-    problem = result.problem()
-    return problem if problem is not None else result
+    return optimization.parse_params(DEFAULT_PARAMS, base, params, replace_all)
 
 
 # ---------------------------------------------------------------------------- the smoothness metric
@@ -511,13 +450,7 @@ def plan_chomp(scene: PlanningScene, request: MotionPlanRequest, params: ChompPa
     """Plan ``request`` with CHOMP. Never raises for bad input: the response's MoveItErrorCode says
     what was wrong (MoveIt's codes; TIMED_OUT when allowed_planning_time ran out, PLANNING_FAILED
     when no valid path came out of the optimisation and its recovery attempts)."""
-    started = time.perf_counter()
-    try:
-        return _plan(scene, request, params, started)
-    except PlanningFailure as exc:
-        return exc.to_response(started, request)
-    except PlanningError as exc:
-        return failure(MoveItErrorCode.FAILURE, f"CHOMP failed: {exc}").to_response(started, request)
+    return optimization.planned(PLANNER_ID, _plan, scene, request, params)
 
 
 def _robot_spheres(scene: PlanningScene, group: str) -> BodySpheres:
@@ -537,43 +470,17 @@ def _robot_spheres(scene: PlanningScene, group: str) -> BodySpheres:
 
 def _plan(scene: PlanningScene, request: MotionPlanRequest, params: ChompParams, started: float
           ) -> MotionPlanResponse:
-    if not isinstance(request, MotionPlanRequest):
-        raise failure(MoveItErrorCode.INVALID_MOTION_PLAN,
-                      f"expected a MotionPlanRequest, got {type(request).__name__}")
-    problem = params.problem()
-    if problem is not None:
-        raise failure(MoveItErrorCode.INVALID_MOTION_PLAN, problem)
-    if params.trajectory_initialization_method == "fillTrajectory":
+    if isinstance(params, ChompParams) and params.trajectory_initialization_method == "fillTrajectory":
         raise failure(MoveItErrorCode.INVALID_MOTION_PLAN,
                       "CHOMP's trajectory_initialization_method 'fillTrajectory' needs an input trajectory "
                       "(CHOMP as a post-processor of another planner), which a request here does not carry; "
                       f"use one of {list(INITIALIZATION_METHODS[:3])}")
-    model = scene.robot_model
-    check_request_numbers(request)
-    jmg = check_group(model, request.group)
-    velocity_scaling, acceleration_scaling = check_scaling(model, request)
-    start = start_state_of(scene, request)
-    constraints = request.path_constraints
-    if constraints:
-        violation = constraints.violation(start)
-        if violation:
-            raise failure(MoveItErrorCode.START_STATE_VIOLATES_PATH_CONSTRAINTS,
-                          f"the start state violates the path constraints: {violation}")
-    rng = np.random.default_rng(request.seed)
-    budget = float(request.allowed_planning_time)
-    goal = request.goal
-    if isinstance(goal, PoseGoal):
-        goals = goal_states(scene, jmg, start, goal, max(1, int(request.num_ik_goals)),
-                            max(budget * IK_TIME_SHARE, 1e-3), rng)
-    elif isinstance(goal, (JointGoal, NamedGoal)):
-        goals = goal_states(scene, jmg, start, goal, 1, 1e-3, rng)
-    else:
-        raise failure(MoveItErrorCode.UNRECOGNIZED_GOAL_TYPE, f"unrecognised goal type {type(goal).__name__}")
-    goals = check_path_constraints_at_ends(request, start, goals)
+    problem = optimization.prepare_problem(scene, request, params)
+    model, jmg, start, rng = scene.robot_model, problem.jmg, problem.start, problem.rng
+    velocity_scaling, acceleration_scaling = problem.velocity_scaling, problem.acceleration_scaling
     start_vector = start.group_positions(jmg.name)
-    goal_vector = _shortest_goal(model, jmg.joint_names, start_vector, goals[0].group_positions(jmg.name))
-    lower = model.lower_limits[jmg.variable_indices]
-    upper = model.upper_limits[jmg.variable_indices]
+    goal_vector = _shortest_goal(model, jmg.joint_names, start_vector, problem.goals[0].group_positions(jmg.name))
+    lower, upper = problem.lower, problem.upper
     spheres = _robot_spheres(scene, jmg.name)
     field = WorldDistanceField.of_scene(scene, sorted(set(spheres.bodies)), params.collision_clearance)
     kinematics = _SphereKinematics(model, jmg.name, start, spheres)
@@ -586,7 +493,7 @@ def _plan(scene: PlanningScene, request: MotionPlanRequest, params: ChompParams,
             return None, problem
         return timed_and_validated(scene, jmg, start, candidate, None, velocity_scaling, acceleration_scaling)
 
-    deadline = started + budget
+    deadline = started + problem.budget
     attempt_params = params
     attempts = 1 + (params.max_recovery_attempts if params.enable_failure_recovery else 0)
     result = None
@@ -604,21 +511,9 @@ def _plan(scene: PlanningScene, request: MotionPlanRequest, params: ChompParams,
                                  planning_time_limit=attempt_params.planning_time_limit + RECOVERY_TIME,
                                  max_iterations=attempt_params.max_iterations + RECOVERY_ITERATIONS)
     assert result is not None
-    if result.status == "PREEMPTED":
-        raise failure(MoveItErrorCode.PREEMPTED, f"planning for group '{jmg.name}' was cancelled (stop requested)")
-    if result.path is None:
-        code = MoveItErrorCode.TIMED_OUT if result.status == "TIMEOUT" else MoveItErrorCode.PLANNING_FAILED
-        tried = f" and {attempt} recovery attempts" if attempt else ""
-        raise failure(code, f"CHOMP found no valid path for group '{jmg.name}' in {budget:.3g} s{tried}: "
-                            f"{result.status} ({result.message})")
-    response = success(
-        result.accepted, started, request, start, path=result.path,
-        message=(f"{PLANNER_ID}: {result.message}; {len(result.path)} waypoints, "
-                 f"duration {result.accepted.duration:.3f} s"),
-        validated=True,
-    )
-    response.planner_id = CHOMP_PIPELINE_ID  # MoveIt's ChompPlanner answers with planner_id "chomp"
-    return response
+    tried = f" and {attempt} recovery attempts" if attempt else ""
+    # MoveIt's ChompPlanner answers with planner_id "chomp"
+    return optimization.optimized_response(result, problem, PLANNER_ID, CHOMP_PIPELINE_ID, started, request, tried)
 
 
 def _shortest_goal(model: RobotModel, joint_names: Sequence[str], start: np.ndarray, goal: np.ndarray) -> np.ndarray:
@@ -630,50 +525,15 @@ def _shortest_goal(model: RobotModel, joint_names: Sequence[str], start: np.ndar
     return goal
 
 
-class ChompPlanner:
+class ChompPlanner(optimization.TrajectoryOptimizationPlanner[ChompParams]):
     """The ``chomp`` pipeline as a PlannerManager (core.planning_interface.planner_manager)."""
 
     pipeline_id = CHOMP_PIPELINE_ID
     description = "CHOMP"
     #: MoveIt's CHOMP ignores path constraints: the pipeline checks its path and refuses it if it leaves them
     enforces_path_constraints = False
-
-    def __init__(self, params: ChompParams | Mapping[str, Any] | None = None) -> None:
-        if params is None:
-            params = DEFAULT_PARAMS
-        elif not isinstance(params, ChompParams):
-            parsed = parse_params(DEFAULT_PARAMS, params)
-            if isinstance(parsed, str):
-                raise ValueError(parsed)
-            params = parsed
-        problem = params.problem()
-        if problem is not None:
-            raise ValueError(problem)
-        self.params = params
-
-    def planner_ids(self, group: str = "") -> list[str]:
-        return [PLANNER_ID]
-
-    def planner_id_problem(self, planner_id: str, groups: Sequence[str] = ()) -> str | None:
-        if planner_id in _PLANNER_IDS:
-            return None
-        return f"'{planner_id}' is not the CHOMP planner ('{PLANNER_ID}')"
-
-    def can_service_request(self, request: MotionPlanRequest) -> bool:
-        return isinstance(request.goal, (JointGoal, NamedGoal, PoseGoal)) and request.planner_id in _PLANNER_IDS
+    planner_id = PLANNER_ID
+    default_params = DEFAULT_PARAMS
 
     def plan(self, scene: PlanningScene, request: MotionPlanRequest) -> MotionPlanResponse:
         return plan_chomp(scene, request, self.params)
-
-    def planner_params(self, planner_id: str, group: str = "") -> dict[str, str]:
-        return self.params.as_strings() if planner_id in _PLANNER_IDS else {}
-
-    def set_planner_params(self, planner_id: str, params: Mapping[str, str], replace: bool = False) -> str | None:
-        """All or nothing: every key a CHOMP parameter, every value of its type and in its range."""
-        if planner_id not in _PLANNER_IDS:
-            return f"unknown planner configuration {planner_id!r}; CHOMP has '{PLANNER_ID}'"
-        parsed = parse_params(self.params, params, replace)
-        if isinstance(parsed, str):
-            return parsed
-        self.params = parsed
-        return None

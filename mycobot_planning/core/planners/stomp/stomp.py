@@ -15,39 +15,25 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import asdict, dataclass, fields, replace
-from typing import Any, Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, Callable, ClassVar, Mapping, Sequence
 
 import numpy as np
 
-from interfaces_py.msgs import MoveItErrorCode
-
-from ...errors import PlanningError
 from ...kinematic_constraints.kinematic_constraints import (
     NEARLY_FREE,
     XYZ_EULER_ANGLES,
     ConstraintManifold,
 )
 from ...planning_interface.planning_interface import (
-    JointGoal,
     MotionPlanRequest,
     MotionPlanResponse,
-    NamedGoal,
-    PlanningFailure,
-    PoseGoal,
-    check_group,
-    check_path_constraints_at_ends,
-    check_request_numbers,
-    check_scaling,
-    failure,
-    goal_states,
     polyline_problem,
-    start_state_of,
-    success,
     timed_and_validated,
 )
 from ...planning_scene.planning_scene import PlanningScene
 from ...robot_state.robot_state import RobotState
+from .. import trajectory_optimization as optimization
 
 __all__ = ["DEFAULT_PARAMS", "PLANNER_ID", "STOMP_PIPELINE_ID", "StompParams", "StompPlanner", "plan_stomp"]
 
@@ -55,7 +41,6 @@ __all__ = ["DEFAULT_PARAMS", "PLANNER_ID", "STOMP_PIPELINE_ID", "StompParams", "
 STOMP_PIPELINE_ID = "stomp"
 #: the planner id MoveIt's plugin lists (its algorithm list is {"STOMP"}); "stomp" is accepted too
 PLANNER_ID = "STOMP"
-_PLANNER_IDS = ("", PLANNER_ID, "stomp")
 
 #: rad: MoveIt's stomp_moveit noise, normal with this standard deviation for every joint (hard-coded there)
 NOISE_STDDEV = 0.1
@@ -66,12 +51,10 @@ MAX_SUBSTEPS = 12
 #: the cost of a colliding waypoint and of one breaking the path constraints (MoveIt's penalty 1.0)
 COLLISION_PENALTY = 1.0
 CONSTRAINT_PENALTY = 1.0
-#: share of allowed_planning_time IK may use for a pose goal before the optimisation starts
-IK_TIME_SHARE = 0.25
 
 
 @dataclass(frozen=True)
-class StompParams:
+class StompParams(optimization.OptimizerParams):
     """MoveIt's ``stomp_moveit`` parameters (res/stomp_moveit.yaml defaults)."""
 
     num_timesteps: int = 40
@@ -83,15 +66,10 @@ class StompParams:
     control_cost_weight: float = 0.1
     delta_t: float = 0.1
 
-    def problem(self) -> str | None:
-        """Why these values cannot be used (None: they can)."""
-        for f in fields(self):
-            value = getattr(self, f.name)
-            if f.type == "int" and (isinstance(value, bool) or not isinstance(value, int)):
-                return f"STOMP parameter {f.name} must be an integer, got {value!r}"
-            if f.type == "float" and (isinstance(value, bool) or not isinstance(value, (int, float))
-                                      or not math.isfinite(value)):
-                return f"STOMP parameter {f.name} must be a finite number, got {value!r}"
+    PLANNER: ClassVar[str] = "STOMP"
+
+    def range_problem(self) -> str | None:
+        """Why these values are out of range (None: they are not)."""
         if self.num_timesteps < 3:
             return f"STOMP parameter num_timesteps must be >= 3, got {self.num_timesteps}"
         if self.num_iterations < 1:
@@ -112,35 +90,13 @@ class StompParams:
             return f"STOMP parameter delta_t must be > 0, got {self.delta_t:g}"
         return None
 
-    def as_strings(self) -> dict[str, str]:
-        return {k: str(v) for k, v in asdict(self).items()}
-
 
 DEFAULT_PARAMS = StompParams()
-_INT_PARAMS = {f.name for f in fields(StompParams) if f.type == "int"}
 
 
 def parse_params(base: StompParams, params: Mapping[str, Any], replace_all: bool = False) -> StompParams | str:
     """``base`` with ``params`` (strings or numbers) applied, checked; a message when refused."""
-    known = [f.name for f in fields(StompParams)]
-    unknown = sorted(set(params) - set(known))
-    if unknown:
-        return f"unknown STOMP parameters {unknown}; known: {known}"
-    values: dict[str, Any] = {}
-    for key, text in params.items():
-        try:
-            if key in _INT_PARAMS:
-                number = float(text)
-                if not number.is_integer():
-                    return f"STOMP parameter {key} must be an integer, got {text!r}"
-                values[key] = int(number)
-            else:
-                values[key] = float(text)
-        except (TypeError, ValueError, OverflowError):
-            return f"STOMP parameter {key} must be a number, got {text!r}"
-    result = replace(DEFAULT_PARAMS if replace_all else base, **values)
-    problem = result.problem()
-    return problem if problem is not None else result
+    return optimization.parse_params(DEFAULT_PARAMS, base, params, replace_all)
 
 
 # ---------------------------------------------------------------------------- the matrices
@@ -365,117 +321,37 @@ def plan_stomp(scene: PlanningScene, request: MotionPlanRequest, params: StompPa
     """Plan ``request`` with STOMP. Never raises for bad input: the response's MoveItErrorCode says
     what was wrong (MoveIt's codes; TIMED_OUT when allowed_planning_time ran out, PLANNING_FAILED
     after num_iterations, INVALID_MOTION_PLAN when the timed path fails validation)."""
-    started = time.perf_counter()
-    try:
-        return _plan(scene, request, params, started)
-    except PlanningFailure as exc:
-        return exc.to_response(started, request)
-    except PlanningError as exc:
-        return failure(MoveItErrorCode.FAILURE, f"STOMP failed: {exc}").to_response(started, request)
+    return optimization.planned(PLANNER_ID, _plan, scene, request, params)
 
 
 def _plan(scene: PlanningScene, request: MotionPlanRequest, params: StompParams, started: float
           ) -> MotionPlanResponse:
-    if not isinstance(request, MotionPlanRequest):
-        raise failure(MoveItErrorCode.INVALID_MOTION_PLAN,
-                      f"expected a MotionPlanRequest, got {type(request).__name__}")
-    problem = params.problem()
-    if problem is not None:
-        raise failure(MoveItErrorCode.INVALID_MOTION_PLAN, problem)
-    model = scene.robot_model
-    check_request_numbers(request)
-    jmg = check_group(model, request.group)
-    velocity_scaling, acceleration_scaling = check_scaling(model, request)
-    start = start_state_of(scene, request)
-    constraints = request.path_constraints
-    if constraints:
-        violation = constraints.violation(start)
-        if violation:
-            raise failure(MoveItErrorCode.START_STATE_VIOLATES_PATH_CONSTRAINTS,
-                          f"the start state violates the path constraints: {violation}")
-    rng = np.random.default_rng(request.seed)
-    budget = float(request.allowed_planning_time)
-    goal = request.goal
-    if isinstance(goal, PoseGoal):
-        goals = goal_states(scene, jmg, start, goal, max(1, int(request.num_ik_goals)),
-                            max(budget * IK_TIME_SHARE, 1e-3), rng)
-    elif isinstance(goal, (JointGoal, NamedGoal)):
-        goals = goal_states(scene, jmg, start, goal, 1, 1e-3, rng)
-    else:
-        raise failure(MoveItErrorCode.UNRECOGNIZED_GOAL_TYPE, f"unrecognised goal type {type(goal).__name__}")
-    goals = check_path_constraints_at_ends(request, start, goals)
-    goal_state = goals[0]  # the nearest valid goal state (IK solutions sorted by distance)
+    problem = optimization.prepare_problem(scene, request, params)
+    jmg, start, constraints = problem.jmg, problem.start, request.path_constraints
+    goal_state = problem.goals[0]  # the nearest valid goal state (IK solutions sorted by distance)
     start_vector = start.group_positions(jmg.name)
     goal_vector = goal_state.group_positions(jmg.name)
-    lower = model.lower_limits[jmg.variable_indices]
-    upper = model.upper_limits[jmg.variable_indices]
     costs = _Costs(scene, jmg.name, start, constraints, [start, goal_state])
 
     def timed(path: np.ndarray) -> tuple[Any, str | None]:
-        return timed_and_validated(scene, jmg, start, path, constraints, velocity_scaling, acceleration_scaling)
+        return timed_and_validated(scene, jmg, start, path, constraints, problem.velocity_scaling,
+                                   problem.acceleration_scaling)
 
-    result = optimize(costs, start_vector, goal_vector, lower, upper, params, rng, started + budget, request.cancel,
-                      accept=timed)
-    if result.status == "PREEMPTED":
-        raise failure(MoveItErrorCode.PREEMPTED, f"planning for group '{jmg.name}' was cancelled (stop requested)")
-    if result.path is None:
-        code = MoveItErrorCode.TIMED_OUT if result.status == "TIMEOUT" else MoveItErrorCode.PLANNING_FAILED
-        raise failure(code, f"STOMP found no valid path for group '{jmg.name}' in {budget:.3g} s: "
-                            f"{result.status} ({result.message})")
-    path, trajectory = result.path, result.accepted
-    response = success(
-        trajectory, started, request, start, path=path,
-        message=(f"{PLANNER_ID}: {result.message}; {len(path)} waypoints, duration {trajectory.duration:.3f} s"),
-        validated=True,
-    )
-    response.planner_id = STOMP_PIPELINE_ID  # MoveIt's STOMP answers with planner_id "stomp"
-    return response
+    result = optimize(costs, start_vector, goal_vector, problem.lower, problem.upper, params, problem.rng,
+                      started + problem.budget, request.cancel, accept=timed)
+    # MoveIt's STOMP answers with planner_id "stomp"
+    return optimization.optimized_response(result, problem, PLANNER_ID, STOMP_PIPELINE_ID, started, request)
 
 
-class StompPlanner:
+class StompPlanner(optimization.TrajectoryOptimizationPlanner[StompParams]):
     """The ``stomp`` pipeline as a PlannerManager (core.planning_interface.planner_manager)."""
 
     pipeline_id = STOMP_PIPELINE_ID
     description = "STOMP"
     #: path constraints are a cost, and the final path is checked against them densely
     enforces_path_constraints = True
-
-    def __init__(self, params: StompParams | Mapping[str, Any] | None = None) -> None:
-        if params is None:
-            params = DEFAULT_PARAMS
-        elif not isinstance(params, StompParams):
-            parsed = parse_params(DEFAULT_PARAMS, params)
-            if isinstance(parsed, str):
-                raise ValueError(parsed)
-            params = parsed
-        problem = params.problem()
-        if problem is not None:
-            raise ValueError(problem)
-        self.params = params
-
-    def planner_ids(self, group: str = "") -> list[str]:
-        return [PLANNER_ID]
-
-    def planner_id_problem(self, planner_id: str, groups: Sequence[str] = ()) -> str | None:
-        if planner_id in _PLANNER_IDS:
-            return None
-        return f"'{planner_id}' is not the STOMP planner ('{PLANNER_ID}')"
-
-    def can_service_request(self, request: MotionPlanRequest) -> bool:
-        return isinstance(request.goal, (JointGoal, NamedGoal, PoseGoal)) and request.planner_id in _PLANNER_IDS
+    planner_id = PLANNER_ID
+    default_params = DEFAULT_PARAMS
 
     def plan(self, scene: PlanningScene, request: MotionPlanRequest) -> MotionPlanResponse:
         return plan_stomp(scene, request, self.params)
-
-    def planner_params(self, planner_id: str, group: str = "") -> dict[str, str]:
-        return self.params.as_strings() if planner_id in _PLANNER_IDS else {}
-
-    def set_planner_params(self, planner_id: str, params: Mapping[str, str], replace: bool = False) -> str | None:
-        """All or nothing: every key a STOMP parameter, every value a number in its range."""
-        if planner_id not in _PLANNER_IDS:
-            return f"unknown planner configuration {planner_id!r}; STOMP has '{PLANNER_ID}'"
-        parsed = parse_params(self.params, params, replace)
-        if isinstance(parsed, str):
-            return parsed
-        self.params = parsed
-        return None
