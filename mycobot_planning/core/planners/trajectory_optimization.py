@@ -18,8 +18,22 @@ import numpy as np
 from interfaces_py.msgs import MoveItErrorCode
 
 from ..errors import PlanningError
-from ..planning_interface import planning_interface as interface
-from ..planning_interface.planning_interface import MotionPlanRequest, MotionPlanResponse
+from ..planning_interface.planning_interface import (
+    JointGoal,
+    MotionPlanRequest,
+    MotionPlanResponse,
+    NamedGoal,
+    PlanningFailure,
+    PoseGoal,
+    check_group,
+    check_path_constraints_at_ends,
+    check_request_numbers,
+    check_scaling,
+    failure,
+    goal_states,
+    start_state_of,
+    success,
+)
 from ..planning_scene.planning_scene import PlanningScene
 from ..robot_state.robot_state import RobotState
 
@@ -128,33 +142,33 @@ def prepare_problem(scene: PlanningScene, request: MotionPlanRequest, params: Op
                     ) -> OptimizationProblem:
     """Check the request and the parameters and resolve the goal; raises PlanningFailure."""
     if not isinstance(request, MotionPlanRequest):
-        raise interface.failure(MoveItErrorCode.INVALID_MOTION_PLAN,
+        raise failure(MoveItErrorCode.INVALID_MOTION_PLAN,
                       f"expected a MotionPlanRequest, got {type(request).__name__}")
     problem = params.problem()
     if problem is not None:
-        raise interface.failure(MoveItErrorCode.INVALID_MOTION_PLAN, problem)
+        raise failure(MoveItErrorCode.INVALID_MOTION_PLAN, problem)
     model = scene.robot_model
-    interface.check_request_numbers(request)
-    jmg = interface.check_group(model, request.group)
-    velocity_scaling, acceleration_scaling = interface.check_scaling(model, request)
-    start = interface.start_state_of(scene, request)
+    check_request_numbers(request)
+    jmg = check_group(model, request.group)
+    velocity_scaling, acceleration_scaling = check_scaling(model, request)
+    start = start_state_of(scene, request)
     constraints = request.path_constraints
     if constraints:
         violation = constraints.violation(start)
         if violation:
-            raise interface.failure(MoveItErrorCode.START_STATE_VIOLATES_PATH_CONSTRAINTS,
+            raise failure(MoveItErrorCode.START_STATE_VIOLATES_PATH_CONSTRAINTS,
                           f"the start state violates the path constraints: {violation}")
     rng = np.random.default_rng(request.seed)
     budget = float(request.allowed_planning_time)
     goal = request.goal
-    if isinstance(goal, interface.PoseGoal):
-        goals = interface.goal_states(scene, jmg, start, goal, max(1, int(request.num_ik_goals)),
+    if isinstance(goal, PoseGoal):
+        goals = goal_states(scene, jmg, start, goal, max(1, int(request.num_ik_goals)),
                             max(budget * IK_TIME_SHARE, 1e-3), rng)
-    elif isinstance(goal, (interface.JointGoal, interface.NamedGoal)):
-        goals = interface.goal_states(scene, jmg, start, goal, 1, 1e-3, rng)
+    elif isinstance(goal, (JointGoal, NamedGoal)):
+        goals = goal_states(scene, jmg, start, goal, 1, 1e-3, rng)
     else:
-        raise interface.failure(MoveItErrorCode.UNRECOGNIZED_GOAL_TYPE, f"unrecognised goal type {type(goal).__name__}")
-    goals = interface.check_path_constraints_at_ends(request, start, goals)
+        raise failure(MoveItErrorCode.UNRECOGNIZED_GOAL_TYPE, f"unrecognised goal type {type(goal).__name__}")
+    goals = check_path_constraints_at_ends(request, start, goals)
     return OptimizationProblem(jmg, start, list(goals), rng, budget, velocity_scaling, acceleration_scaling)
 
 
@@ -165,12 +179,12 @@ def optimized_response(result: Any, problem: OptimizationProblem, planner: str, 
     answer with their pipeline id as planner_id."""
     group = problem.jmg.name
     if result.status == "PREEMPTED":
-        raise interface.failure(MoveItErrorCode.PREEMPTED, f"planning for group '{group}' was cancelled (stop requested)")
+        raise failure(MoveItErrorCode.PREEMPTED, f"planning for group '{group}' was cancelled (stop requested)")
     if result.path is None:
         code = MoveItErrorCode.TIMED_OUT if result.status == "TIMEOUT" else MoveItErrorCode.PLANNING_FAILED
-        raise interface.failure(code, f"{planner} found no valid path for group '{group}' in "
-                                      f"{problem.budget:.3g} s{tried}: {result.status} ({result.message})")
-    response = interface.success(
+        raise failure(code, f"{planner} found no valid path for group '{group}' in {problem.budget:.3g} s{tried}: "
+                            f"{result.status} ({result.message})")
+    response = success(
         result.accepted, started, request, problem.start, path=result.path,
         message=(f"{planner}: {result.message}; {len(result.path)} waypoints, "
                  f"duration {result.accepted.duration:.3f} s"),
@@ -186,10 +200,10 @@ def planned(planner: str, plan: Callable[[PlanningScene, MotionPlanRequest, P, f
     started = time.perf_counter()
     try:
         return plan(scene, request, params, started)
-    except interface.PlanningFailure as exc:
+    except PlanningFailure as exc:
         return exc.to_response(started, request)
     except PlanningError as exc:
-        return interface.failure(MoveItErrorCode.FAILURE, f"{planner} failed: {exc}").to_response(started, request)
+        return failure(MoveItErrorCode.FAILURE, f"{planner} failed: {exc}").to_response(started, request)
 
 
 class TrajectoryOptimizationPlanner(Generic[P]):
@@ -228,8 +242,7 @@ class TrajectoryOptimizationPlanner(Generic[P]):
         return f"'{planner_id}' is not the {self.description} planner ('{self.planner_id}')"
 
     def can_service_request(self, request: MotionPlanRequest) -> bool:
-        goal_types = (interface.JointGoal, interface.NamedGoal, interface.PoseGoal)
-        return isinstance(request.goal, goal_types) and self._accepts(request.planner_id)
+        return isinstance(request.goal, (JointGoal, NamedGoal, PoseGoal)) and self._accepts(request.planner_id)
 
     def plan(self, scene: PlanningScene, request: MotionPlanRequest) -> MotionPlanResponse:
         raise NotImplementedError
