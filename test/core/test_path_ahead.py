@@ -23,7 +23,7 @@ from mycobot_planning.core.trajectory_execution import ExecutionSettings, Soluti
 from mycobot_planning.core.trajectory_execution.path_ahead import PathAhead, stopping_trajectory
 from mycobot_planning.core.trajectory_processing.trajectory_limits import DEFAULT_LIMIT_TOLERANCE
 from mycobot_planning.core.transforms import make_pose
-from test_execution import ARM, CONTROLLERS, SimBus, _feed, pipeline, server  # noqa: F401 (fixtures)
+from test_execution import ARM, CONTROLLERS, SimBus, _feed, server  # noqa: F401 (fixtures)
 
 INVALIDATED = MoveItErrorCode.MOTION_PLAN_INVALIDATED_BY_ENVIRONMENT_CHANGE
 #: the arm's pose for the sweep: joint 1 turns from -1.2 to +1.2 rad, the others hold this
