@@ -394,7 +394,9 @@ def test_move_action_plan_only_moves_nothing(client: Client) -> None:
     assert result.error_code.val == C.SUCCESS
     assert np.allclose(result.planned_trajectory.joint_trajectory.points[-1].positions, FAR, atol=1e-3)
     assert not len(result.executed_trajectory.joint_trajectory.points)
-    assert "PLANNING" in states
+    # the feedback (a topic) can be taken after the result (a service answer) that followed it
+    assert wait_until(lambda: (client.executor.spin_once(timeout_sec=0.05), "PLANNING" in states)[1], 5.0,
+                      period=0.0), states
     assert np.allclose(client.arm(), READY, atol=0.01)
 
 
