@@ -13,9 +13,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from builtin_interfaces.msg import Duration
 from moveit_msgs.msg import Constraints, MoveItErrorCodes, RobotState as RobotStateRos, RobotTrajectory as RobotTrajectoryRos
-from trajectory_msgs.msg import JointTrajectoryPoint
 
 from interfaces_py.moveit_conversions import path_constraints_from_msg, robot_state_from_msg
 from interfaces_py.msgs import (
@@ -25,6 +23,7 @@ from interfaces_py.msgs import (
     RobotState as RobotStateMsg,
 )
 from interfaces_py.pose_conversion import PoseError, pose_matrix
+from interfaces_py.ros_conversions import joint_trajectory_to_msg
 from interfaces_py.ros_message_reading import ConversionError
 from mycobot_planning.capabilities.cartesian_path import CartesianPathRequest
 from mycobot_planning.capabilities.move_group_context import RequestError, check_tolerance
@@ -62,20 +61,8 @@ def robot_state_to_ros(positions: Mapping[str, float], stamp: Any = None) -> Rob
 
 def robot_trajectory_to_ros(trajectory: JointTrajectory, frame_id: str) -> RobotTrajectoryRos:
     msg = RobotTrajectoryRos()
-    jt = msg.joint_trajectory
-    jt.header.frame_id = frame_id
-    jt.joint_names = list(trajectory.joint_names)
-    points = []
-    for p in trajectory.points:
-        point = JointTrajectoryPoint()
-        # array('d'): the generated setters and the C conversion take it without a per-value check
-        point.positions = array("d", p.positions)
-        point.velocities = array("d", p.velocities)
-        point.accelerations = array("d", p.accelerations)
-        ns = int(round(max(0.0, p.time_from_start) * 1e9))
-        point.time_from_start = Duration(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
-        points.append(point)
-    jt.points = points
+    msg.joint_trajectory = joint_trajectory_to_msg(trajectory)
+    msg.joint_trajectory.header.frame_id = frame_id
     return msg
 
 
