@@ -312,3 +312,34 @@ def test_string_msg_round_trip():
     assert message_from_string(PlanningScene, msg) == scene
     with pytest.raises(MessageError, match="malformed JSON"):
         message_from_string(PlanningScene, String(data="{not json"))
+
+
+def test_fast_built_trajectory_messages_equal_the_constructed_ones(monkeypatch):
+    """joint_trajectory_to_msg fills the generated messages' slots directly (skipping their
+    constructors): the messages must equal, serialize and deserialize as those built the ordinary
+    way, up to Duration's largest time."""
+    from rclpy.serialization import deserialize_message, serialize_message
+
+    from interfaces_py import ros_conversions
+
+    assert ros_conversions._FAST_POINTS and ros_conversions._FAST_DURATIONS  # rosidl's slots are there
+    rng = np.random.default_rng(5)
+    times = np.cumsum(rng.uniform(0.0, 0.02, 200))
+    traj = JointTrajectory.from_arrays([f"j{k}" for k in range(6)], times, rng.normal(size=(200, 6)),
+                                       rng.normal(size=(200, 6)), rng.normal(size=(200, 6)))
+    traj.points[-1].time_from_start = 2.0 ** 31 - 0.5  # Duration's largest seconds (exact rounding there)
+    fast = joint_trajectory_to_msg(traj, stamp=Time(sec=1, nanosec=2))
+    monkeypatch.setattr(ros_conversions, "_FAST_POINTS", False)
+    monkeypatch.setattr(ros_conversions, "_FAST_DURATIONS", False)
+    plain = joint_trajectory_to_msg(traj, stamp=Time(sec=1, nanosec=2))
+    assert fast == plain
+    data, plain_data = serialize_message(fast), serialize_message(plain)
+    assert len(data) == len(plain_data)  # (CDR's alignment padding is not zeroed: bytes may differ there)
+    again = deserialize_message(data, JointTrajectoryMsg)
+    assert again == fast == deserialize_message(plain_data, JointTrajectoryMsg)
+    assert joint_trajectory_from_msg(again) == joint_trajectory_from_msg(plain)
+    point = fast.points[3]  # a fast-built message behaves as any: its setters still work
+    point.positions = [1.0] * 6
+    point.time_from_start.sec = 4
+    assert list(point.positions) == [1.0] * 6 and point.time_from_start == Duration(sec=4, nanosec=point.time_from_start.nanosec)
+    assert "positions=[1.0, 1.0" in repr(point)
