@@ -171,6 +171,10 @@ CONCURRENCY_ATTEMPTS = 4
 #: worker processes of the "processes" server (planning_processes), one per core here
 PROCESSES = 2
 WORKERS_READY = "worker processes"
+#: (mode, planning_processes, parallel_planning_attempts, client counts): the client scaling of
+#: the server's threads and of the workers with each request on one worker, then one client whose
+#: requests' attempts are split between the workers (the server's default with workers)
+MODES = (("threads", 0, False, (1, 2)), ("processes", PROCESSES, False, (1, 2)), ("attempts", PROCESSES, True, (1,)))
 
 
 def _goals(count: int, seed: int) -> list[list[float]]:
@@ -216,12 +220,15 @@ def _run_clients(clients: list[_Client], goals: list[list[float]]) -> dict[str, 
 def bench_concurrency(repeat: int, seed: int) -> None:
     """Plans per second of the planning_server for 1 and 2 clients planning at once over ROS
     (/plan_kinematic_path, OMPL around the box), with planning_processes 0 (the server's threads)
-    and PROCESSES (worker processes); ``speedup``: 2 clients' plans/s over 1 client's."""
+    and PROCESSES (worker processes, each request on one); ``speedup``: 2 clients' plans/s over 1
+    client's. ``attempts_speedup``: one client's plans/s with each request's attempts split
+    between the workers over the same without the split."""
     records: list[dict[str, Any]] = []
     for index in range(repeat):
-        for mode, processes in (("threads", 0), ("processes", PROCESSES)):
+        for mode, processes, parallel, counts in MODES:
             with RobotProcesses(bench_domain_id(), server_args=[
-                    "-p", f"planning_processes:={processes}"]) as robot:
+                    "-p", f"planning_processes:={processes}",
+                    "-p", f"parallel_planning_attempts:={str(parallel).lower()}"]) as robot:
                 if processes and not robot.robot["planning_server"].wait_for_output(WORKERS_READY, 120.0):
                     raise RuntimeError("the planning_server's workers did not start: " + robot.log("planning_server")[-2000:])
                 clients = [_Client(), _Client()]
@@ -229,7 +236,7 @@ def bench_concurrency(repeat: int, seed: int) -> None:
                     if not clients[0].wait([clients[0].apply.call_async(_box_scene())], "the box")[0].success:
                         raise RuntimeError("the planning_server did not add the box")
                     _run_clients(clients[:1], _goals(2 * PROCESSES, seed + 1000))  # warm-up: each worker's scene
-                    for count in (1, 2):
+                    for count in counts:
                         result = _run_clients(clients[:count], _goals(REQUESTS, seed + index))
                         record = {"scenario": "concurrency", "repeat": index, "mode": mode, "clients": count,
                                   **result}
@@ -248,6 +255,9 @@ def bench_concurrency(repeat: int, seed: int) -> None:
         rates = [round(median(mode, count), 3) for count in (1, 2)]
         summary[prefix + "plans_per_s"] = rates
         summary[prefix + "speedup"] = round(rates[1] / rates[0], 3) if rates[0] else 0.0
+    alone = summary["plans_per_s"][0]
+    summary["attempts_plans_per_s"] = round(median("attempts", 1), 3)
+    summary["attempts_speedup"] = round(summary["attempts_plans_per_s"] / alone, 3) if alone else 0.0
     summary["mixed_answers"] = sum(r["mixed"] for r in records)
     summary["failed_plans"] = sum(r["failed"] for r in records)
     emit({**summary, **machine()})

@@ -3,6 +3,7 @@ the in-process pipeline, plans stopped from the caller, parameter changes carrie
 workers lack planned at home, a dead worker replaced."""
 from __future__ import annotations
 
+import dataclasses
 import multiprocessing
 import os
 import signal
@@ -178,10 +179,12 @@ def test_a_planner_the_workers_lack_plans_in_the_calling_process(setup):
 
 def test_a_worker_that_dies_is_replaced_and_its_request_fails_clearly(setup):
     model, pipeline = setup()
+    others = {p.pid for p in multiprocessing.active_children()}  # the module's workers: not this test's to kill
     pool = PlanningWorkers(pipeline, setup, 1)
     try:
         assert pool.wait_ready(READY_TIMEOUT)
-        before = {p.pid for p in multiprocessing.active_children()}
+        before = {p.pid for p in multiprocessing.active_children()} - others
+        assert len(before) == 1, before
         scene = _box_scene(model)
         request = _long_request(scene, 120.0)
 
@@ -250,3 +253,67 @@ def test_workers_exit_when_their_server_is_killed(tmp_path):
     for pid in left:
         os.kill(pid, signal.SIGKILL)
     assert not left, f"worker processes {left} outlived their killed server"
+
+
+def test_split_attempts_cuts_consecutive_runs():
+    from mycobot_planning.core.planning_interface.planning_workers import split_attempts
+
+    assert split_attempts(4, 2) == [(0, 2), (2, 2)]
+    assert split_attempts(5, 2) == [(0, 3), (3, 2)]
+    assert split_attempts(2, 8) == [(0, 1), (1, 1)]
+    assert split_attempts(7, 1) == [(0, 7)]
+    for attempts in range(1, 12):
+        for parts in range(1, 6):
+            runs = split_attempts(attempts, parts)
+            assert [first for first, _ in runs] == list(np.cumsum([0] + [n for _, n in runs])[:-1])
+            assert sum(n for _, n in runs) == attempts and min(n for _, n in runs) >= 1
+
+
+def test_best_of_attempts_keeps_the_shortest_and_the_earlier_on_ties():
+    from mycobot_planning.core.planning_interface.planning_interface import MotionPlanResponse
+    from mycobot_planning.core.planning_interface.planning_workers import best_of_attempts
+
+    def solved(length: float, time: float) -> MotionPlanResponse:
+        return MotionPlanResponse(MoveItErrorCode(MoveItErrorCode.SUCCESS, f"{length}"), trajectory=object(),
+                                  planning_time=time, path=np.array([[0.0, 0.0], [length, 0.0]]))
+
+    failed = MotionPlanResponse(MoveItErrorCode(MoveItErrorCode.PLANNING_FAILED, "no"), planning_time=0.4)
+    best = best_of_attempts([solved(2.0, 0.1), solved(1.0, 0.2), solved(1.0, 0.3), failed])
+    assert best.error_code.message == "1.0" and best.planning_time == 0.4
+    assert best is not None and best_of_attempts([failed, solved(3.0, 0.1)]).error_code.message == "3.0"
+    timed_out = MotionPlanResponse(MoveItErrorCode(MoveItErrorCode.TIMED_OUT, "late"), planning_time=0.5)
+    assert best_of_attempts([failed, timed_out]).error_code.val == MoveItErrorCode.TIMED_OUT
+
+
+def test_attempts_split_between_idle_workers_give_the_single_process_answer(workers: PlanningWorkers, monkeypatch):
+    """A seeded request of 6 OMPL attempts around the box (and one of a pose goal, whose IK goals
+    come from the seed too) goes to both idle workers, 3 attempts each: the answer is the path
+    the in-process pipeline plans with all 6."""
+    model = PlanningSetup().robot_model()
+    scene = _box_scene(model)
+    joint, pose = _requests(scene)[:2]
+    sent = []
+    pool = workers._pool
+    submit = pool.submit
+
+    def counted(fn, slot, key, msg, positions, request, changes):
+        sent.append((request.first_attempt, request.num_planning_attempts))
+        return submit(fn, slot, key, msg, positions, request, changes)
+
+    monkeypatch.setattr(pool, "submit", counted)
+    for request in (dataclasses.replace(joint, num_planning_attempts=6), dataclasses.replace(pose, num_planning_attempts=4)):
+        sent.clear()
+        local = workers.pipeline.plan(scene.copy(), request)
+        remote = workers.plan(scene.copy(), request)
+        assert sorted(sent) == [(0, request.num_planning_attempts // 2),
+                                (request.num_planning_attempts // 2, request.num_planning_attempts // 2)], sent
+        assert local.success and remote.success, (local.error_code, remote.error_code)
+        np.testing.assert_allclose(remote.path, local.path, atol=1e-12)
+        np.testing.assert_allclose(remote.trajectory.positions, local.trajectory.positions, atol=1e-12)
+    workers.parallel_attempts = False
+    try:
+        sent.clear()
+        assert workers.plan(scene.copy(), dataclasses.replace(joint, num_planning_attempts=6)).success
+        assert sent == [(0, 6)]
+    finally:
+        workers.parallel_attempts = True

@@ -45,6 +45,10 @@ class PlannerManager(Protocol):
     #: checks its path afterwards and refuses it if it leaves them
     enforces_path_constraints: bool
 
+    # Optional: ``independent_attempts = True`` says that the request's attempts do not depend on
+    # each other (MotionPlanRequest.first_attempt numbers them; the shortest path is the answer,
+    # ties to the earlier attempt), so PlanningWorkers may plan them in several processes.
+
     def planner_ids(self, group: str = "") -> list[str]:
         """The planner ids a request may name (for ``group``; "": for any group)."""
 

@@ -70,6 +70,10 @@ class MotionPlanRequest:
     planner_id: str = ""  # "RRTConnectkConfigDefault", "arm[RRTConnectkConfigDefault]", "PTP", "LIN", "CIRC"
     allowed_planning_time: float = 5.0
     num_planning_attempts: int = 1
+    #: the number of this request's first attempt: a planner whose attempts are independent
+    #: (``PlannerManager.independent_attempts``) seeds attempt k as attempt first_attempt + k of
+    #: the whole request, so attempts split between processes plan as they would in one
+    first_attempt: int = 0
     max_velocity_scaling_factor: float | None = None  # None: joint_limits.yaml's default
     max_acceleration_scaling_factor: float | None = None
     seed: int | None = None  # makes sampling planners and IK reproducible
@@ -156,6 +160,9 @@ def check_request_numbers(request: MotionPlanRequest) -> None:
             MoveItErrorCode.INVALID_MOTION_PLAN,
             f"num_planning_attempts must be an integer >= 1, got {request.num_planning_attempts}",
         )
+    if not isinstance(request.first_attempt, int) or request.first_attempt < 0:
+        raise failure(MoveItErrorCode.INVALID_MOTION_PLAN,
+                      f"first_attempt must be an integer >= 0, got {request.first_attempt}")
 
 
 def check_path_constraints_at_ends(request: MotionPlanRequest, start: RobotState,

@@ -18,16 +18,18 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import math
 import multiprocessing
 import os
 import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures import Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Callable, Mapping, Sequence
 
+import numpy as np
 from interfaces_py.msgs import MoveItErrorCode
 
 from .planning_interface import MotionPlanRequest, MotionPlanResponse
@@ -35,7 +37,7 @@ from .planning_pipeline import PlanningPipeline
 from ..planning_scene.planning_scene import PlanningScene
 from ..robot_model.robot_model import RobotModel
 
-__all__ = ["PlanningLoader", "PlanningSetup", "PlanningWorkers"]
+__all__ = ["PlanningLoader", "PlanningSetup", "PlanningWorkers", "best_of_attempts", "split_attempts"]
 
 #: builds (model, pipeline) in a worker: a picklable callable (a module-level function or a
 #: functools.partial of one), called once per worker process
@@ -130,6 +132,38 @@ def _worker_plan(slot: int, scene_key: str, scene_msg: Any, positions: Sequence[
     return dataclasses.replace(response, start_state=None)
 
 
+# ------------------------------------------------------------------ attempts in several workers
+def split_attempts(attempts: int, parts: int) -> list[tuple[int, int]]:
+    """``attempts`` cut into ``parts`` runs of consecutive attempts, as (first attempt, count),
+    the longer runs first; no run is empty."""
+    parts = max(1, min(parts, attempts))
+    size, extra = divmod(attempts, parts)
+    runs, first = [], 0
+    for k in range(parts):
+        count = size + (1 if k < extra else 0)
+        runs.append((first, count))
+        first += count
+    return runs
+
+
+def _path_length(response: MotionPlanResponse) -> float:
+    path = response.path
+    if path is None or len(path) < 2:
+        return 0.0 if path is not None else math.inf
+    return float(np.sum(np.linalg.norm(np.diff(np.asarray(path, dtype=float), axis=0), axis=1)))
+
+
+def best_of_attempts(responses: Sequence[MotionPlanResponse]) -> MotionPlanResponse:
+    """The answer of a request whose attempts ran as several requests (in attempt order), as one
+    process running them all would give it: the shortest path, ties to the earlier attempt; with
+    no solution, the failure of the last attempts. Its planning_time is the longest part's."""
+    if len(responses) == 1:
+        return responses[0]
+    solved = [r for r in responses if r.success and r.trajectory is not None]
+    answer = min(solved, key=_path_length) if solved else responses[-1]
+    return dataclasses.replace(answer, planning_time=max(r.planning_time for r in responses))
+
+
 # ------------------------------------------------------------------ the calling process side
 class PlanningWorkers:
     """A Planner that plans in ``processes`` worker processes (see the module docstring).
@@ -139,11 +173,15 @@ class PlanningWorkers:
     queries and take the parameter changes, which ``parameters_changed`` passes on."""
 
     def __init__(self, pipeline: Any, loader: PlanningLoader, processes: int,
-                 log: Callable[[str, str], None] | None = None) -> None:
+                 log: Callable[[str, str], None] | None = None, parallel_attempts: bool = True) -> None:
         if processes < 1:
             raise ValueError(f"PlanningWorkers needs at least 1 process, got {processes}")
         self.pipeline = pipeline
         self.processes = processes
+        #: a request of several attempts (num_planning_attempts) of a planner with independent
+        #: attempts is split between the workers free when it comes, as MoveIt runs attempts in
+        #: parallel threads; the answer is the one a single process would give (best_of_attempts)
+        self.parallel_attempts = parallel_attempts
         self._loader = loader
         self._log = log or (lambda level, text: None)
         context = multiprocessing.get_context("spawn")  # never fork a process that runs ROS threads
@@ -214,37 +252,51 @@ class PlanningWorkers:
         positions = list(msg.robot_state.positions)
         msg.robot_state.positions = []
         scene_key = hashlib.blake2b(msg.to_json().encode(), digest_size=16).hexdigest()
-        slot = self._take_slot()
+        slots = [self._take_slot()]
+        if self.parallel_attempts and request.num_planning_attempts > 1 and self._independent_attempts(request):
+            slots += self._take_free_slots(min(request.num_planning_attempts, self.processes) - 1)
+        futures: list[Future] = []
         try:
-            self._flags[slot] = 0
-            wire = dataclasses.replace(request, start_state=None, cancel=None)
-            try:
-                future: Future = pool.submit(_worker_plan, slot, scene_key, msg, positions, wire, changes)
-            except (BrokenProcessPool, RuntimeError) as exc:
-                self._restart(pool, exc)
-                return self.pipeline.plan(scene, request)
-            return self._answer(future, pool, request, slot)
+            for slot, (first, count) in zip(slots, split_attempts(request.num_planning_attempts, len(slots))):
+                self._flags[slot] = 0
+                wire = dataclasses.replace(request, start_state=None, cancel=None, num_planning_attempts=count,
+                                           first_attempt=request.first_attempt + first)
+                try:
+                    futures.append(pool.submit(_worker_plan, slot, scene_key, msg, positions, wire, changes))
+                except (BrokenProcessPool, RuntimeError) as exc:
+                    for started in slots[:len(futures)]:
+                        self._flags[started] = 1  # those already sent end PREEMPTED; nobody waits for them
+                    self._restart(pool, exc)
+                    return self.pipeline.plan(scene, request)
+            responses = self._answers(futures, pool, request, slots)
         finally:
-            self._give_slot(slot)
+            for slot in slots:
+                self._give_slot(slot)
+        return dataclasses.replace(best_of_attempts(responses), start_state=request.start_state)
 
-    def _answer(self, future: Future, pool: ProcessPoolExecutor, request: MotionPlanRequest,
-                slot: int) -> MotionPlanResponse:
+    def _independent_attempts(self, request: MotionPlanRequest) -> bool:
+        manager = self.pipeline.manager(request.pipeline_id or "ompl")
+        return bool(getattr(manager, "independent_attempts", False))
+
+    def _answers(self, futures: list[Future], pool: ProcessPoolExecutor, request: MotionPlanRequest,
+                 slots: list[int]) -> list[MotionPlanResponse]:
+        """The workers' answers, in the order sent; a cancel of the request reaches every worker."""
         cancel = request.cancel
-        slot_flag_set = False
-        while True:
-            try:
-                response = future.result(timeout=CANCEL_POLL)
-                break
-            except TimeoutError:
-                if not slot_flag_set and cancel is not None and cancel.is_set():
-                    self._flags[slot] = 1
-                    slot_flag_set = True
-            except BrokenProcessPool as exc:
-                self._restart(pool, exc)
-                return MotionPlanResponse(MoveItErrorCode(
-                    MoveItErrorCode.FAILURE, "the planning worker process ended during this plan (new workers are "
-                    "starting)"), group_name=request.group)
-        return dataclasses.replace(response, start_state=request.start_state)
+        flagged = False
+        try:
+            while wait(futures, timeout=CANCEL_POLL).not_done:
+                if not flagged and cancel is not None and cancel.is_set():
+                    for slot in slots:
+                        self._flags[slot] = 1
+                    flagged = True
+            return [future.result() for future in futures]
+        except BrokenProcessPool as exc:
+            for slot in slots:
+                self._flags[slot] = 1
+            self._restart(pool, exc)
+            return [MotionPlanResponse(MoveItErrorCode(
+                MoveItErrorCode.FAILURE, "the planning worker process ended during this plan (new workers are "
+                "starting)"), group_name=request.group)]
 
     # -------------------------------------------------------------- slots (one per worker)
     def _take_slot(self) -> int:
@@ -252,6 +304,13 @@ class PlanningWorkers:
             while not self._free:
                 self._slots.wait()
             return self._free.pop()
+
+    def _take_free_slots(self, count: int) -> list[int]:
+        """Up to ``count`` more slots, only those free now (never waits)."""
+        with self._slots:
+            taken = self._free[len(self._free) - max(0, min(count, len(self._free))):]
+            del self._free[len(self._free) - len(taken):]
+            return taken
 
     def _give_slot(self, slot: int) -> None:
         with self._slots:

@@ -136,6 +136,11 @@ class PlanningServer(Node):
                           "worker processes that plan (each loads the robot and the planners once, about 1-2 s in "
                           "the background): concurrent plan requests then use several cores; 0: plans run in the "
                           "server's threads, which share one core", range=(0, 64), read_only=True),
+            ParameterSpec("parallel_planning_attempts", True,
+                          "with planning_processes: a request of several OMPL attempts (num_planning_attempts) "
+                          "is split between the worker processes free when it comes, as MoveIt runs attempts in "
+                          "parallel; the answer is the one planning them in turn gives (the shortest path, the "
+                          "earlier attempt on ties)", read_only=True),
             ParameterSpec("warehouse_host", ":memory:",
                           "SQLite database file of the warehouse robot states (/save_robot_state, ...), as "
                           "warehouse_ros_sqlite reads warehouse_host; '~' expands; ':memory:' (the default) keeps "
@@ -158,8 +163,9 @@ class PlanningServer(Node):
         pipeline = setup.planning_pipeline()
         controllers = load_controllers(self._config_path("controllers_file", "moveit_controllers"))
         processes = int(self._config.get("planning_processes"))
-        self._workers = PlanningWorkers(pipeline, setup, processes, log=self._log) if processes \
-            else None
+        self._workers = PlanningWorkers(pipeline, setup, processes, log=self._log,
+                                        parallel_attempts=bool(self._config.get("parallel_planning_attempts"))) \
+            if processes else None
         self._params = _declare(self, self._specs(model, pipeline, self._goal_group))
 
         # The high-rate streams (/joint_states and the controllers' states, 100 Hz each) are

@@ -93,6 +93,9 @@ class OmplPlanner:
     pipeline_id = OMPL_PIPELINE_ID
     description = "OMPL"
     enforces_path_constraints = True
+    #: attempts are independent (attempt k seeded from the request's seed and first_attempt + k,
+    #: the shortest path wins, ties to the earlier attempt): PlanningWorkers may split them
+    independent_attempts = True
 
     def __init__(self, config: OmplConfig | str | Path | Mapping | None = None) -> None:
         if config is None:
@@ -266,7 +269,8 @@ class OmplPlanner:
             remaining = budget - (time.perf_counter() - started)
             if remaining <= 0 or (request.cancel is not None and request.cancel.is_set()):
                 break
-            seed = None if request.seed is None else int(request.seed) + 1 + attempt + 1000 * replans
+            seed = None if request.seed is None else \
+                int(request.seed) + 1 + request.first_attempt + attempt + 1000 * replans
             if straight_free:
                 straight = _straight_motion(scene, jmg, start, start_vector, goal_vectors, lower, upper, fraction,
                                             velocity_scaling, acceleration_scaling, resolved.type)
