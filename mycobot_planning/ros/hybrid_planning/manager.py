@@ -29,6 +29,7 @@ from mycobot_planning.core.hybrid_planning import (
     HybridPlanningEvent,
     planner_logic,
 )
+from mycobot_planning.ros.action_servers import ABORTED, CANCELED, SUCCEEDED
 from mycobot_planning.ros.hybrid_planning.component import HybridPlanningComponent
 from mycobot_planning.ros.hybrid_planning.goal_checks import GoalError, motion_plan_request
 from mycobot_planning.ros.node_runtime import ParameterSpec, Parameters
@@ -189,17 +190,14 @@ class HybridPlanningManager(HybridPlanningComponent):
     def _answer(self, goal_handle: Any, code: int, message: str) -> HybridPlanner.Result:
         result = HybridPlanner.Result(error_message=message)
         result.error_code = MoveItErrorCodes(val=code, message=message, source="hybrid_planning_manager")
-        if self.going_down():  # the goal ends with the node
-            return result
         if code == MoveItErrorCodes.SUCCESS:
-            goal_handle.succeed()
+            outcome = SUCCEEDED
         elif goal_handle.is_cancel_requested:
             result.error_code.val = MoveItErrorCodes.PREEMPTED
-            goal_handle.canceled()
+            outcome = CANCELED
         else:
-            self.get_logger().warning(f"hybrid planning failed: {message}")
-            goal_handle.abort()
-        return result
+            outcome = ABORTED
+        return self.end(goal_handle, result, outcome, f"hybrid planning failed: {message}")
 
     def _execute(self, goal_handle: Any) -> HybridPlanner.Result:
         goal = goal_handle.request
