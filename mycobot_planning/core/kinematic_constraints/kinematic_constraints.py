@@ -37,6 +37,7 @@ import numpy as np
 import pinocchio as pin
 from scipy.spatial.transform import Rotation
 
+from ..robot_model.robot_model import group_configuration
 from ..robot_state.robot_state import RobotState
 
 XYZ_EULER_ANGLES = 0
@@ -564,11 +565,7 @@ class ConstraintManifold:
 
     # -------------------------------------------------------------- kinematics
     def _configure(self, x: np.ndarray) -> np.ndarray:
-        if self._slots is not None:
-            self._q[self._slots] = x
-            return self._q
-        self._full[self._indices] = x
-        return np.asarray(self.model.to_q(self._full), dtype=float)
+        return group_configuration(self.model, x, self._slots, self._q, self._full, self._indices)
 
     def _values(self, x: np.ndarray) -> list[np.ndarray]:
         """The constrained quantities at ``x`` (cached for the Jacobian that usually follows)."""

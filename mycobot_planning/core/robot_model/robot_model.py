@@ -811,3 +811,17 @@ class RobotModel:
             f"RobotModel('{self.name}', {len(self.variable_names)} variables, "
             f"groups={self.group_names}, links={len(self.link_names)})"
         )
+
+
+def group_configuration(model: RobotModel, x: np.ndarray, slots: np.ndarray | None, q: np.ndarray,
+                        full: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """The Pinocchio configuration with the group values ``x`` (at ``idx`` of the positions):
+    written into the buffer ``q`` at ``slots`` when the model gives them (RobotModel.q_slots),
+    else through the positions buffer ``full`` and RobotModel.to_q. Solvers that move only a
+    group's variables in a loop (IK-based Cartesian steps, CHOMP, constraint projection) build
+    their configurations with it."""
+    if slots is not None:
+        q[slots] = x
+        return q
+    full[idx] = x
+    return model.to_q(full)
