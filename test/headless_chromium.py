@@ -22,6 +22,8 @@ import time
 from pathlib import Path
 from typing import Any, Callable
 
+from mycobot_planning.polling import wait_until as poll_until
+
 CHROMIUM = Path("/usr/bin/chromium")
 FLAGS = [
     "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
@@ -357,10 +359,4 @@ def available() -> bool:
 
 
 def wait_until(predicate: Callable[[], Any], timeout: float, period: float = 0.1) -> Any:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        value = predicate()
-        if value:
-            return value
-        time.sleep(period)
-    return predicate()
+    return poll_until(predicate, timeout, period)

@@ -12,7 +12,7 @@ import threading
 import sys
 import time
 from pathlib import Path
-from typing import Any, Callable, Iterable, Iterator, Sequence
+from typing import Any, Iterable, Iterator, Sequence
 
 import numpy as np
 import rclpy
@@ -26,6 +26,7 @@ from std_srvs.srv import Trigger
 
 from interfaces_py.background_spin import BackgroundSpin
 from mycobot_planning.paths import config_file
+from mycobot_planning.polling import wait_until
 from mycobot_planning.ros.bringup import robot as bringup
 from mycobot_planning.ros.bringup.process import ManagedProcess
 from mycobot_planning.ros.task.task_topics import SOLUTION_QOS, STATISTICS_QOS, task_topics
@@ -105,15 +106,6 @@ class NodeProcess(ManagedProcess):
 
 def _log_dir(log_dir: Path | None = None) -> Path:
     return log_dir or Path(os.environ.get("MYCOBOT_TEST_LOG_DIR", "/tmp/mycobot_test_logs"))
-
-
-def wait_until(predicate: Callable[[], bool], timeout: float, period: float = 0.05) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(period)
-    return predicate()
 
 
 def pymoveit2_joints(moveit2: Any, names: Sequence[str]) -> np.ndarray:

@@ -29,6 +29,20 @@ def as_status(result: NodeStatus | bool, who: str) -> NodeStatus:
     raise LogicError(f"{who} must return a NodeStatus (or a bool), got {result!r}")
 
 
+class TickFunctorNode(TreeNode):
+    """A node whose tick asks a function of the node, ``f(node) -> NodeStatus`` (or bool): the
+    base of SimpleActionNode and SimpleConditionNode; ``KIND`` names the node in errors."""
+
+    KIND = "node"
+
+    def __init__(self, name: str, config: NodeConfig, tick_functor: Callable[[TreeNode], NodeStatus | bool]):
+        super().__init__(name, config)
+        self._tick_functor = tick_functor
+
+    def functor_status(self) -> NodeStatus:
+        return as_status(self._tick_functor(self), f"{self.KIND} [{self.name}]")
+
+
 class ActionNodeBase(TreeNode):
     """A leaf that does something (BT.CPP's ActionNodeBase)."""
 
@@ -48,17 +62,15 @@ class SyncActionNode(ActionNodeBase):
         self.reset_status()
 
 
-class SimpleActionNode(SyncActionNode):
+class SimpleActionNode(TickFunctorNode, SyncActionNode):
     """A function as an action: ``f(node) -> NodeStatus`` (or bool)."""
 
-    def __init__(self, name: str, config: NodeConfig, tick_functor: Callable[[TreeNode], NodeStatus | bool]):
-        super().__init__(name, config)
-        self._tick_functor = tick_functor
+    KIND = "action"
 
     def tick(self) -> NodeStatus:
         if self._status is IDLE:
             self.set_status(RUNNING)
-        return as_status(self._tick_functor(self), f"action [{self.name}]")
+        return self.functor_status()
 
 
 class StatefulActionNode(ActionNodeBase):

@@ -1,11 +1,9 @@
 """Condition nodes (BT.CPP's condition_node.h): leaves that check and answer at once."""
 from __future__ import annotations
 
-from collections.abc import Callable
-
-from .action_node import as_status
+from .action_node import TickFunctorNode
 from .basic_types import NodeStatus, NodeType
-from .tree_node import NodeConfig, TreeNode
+from .tree_node import TreeNode
 
 
 class ConditionNode(TreeNode):
@@ -17,12 +15,10 @@ class ConditionNode(TreeNode):
         self.reset_status()
 
 
-class SimpleConditionNode(ConditionNode):
+class SimpleConditionNode(TickFunctorNode, ConditionNode):
     """A function as a condition: ``f(node) -> NodeStatus`` (or bool)."""
 
-    def __init__(self, name: str, config: NodeConfig, tick_functor: Callable[[TreeNode], NodeStatus | bool]):
-        super().__init__(name, config)
-        self._tick_functor = tick_functor
+    KIND = "condition"
 
     def tick(self) -> NodeStatus:
-        return as_status(self._tick_functor(self), f"condition [{self.name}]")
+        return self.functor_status()

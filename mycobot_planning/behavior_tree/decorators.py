@@ -11,7 +11,7 @@ deadline, which the tick loop schedules at the deadline itself.
 from __future__ import annotations
 
 from collections import deque
-from typing import Any
+from typing import Any, ClassVar
 
 from .basic_types import FAILURE, IDLE, RUNNING, SKIPPED, SUCCESS, NodeStatus, NodeType, is_status_completed
 from .blackboard import EMPTY
@@ -41,35 +41,40 @@ from .scripting import Environment, Script, parse_script, script_truth
 from .tree_node import NodeConfig
 
 
-class InverterNode(DecoratorNode):
-    """SUCCESS becomes FAILURE and FAILURE becomes SUCCESS; RUNNING and SKIPPED pass through."""
+class _CompletedChildMapped(DecoratorNode):
+    """Ticks the child; when it answers a status of COMPLETED, the child is reset and the node
+    answers what COMPLETED maps it to; any other status goes to :meth:`other`."""
+
+    COMPLETED: ClassVar[dict[NodeStatus, NodeStatus]] = {}
 
     def tick(self) -> NodeStatus:
         self.set_status(RUNNING)
         status = self.child.execute_tick()
-        if status is SUCCESS:
+        mapped = self.COMPLETED.get(status)
+        if mapped is not None:
             self.reset_child()
-            return FAILURE
-        if status is FAILURE:
-            self.reset_child()
-            return SUCCESS
+            return mapped
+        return self.other(status)
+
+    def other(self, status: NodeStatus) -> NodeStatus:
+        return status
+
+
+class InverterNode(_CompletedChildMapped):
+    """SUCCESS becomes FAILURE and FAILURE becomes SUCCESS; RUNNING and SKIPPED pass through."""
+
+    COMPLETED = {SUCCESS: FAILURE, FAILURE: SUCCESS}
+
+    def other(self, status: NodeStatus) -> NodeStatus:
         if status is RUNNING or status is SKIPPED:
             return status
         raise LogicError(f"[{self.name}]: a child should not return IDLE")
 
 
-class _ForcedStatus(DecoratorNode):
-    """A completed child is FORCED, whatever it answered."""
+class _ForcedStatus(_CompletedChildMapped):
+    """A completed child is one status (ForceSuccess: SUCCESS), whatever it answered."""
 
-    FORCED = SUCCESS
-
-    def tick(self) -> NodeStatus:
-        self.set_status(RUNNING)
-        status = self.child.execute_tick()
-        if is_status_completed(status):
-            self.reset_child()
-            return self.FORCED
-        return status
+    COMPLETED = {SUCCESS: SUCCESS, FAILURE: SUCCESS}
 
 
 class ForceSuccessNode(_ForcedStatus):
@@ -79,7 +84,7 @@ class ForceSuccessNode(_ForcedStatus):
 class ForceFailureNode(_ForcedStatus):
     """A completed child is FAILURE, whatever it answered."""
 
-    FORCED = FAILURE
+    COMPLETED = {SUCCESS: FAILURE, FAILURE: FAILURE}
 
 
 class _CountedLoop(DecoratorNode):
@@ -157,21 +162,13 @@ class RetryNode(_CountedLoop):
                                                             "Use -1 to create an infinite loop."),)
 
 
-class KeepRunningUntilFailureNode(DecoratorNode):
+class KeepRunningUntilFailureNode(_CompletedChildMapped):
     """RUNNING while the child succeeds (it is ticked again next time); FAILURE when it fails."""
 
-    def tick(self) -> NodeStatus:
-        self.set_status(RUNNING)
-        status = self.child.execute_tick()
-        if status is FAILURE:
-            self.reset_child()
-            return FAILURE
-        if status is SUCCESS:
-            self.reset_child()
-            return RUNNING
-        if status is RUNNING:
-            return RUNNING
-        return self._status
+    COMPLETED = {FAILURE: FAILURE, SUCCESS: RUNNING}
+
+    def other(self, status: NodeStatus) -> NodeStatus:
+        return RUNNING if status is RUNNING else self._status
 
 
 class DelayNode(DecoratorNode):

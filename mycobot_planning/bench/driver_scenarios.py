@@ -37,6 +37,7 @@ from mycobot_planning.hardware.emulator import EmulatedArm
 from mycobot_planning.hardware.follower import MeasuredTrajectoryFollower
 from mycobot_planning.hardware.protocol import BITS_PER_BYTE
 from mycobot_planning.mock_control.joint_trajectory_follower import ControllerStatus, TrajectoryCommand
+from mycobot_planning.polling import wait_until
 
 from .common import emit, machine, spread
 from .pick_place_scenarios import best_solution_sub_trajectories
@@ -84,12 +85,7 @@ def _followers(config: DriverConfig, model: RobotModel) -> tuple[MeasuredTraject
 
 
 def _wait(predicate, timeout: float) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.005)
-    return predicate()
+    return bool(wait_until(predicate, timeout, 0.005))
 
 
 @contextmanager

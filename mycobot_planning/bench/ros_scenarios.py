@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from interfaces_py.msgs import CollisionObject, Pose, RobotState as RobotStateMsg
+from mycobot_planning.polling import wait_until
 from mycobot_planning.ros.bringup import robot as bringup
 
 from .common import emit, machine, spread, stats
@@ -151,11 +152,8 @@ class _JointWatcher:
 
 
 def _wait(predicate, timeout: float, what: str) -> None:
-    deadline = time.monotonic() + timeout
-    while not predicate():
-        if time.monotonic() > deadline:
-            raise RuntimeError(f"timed out waiting for {what}")
-        time.sleep(0.005)
+    if not wait_until(predicate, timeout, 0.005):
+        raise RuntimeError(f"timed out waiting for {what}")
 
 
 def robot_ready(arm: Any, joint_states_here: Any) -> None:

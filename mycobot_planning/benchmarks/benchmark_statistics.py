@@ -157,18 +157,14 @@ def _compute_views(db: sqlite3.Connection) -> None:
     s0 = (f"SELECT plannerid, plannerConfigs.name AS plannerName, experimentid, solved, {total} AS total_time "
           "FROM plannerConfigs INNER JOIN experiments INNER JOIN runs "
           "ON plannerConfigs.id=runs.plannerid AND experiments.id=runs.experimentid")
-    s1 = ("SELECT plannerid, plannerName, experimentid, AVG(solved) AS avg_solved, AVG(total_time) AS avg_total_time "
-          f"FROM ({s0}) GROUP BY plannerid, experimentid")
-    s2 = ("SELECT plannerid, experimentid, MIN(avg_solved) AS avg_solved, avg_total_time "
-          f"FROM ({s1}) GROUP BY plannerName, experimentid ORDER BY avg_solved DESC, avg_total_time ASC")
-    db.execute("DROP VIEW IF EXISTS bestPlannerConfigsPerExperiment")
-    db.execute(f"CREATE VIEW IF NOT EXISTS bestPlannerConfigsPerExperiment AS {s2}")
-    s1 = ("SELECT plannerid, plannerName, AVG(solved) AS avg_solved, AVG(total_time) AS avg_total_time "
-          f"FROM ({s0}) GROUP BY plannerid")
-    s2 = ("SELECT plannerid, MIN(avg_solved) AS avg_solved, avg_total_time "
-          f"FROM ({s1}) GROUP BY plannerName ORDER BY avg_solved DESC, avg_total_time ASC")
-    db.execute("DROP VIEW IF EXISTS bestPlannerConfigs")
-    db.execute(f"CREATE VIEW IF NOT EXISTS bestPlannerConfigs AS {s2}")
+    for view, by in (("bestPlannerConfigsPerExperiment", ["experimentid"]), ("bestPlannerConfigs", [])):
+        keys = "".join(f", {key}" for key in by)
+        s1 = (f"SELECT plannerid, plannerName{keys}, AVG(solved) AS avg_solved, AVG(total_time) AS avg_total_time "
+              f"FROM ({s0}) GROUP BY plannerid{keys}")
+        s2 = (f"SELECT plannerid{keys}, MIN(avg_solved) AS avg_solved, avg_total_time "
+              f"FROM ({s1}) GROUP BY plannerName{keys} ORDER BY avg_solved DESC, avg_total_time ASC")
+        db.execute(f"DROP VIEW IF EXISTS {view}")
+        db.execute(f"CREATE VIEW IF NOT EXISTS {view} AS {s2}")
 
 
 def build_database(path: str | Path, logs: Sequence[BenchmarkLog], append: bool = False) -> Path:

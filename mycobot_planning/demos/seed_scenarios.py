@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
@@ -209,6 +209,20 @@ DEFAULT_MARKER_POSE = (0.02, 0.05, 0.40, 0.0, 0.0, math.sin(0.15), math.cos(0.15
 def pose_from_list(values: Sequence[float], what: str) -> Pose:
     """Pose from [x, y, z, qx, qy, qz, qw] (a ROS parameter); PoseError (a ValueError) naming ``what``."""
     return pose_message(values, what)
+
+
+def pose_list_check(what: str) -> Callable[[Any], str | None]:
+    """A parameter validator for a pose list named ``what``: None when pose_from_list takes the
+    value, else why not."""
+
+    def problem(value: Any) -> str | None:
+        try:
+            pose_from_list(value, what)
+        except (ValueError, TypeError) as exc:
+            return str(exc)
+        return None
+
+    return problem
 
 
 def pose_to_list(pose: Pose) -> list[float]:

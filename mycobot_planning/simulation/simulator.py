@@ -16,7 +16,7 @@ import threading
 import time
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Callable, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import mujoco
 import numpy as np
@@ -351,11 +351,9 @@ class MujocoSimulator:
             return {name: self._body_pose(body) for name, body in self._built.index.object_bodies.items()}
 
     def object_pose(self, name: str) -> np.ndarray:
-        with self._lock:
-            body = self._built.index.object_bodies.get(name)
-            if body is None:
-                raise KeyError(f"no object '{name}' in the simulation (objects: {', '.join(self.scene.object_ids)})")
-            return self._body_pose(body)
+        return self._named_body_pose(
+            lambda index: index.object_bodies, name,
+            lambda: f"no object '{name}' in the simulation (objects: {', '.join(self.scene.object_ids)})")
 
     def set_object_state(self, name: str, pose: np.ndarray | Sequence[float] | None = None,
                          linear_velocity: Sequence[float] | None = None,
@@ -392,10 +390,17 @@ class MujocoSimulator:
 
     def link_pose(self, link: str) -> np.ndarray:
         """A robot link's true pose (4x4, world frame) now."""
+        return self._named_body_pose(lambda index: index.link_bodies, link,
+                                     lambda: f"no link '{link}' in the simulation")
+
+    def _named_body_pose(self, bodies: Callable[[Any], Mapping[str, int]], name: str,
+                         missing: Callable[[], str]) -> np.ndarray:
+        """The pose now of the body named ``name`` in the ``bodies`` of the model's index; a
+        KeyError saying ``missing()`` when there is none."""
         with self._lock:
-            body = self._built.index.link_bodies.get(link)
+            body = bodies(self._built.index).get(name)
             if body is None:
-                raise KeyError(f"no link '{link}' in the simulation")
+                raise KeyError(missing())
             return self._body_pose(body)
 
     def _body_pose(self, body: int) -> np.ndarray:

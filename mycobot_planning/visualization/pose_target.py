@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from ..core.transforms import make_pose, matrix_to_quat, matrix_to_rpy
+from .panel_message import PanelMessage
 
 __all__ = ["PoseTargetActions", "PoseTargetPanel", "format_pose", "parse_pose"]
 
@@ -84,7 +85,6 @@ class PoseTargetPanel:
         self._target: np.ndarray | None = None
         self._token = 0  # the target's version: a plan answered for an older one is not offered
         self._planned: int | None = None  # the token whose plan is previewed and may be executed
-        self._message = ""
         self._gizmo: Any = None
         self._setting = False  # the panel itself moves the gizmo or the field: not a user's edit
         with gui.add_folder("Pose target"):
@@ -101,7 +101,7 @@ class PoseTargetPanel:
                                                hint="plan a collision-free move there and preview it (nothing moves)")
             self._execute_button = gui.add_button("Execute previewed plan", disabled=True, color="green",
                                                   hint="run the plan shown in orange")
-            self._message_md = gui.add_markdown("")
+            self._message = PanelMessage(gui)
         self._place_button.on_click(lambda _: self.place_at_tool())
         self._plan_button.on_click(lambda _: self.click_plan())
         self._execute_button.on_click(lambda _: self.click_execute())
@@ -194,12 +194,10 @@ class PoseTargetPanel:
         self._actions.execute(token)
 
     def on_message(self, text: str) -> None:
-        with self._lock:
-            self._message = text
-        self._message_md.content = text
+        self._message.show(text)
 
     def state(self) -> dict[str, Any]:
         with self._lock:
             return {"target": None if self._target is None else format_pose(self._target),
-                    "token": self._token, "previewed": self._planned is not None, "message": self._message,
+                    "token": self._token, "previewed": self._planned is not None, "message": self._message.text,
                     "scaling": float(self._scaling.value)}

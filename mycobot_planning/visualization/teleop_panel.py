@@ -20,6 +20,8 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from .panel_message import PanelMessage
+
 NO_WAYPOINTS = "(no waypoints)"
 #: Cartesian jog buttons: label -> (linear, angular) unit twist
 CARTESIAN = {
@@ -92,7 +94,6 @@ class TeleopPanel:
         self._last_goal: dict[str, float] = {}  # the sliders' last move
         self._waypoints: list[str] = []
         self._servo_status = ""
-        self._message = ""
         self._jogs = 0
         with gui.add_folder("Teleoperate"):
             self._speed = gui.add_slider("Jog speed", min=0.05, max=1.0, step=0.05, initial_value=0.3,
@@ -134,7 +135,7 @@ class TeleopPanel:
                                                      hint="the saved waypoint takes the name typed above")
                 self._erase_button = gui.add_button("Erase waypoint", disabled=True,
                                                     hint="click twice to erase the saved waypoint")
-            self._message_md = gui.add_markdown("")
+            self._message = PanelMessage(gui)
         self._stop_button.on_click(lambda _: self.click_stop())
         self._open_button.on_click(lambda _: self._actions.gripper(True))
         self._close_button.on_click(lambda _: self._actions.gripper(False))
@@ -284,14 +285,12 @@ class TeleopPanel:
                 self._waypoint_dropdown.value = select
 
     def on_message(self, text: str) -> None:
-        with self._lock:
-            self._message = text
-            self._message_md.content = text
+        self._message.show(text)
 
     def state(self) -> dict[str, Any]:
         with self._lock:
             return {"servo_status": self._servo_status, "waypoints": list(self._waypoints),
-                    "selected_waypoint": self._waypoint_dropdown.value, "message": self._message,
+                    "selected_waypoint": self._waypoint_dropdown.value, "message": self._message.text,
                     "jog_repeats": self._jogs, "speed": float(self._speed.value), "frame": self._frame.value,
                     "joints": list(self._joints), "sliders": {j: float(s.value) for j, s in self._sliders.items()},
                     "slider_ranges": {j: list(r) for j, r in self._ranges.items()},

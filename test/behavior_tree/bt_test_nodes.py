@@ -44,8 +44,8 @@ class Script:
         self.answers[name] = list(statuses)
 
 
-class ScriptedAction(ActionNodeBase):
-    """An action answering what the script says; RUNNING allowed; records halts."""
+class _Scripted:
+    """A node answering what the script says for its name."""
 
     def __init__(self, name, config, script: Script):
         super().__init__(name, config)
@@ -53,19 +53,18 @@ class ScriptedAction(ActionNodeBase):
 
     def tick(self) -> NodeStatus:
         return self.script.next(self.name)
+
+
+class ScriptedAction(_Scripted, ActionNodeBase):
+    """An action answering what the script says; RUNNING allowed; records halts."""
 
     def halt(self) -> None:
         self.script.halts[self.name] += 1
         self.reset_status()
 
 
-class ScriptedCondition(ConditionNode):
-    def __init__(self, name, config, script: Script):
-        super().__init__(name, config)
-        self.script = script
-
-    def tick(self) -> NodeStatus:
-        return self.script.next(self.name)
+class ScriptedCondition(_Scripted, ConditionNode):
+    """A condition answering what the script says."""
 
 
 def factory_with(script: Script) -> BehaviorTreeFactory:

@@ -60,6 +60,13 @@ def tree_of(body: str, factory, blackboard=None, clock=None):
     return factory.create_tree_from_text(xml, blackboard, clock)
 
 
+def clocked_tree(body: str):
+    """A tree of ``body`` on a FakeClock the test advances: (tree, clock, behavior context)."""
+    factory, context = make()
+    clock = FakeClock()
+    return tree_of(body, factory, clock=clock), clock, context
+
+
 def test_my_transform_pose_creates_transforms_and_shows_the_pose():
     factory, context = make()
     blackboard = Blackboard.create()
@@ -144,9 +151,7 @@ def test_for_each_fails_when_its_child_fails_and_succeeds_on_an_empty_vector():
 
 
 def test_wait_for_duration_runs_for_its_duration_on_the_tree_clock():
-    factory, _ = make()
-    clock = FakeClock()
-    tree = tree_of('<WaitForDuration delay_duration="1.5"/>', factory, clock=clock)
+    tree, clock, _ = clocked_tree('<WaitForDuration delay_duration="1.5"/>')
     assert tree.tick_exactly_once() is RUNNING
     clock.advance(1.0)
     assert tree.tick_exactly_once() is RUNNING
@@ -233,9 +238,7 @@ def test_request_teleoperation_fails_on_the_operator_fail():
 
 
 def test_a_halted_prompt_is_withdrawn():
-    factory, context = make()
-    clock = FakeClock()
-    tree = tree_of('<Timeout msec="1000"><RequestTeleoperation/></Timeout>', factory, clock=clock)
+    tree, clock, context = clocked_tree('<Timeout msec="1000"><RequestTeleoperation/></Timeout>')
     assert tree.tick_exactly_once() is RUNNING
     assert context.operator.current() is not None
     clock.advance(1.0)

@@ -34,6 +34,8 @@ from mycobot_planning.core.planners.ompl import (
 from mycobot_planning.core.planners.ompl.planners import apply_params, validate_params
 from mycobot_planning.paths import config_file
 
+from file_checks import assert_file_refused
+
 LVSF = 0.005
 INF = math.inf
 DENSE_STEP = 0.002
@@ -601,16 +603,13 @@ def test_config_errors(mutate, match):
         load_ompl_config(data)
 
 
-def test_config_file_errors(tmp_path):
-    with pytest.raises(OmplConfigError, match="not found"):
-        load_ompl_config(tmp_path / "missing.yaml")
-    bad = tmp_path / "bad.yaml"
-    bad.write_text("planner_configs: [unclosed\n")
-    with pytest.raises(OmplConfigError, match="invalid YAML"):
-        load_ompl_config(bad)
-    bad.write_text("- just\n- a list\n")
-    with pytest.raises(OmplConfigError, match="mapping at the top level"):
-        load_ompl_config(bad)
+@pytest.mark.parametrize("name, text, match", [
+    ("missing.yaml", None, "not found"),
+    ("bad.yaml", "planner_configs: [unclosed\n", "invalid YAML"),
+    ("bad.yaml", "- just\n- a list\n", "mapping at the top level"),
+])
+def test_config_file_errors(tmp_path, name, text, match):
+    assert_file_refused(load_ompl_config, OmplConfigError, tmp_path / name, text, match)
 
 
 def test_stock_moveit_file_loads_with_skip_unavailable():

@@ -31,6 +31,7 @@ from mycobot_planning.core.planning_interface.planning_interface import JointGoa
 from mycobot_planning.core.trajectory_processing.trajectory_validator import validate_trajectory
 from mycobot_planning.core.transforms import make_pose, rpy_to_matrix
 
+from file_checks import assert_file_refused
 from test_ompl_planner_manager import fallback_scene, ready_with
 
 TAU = 2 * math.pi
@@ -116,13 +117,12 @@ def test_cartesian_limits_rejected(data, words):
         load_cartesian_limits(data)
 
 
-def test_cartesian_limits_bad_files(tmp_path):
-    with pytest.raises(CartesianLimitsError, match="cannot read"):
-        load_cartesian_limits(tmp_path / "missing.yaml")
-    bad = tmp_path / "bad.yaml"
-    bad.write_text("cartesian_limits: [unclosed\n")
-    with pytest.raises(CartesianLimitsError, match="not valid YAML"):
-        load_cartesian_limits(bad)
+@pytest.mark.parametrize("name, text, match", [
+    ("missing.yaml", None, "cannot read"),
+    ("bad.yaml", "cartesian_limits: [unclosed\n", "not valid YAML"),
+])
+def test_cartesian_limits_bad_files(tmp_path, name, text, match):
+    assert_file_refused(load_cartesian_limits, CartesianLimitsError, tmp_path / name, text, match)
 
 
 # ---------------------------------------------------------------------------- profile

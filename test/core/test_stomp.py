@@ -154,7 +154,7 @@ def test_path_constraints_are_kept(pipeline, mycobot):
 def test_the_manifold_values_of_many_states_are_those_of_each(mycobot):
     """ConstraintManifold.values_many (STOMP's rollout cost) gives value() row by row, for joint,
     orientation (both parameterizations) and box / sphere / cylinder position rows."""
-    from mycobot_planning.core.kinematic_constraints.kinematic_constraints import ConstraintManifold
+    from mycobot_planning.core.kinematic_constraints.constraint_manifold import ConstraintManifold
 
     start = RobotState(mycobot)
     regions = [{"type": kind, "dimensions": dims, "pose": {"position": [0.1, 0.0, 0.2]}}

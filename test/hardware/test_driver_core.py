@@ -13,18 +13,14 @@ from mycobot_planning.hardware.driver import DriverConfig, DriverCore  # noqa: E
 from mycobot_planning.hardware.emulator import EmulatedArm  # noqa: E402
 from mycobot_planning.hardware.follower import MeasuredTrajectoryFollower  # noqa: E402
 from mycobot_planning.mock_control.joint_trajectory_follower import TrajectoryCommand  # noqa: E402
+from mycobot_planning.polling import wait_until as poll_until  # noqa: E402
 
 JOINTS = [f"joint{i}" for i in range(1, 7)]
 TIMEOUT = 30.0  # generous: a busy machine
 
 
 def wait_until(predicate, timeout: float = TIMEOUT) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.02)
-    return predicate()
+    return bool(poll_until(predicate, timeout, 0.02))
 
 
 class Rig:

@@ -65,6 +65,11 @@ def arm(probe) -> list[float]:
     return [joints[j] for j in ARM]
 
 
+def moved_from(probe, start: list[float]) -> float:
+    """How far (rad, the largest joint) the arm is from ``start``."""
+    return max(abs(a - b) for a, b in zip(arm(probe), start))
+
+
 def at_waypoint(probe, name: str, tolerance: float = 0.03) -> bool:
     return all(abs(a - b) < tolerance for a, b in zip(arm(probe), WAYPOINTS.get(name).positions))
 
@@ -76,7 +81,7 @@ def assert_at_rest(probe, within: float = 5.0) -> None:
     while True:
         before = arm(probe)
         time.sleep(0.5)
-        if max(abs(a - b) for a, b in zip(arm(probe), before)) < 1e-3:
+        if moved_from(probe, before) < 1e-3:
             return
         assert time.monotonic() < deadline, "the arm still moves"
 
@@ -90,6 +95,20 @@ def run(system, name: str = "", xml: str = "", **overrides):
     status, result = system["client"].run(name, xml, overrides, timeout=240.0)
     assert result is not None, f"no result for {name or 'the XML'}"
     return status, result
+
+
+def assert_ended(system, outcome: dict, code: int, status: str, *words: str) -> None:
+    """The objective ``start_objective`` ran ended with ``code``, its message naming ``words``,
+    and the server's status says ``status``."""
+    result = outcome["result"]
+    assert result.error_code.val == code, result.error_message
+    assert all(word in result.error_message for word in words), result.error_message
+    assert wait_until(lambda: last_status(system).objective_status == status, 5), last_status(system)
+
+
+def run_succeeds(system, xml: str) -> None:
+    status, result = run(system, xml=xml)
+    assert result.error_code.val == C.SUCCESS, result.error_message
 
 
 def start_objective(system, name: str) -> tuple[threading.Thread, dict]:
@@ -196,10 +215,7 @@ def test_the_operator_fail_fails_the_objective(system):
         assert answer.success
     finally:
         worker.join(60)
-    result = outcome["result"]
-    assert result.error_code.val == C.FAILURE
-    assert "Pick with Recovery" in result.error_message and "FAILURE" in result.error_message
-    assert wait_until(lambda: last_status(system).objective_status == "Failure", 5), last_status(system)
+    assert_ended(system, outcome, C.FAILURE, "Failure", "Pick with Recovery", "FAILURE")
 
 
 def test_cancel_mid_motion_stops_the_arm_and_reports_cancelled(system):
@@ -208,15 +224,12 @@ def test_cancel_mid_motion_stops_the_arm_and_reports_cancelled(system):
     worker, outcome = start_objective(system, "3 Waypoints Pick and Place")
     start = arm(probe)
     try:
-        assert wait_until(lambda: max(abs(a - b) for a, b in zip(arm(probe), start)) > 0.05, 60), "the arm never moved"
+        assert wait_until(lambda: moved_from(probe, start) > 0.05, 60), "the arm never moved"
         answer = probe.call(CancelObjective, "/cancel_objective", CancelObjective.Request())
         assert answer.status.success, answer.status.error_message
     finally:
         worker.join(60)
-    result = outcome["result"]
-    assert result.error_code.val == C.PREEMPTED
-    assert "canceled by /cancel_objective" in result.error_message and "arm stopped" in result.error_message
-    assert wait_until(lambda: last_status(system).objective_status == "Cancelled", 5), last_status(system)
+    assert_ended(system, outcome, C.PREEMPTED, "Cancelled", "canceled by /cancel_objective", "arm stopped")
     # at rest, and not where the motion was going
     assert_at_rest(probe)
     assert not at_waypoint(probe, "Transfer")
@@ -232,7 +245,7 @@ def test_canceling_the_goal_also_cancels(system):
     worker, outcome = start_objective(system, "Pick Object")
     start = arm(probe)
     try:
-        assert wait_until(lambda: max(abs(a - b) for a, b in zip(arm(probe), start)) > 0.05, 60)
+        assert wait_until(lambda: moved_from(probe, start) > 0.05, 60)
         client.cancel()
     finally:
         worker.join(60)
@@ -264,7 +277,7 @@ def test_bad_objectives_are_refused_before_anything_runs_as_a_result(system, cas
     assert result.error_code.val == C.FAILURE
     assert result.error_message.startswith("refused before running: objective_xml_string:"), result.error_message
     assert needle in result.error_message
-    assert max(abs(a - b) for a, b in zip(arm(system["probe"]), before)) < 1e-3
+    assert moved_from(system["probe"], before) < 1e-3
     assert system["procs"]["objectives"].alive()
 
 
@@ -344,7 +357,7 @@ def test_the_viewer_panel_runs_an_objective_answers_the_prompt_and_stops(system)
     run(system, "Look at Table")
     start = arm(probe)
     viewer.call("objectives_click", {"button": "run", "objective": "3 Waypoints Pick and Place"})
-    assert wait_until(lambda: max(abs(a - b) for a, b in zip(arm(probe), start)) > 0.05, 60)
+    assert wait_until(lambda: moved_from(probe, start) > 0.05, 60)
     viewer.call("objectives_click", {"button": "stop"})
     assert wait_until(lambda: panel()["status"]["status"] == "Cancelled", 30), panel()
 
@@ -355,7 +368,7 @@ def test_a_new_goal_cancels_the_running_objective(system):
     start_positions = arm(probe)
     worker, outcome = start_objective(system, "3 Waypoints Pick and Place")
     try:
-        assert wait_until(lambda: max(abs(a - b) for a, b in zip(arm(probe), start_positions)) > 0.05, 60)
+        assert wait_until(lambda: moved_from(probe, start_positions) > 0.05, 60)
         second = ObjectiveClient()
         try:
             assert second.wait_for_server(10.0)
@@ -382,7 +395,7 @@ def test_a_failure_halts_the_motion_running_beside_it_and_the_arm_rests(system):
     start_positions = arm(probe)
     status, result = run(system, xml=xml)
     assert result.error_code.val == C.FAILURE and "failed at" in result.error_message
-    moved = max(abs(a - b) for a, b in zip(arm(probe), start_positions))
+    moved = moved_from(probe, start_positions)
     assert moved > 0.01, "the motion never started"
     assert not at_waypoint(probe, "Place")  # halted on the way
     assert_at_rest(probe)
@@ -407,8 +420,7 @@ def test_mtc_behaviors_plan_and_execute_a_task_over_move_group(system):
            '<PlanMTCTask task="{task}" solution="{solution}"/>'
            '<ExecuteMTCSolution solution="{solution}"/>'
            '</Sequence></BehaviorTree></root>')
-    status, result = run(system, xml=xml)
-    assert result.error_code.val == C.SUCCESS, result.error_message
+    run_succeeds(system, xml)
     model = RobotModel.mycobot()
 
     def flange(positions):
@@ -430,7 +442,7 @@ def test_a_task_that_cannot_be_planned_fails_naming_the_stage(system):
     before = arm(system["probe"])
     status, result = run(system, xml=xml)
     assert result.error_code.val == C.FAILURE and "PlanMTCTask" in result.error_message
-    assert max(abs(a - b) for a, b in zip(arm(system["probe"]), before)) < 1e-3
+    assert moved_from(system["probe"], before) < 1e-3
     assert "reach far" in system["procs"]["objectives"].output()  # explainFailure names the stage
 
 
@@ -446,7 +458,7 @@ def test_goals_queued_behind_the_running_one_are_superseded_by_the_newest(system
     threads = {key: threading.Thread(target=lambda k=key: outcomes.__setitem__(k, clients[k].run("", home)))
                for key in clients}
     try:
-        assert wait_until(lambda: max(abs(a - b) for a, b in zip(arm(probe), start_positions)) > 0.05, 60)
+        assert wait_until(lambda: moved_from(probe, start_positions) > 0.05, 60)
         for key in ("second", "third"):
             assert clients[key].wait_for_server(10.0)
             threads[key].start()
@@ -479,8 +491,7 @@ def test_plan_validate_and_execute_a_trajectory_and_a_cartesian_path(system):
            '<Script code="boxed := true"/>'
            '<ResetPlanningSceneObjects/>'
            '</Sequence></BehaviorTree></root>')
-    status, result = run(system, xml=xml)
-    assert result.error_code.val == C.SUCCESS, result.error_message
+    run_succeeds(system, xml)
     assert at_waypoint(probe, "Pre Pick")
     from moveit_msgs.msg import PlanningSceneComponents
     from moveit_msgs.srv import GetPlanningScene
@@ -504,8 +515,7 @@ def test_plan_validate_and_execute_a_trajectory_and_a_cartesian_path(system):
     xml = ('<root BTCPP_format="4"><BehaviorTree ID="Down"><Sequence>'
            f'<PlanCartesianPath path="json:{html.escape(path)}" joint_trajectory_msg="{{down}}" fraction="{{fraction}}"/>'
            '<ExecuteTrajectory joint_trajectory_msg="{down}"/></Sequence></BehaviorTree></root>')
-    status, result = run(system, xml=xml)
-    assert result.error_code.val == C.SUCCESS, result.error_message
+    run_succeeds(system, xml)
     assert system["client"].tree_state()["blackboard"]["fraction"] == 1.0
     state.set_joint_positions(dict(zip(ARM, arm(probe))))
     assert abs(state.frame_pose("link6_flange")[2, 3] - target[2]) < 0.003

@@ -2,12 +2,11 @@
 own processes and domains and report what they measured; no timing is asserted."""
 from __future__ import annotations
 
-import json
-import os
 import subprocess
 import sys
 
 from mycobot_planning.bench import react_scenarios
+from bench_testing import run_bench
 from ros_testing import REPO, ros_env
 
 
@@ -26,12 +25,8 @@ def test_the_demo_stops_short_replans_and_arrives(tmp_path):
 
 
 def test_the_bench_measures_reactions_clearances_and_stops(monkeypatch, capsys):
-    monkeypatch.setattr(react_scenarios, "INTRUSIONS", 2)
-    monkeypatch.setattr(react_scenarios, "STOPS", 2)
-    monkeypatch.setenv("MYCOBOT_BENCH_DOMAIN_ID", str(150 + os.getpid() % 50))
-    react_scenarios.bench_react(repeat=1, seed=3)
-    lines = [json.loads(line) for line in capsys.readouterr().out.splitlines() if line.startswith("{")]
-    summary = lines[-1]
+    summary = run_bench(monkeypatch, capsys, react_scenarios.bench_react, seed=3, own_domain=True, INTRUSIONS=2,
+                        STOPS=2)[-1]
     assert summary["summary"] is True and summary["intrusions"] == 2
     for key in ("reaction_ms", "reaction_p90_ms", "min_clearance_m", "replan_success_rate", "stop_latency_ms",
                 "stop_decel_ms", "stop_overhead_ms", "invalidated"):

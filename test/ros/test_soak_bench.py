@@ -3,19 +3,14 @@ answers every goal and reports the planning_server's memory; no timing or growth
 (the 1,000-goal figure is the bench's, docs/bench.md)."""
 from __future__ import annotations
 
-import json
 import os
 
 from mycobot_planning.bench import soak_scenarios
+from bench_testing import run_bench
 
 
 def test_a_short_soak_answers_every_goal_and_reads_the_servers_memory(monkeypatch, capsys):
-    monkeypatch.setattr(soak_scenarios, "GOALS", 8)
-    monkeypatch.setattr(soak_scenarios, "WARMUP", 4)
-    monkeypatch.setenv("MYCOBOT_BENCH_DOMAIN_ID", str(150 + os.getpid() % 50))
-    soak_scenarios.bench_soak(repeat=1, seed=0)
-    lines = [json.loads(line) for line in capsys.readouterr().out.splitlines() if line.startswith("{")]
-    summary = lines[-1]
+    summary = run_bench(monkeypatch, capsys, soak_scenarios.bench_soak, own_domain=True, GOALS=8, WARMUP=4)[-1]
     assert summary["summary"] is True and summary["goals"] == 8 and summary["failures"] == 0
     # a planning_server holds a robot model, OMPL and Pinocchio: tens of MB at least
     assert 50 < summary["rss_warm_mb"] < 4096 and 50 < summary["rss_end_mb"] < 4096

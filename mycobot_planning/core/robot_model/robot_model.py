@@ -13,7 +13,7 @@ import logging
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterable, Mapping
+from typing import Any, Callable, Iterable, Mapping, TypeVar
 
 import numpy as np
 import pinocchio as pin
@@ -23,6 +23,8 @@ from ..errors import RobotModelError
 from .robot_config import RobotConfig
 from .srdf import Srdf, parse_robot_xml, parse_srdf
 from .srdf_check import UrdfTree, drop_unknown_names
+
+_T = TypeVar("_T")
 
 _LOG = logging.getLogger(__name__)
 
@@ -151,6 +153,14 @@ def _load_yaml(source: str | Path | Mapping | None, what: str) -> dict:
     if not isinstance(data, dict):
         raise RobotModelError(f"{what} '{source}' must hold a mapping at the top level")
     return data
+
+
+def _lookup(table: Mapping[str, _T], name: str, unknown: Callable[[], str]) -> _T:
+    """``table[name]``, or a RobotModelError with the message ``unknown()`` (built only then)."""
+    try:
+        return table[name]
+    except KeyError:
+        raise RobotModelError(unknown()) from None
 
 
 class RobotModel:
@@ -611,10 +621,7 @@ class RobotModel:
 
     # ------------------------------------------------------------------ queries
     def joint(self, name: str) -> JointInfo:
-        try:
-            return self._joints[name]
-        except KeyError:
-            raise RobotModelError(f"unknown joint '{name}' in robot '{self.name}'") from None
+        return _lookup(self._joints, name, lambda: f"unknown joint '{name}' in robot '{self.name}'")
 
     @property
     def joint_names(self) -> list[str]:
@@ -625,12 +632,8 @@ class RobotModel:
         return list(self._mimic_names)
 
     def variable_index(self, name: str) -> int:
-        try:
-            return self._variable_index[name]
-        except KeyError:
-            raise RobotModelError(
-                f"'{name}' is not an active joint of robot '{self.name}'; active: {self.variable_names}"
-            ) from None
+        return _lookup(self._variable_index, name,
+                       lambda: f"'{name}' is not an active joint of robot '{self.name}'; active: {self.variable_names}")
 
     def has_link(self, name: str) -> bool:
         return name in self._child_joints
@@ -673,12 +676,8 @@ class RobotModel:
         return list(self._groups)
 
     def group(self, name: str) -> JointModelGroup:
-        try:
-            return self._groups[name]
-        except KeyError:
-            raise RobotModelError(
-                f"unknown planning group '{name}'; known groups: {', '.join(self._groups) or 'none'}"
-            ) from None
+        return _lookup(self._groups, name,
+                       lambda: f"unknown planning group '{name}'; known groups: {', '.join(self._groups) or 'none'}")
 
     def has_group(self, name: str) -> bool:
         return name in self._groups
@@ -709,12 +708,8 @@ class RobotModel:
         return dict(self._end_effectors)
 
     def end_effector(self, name: str) -> EndEffector:
-        try:
-            return self._end_effectors[name]
-        except KeyError:
-            raise RobotModelError(
-                f"unknown end effector '{name}'; known: {', '.join(self._end_effectors) or 'none'}"
-            ) from None
+        return _lookup(self._end_effectors, name,
+                       lambda: f"unknown end effector '{name}'; known: {', '.join(self._end_effectors) or 'none'}")
 
     def kinematics(self, group: str) -> dict[str, Any]:
         """kinematics.yaml settings of a group, with MoveIt's defaults filled in."""
@@ -811,3 +806,17 @@ class RobotModel:
             f"RobotModel('{self.name}', {len(self.variable_names)} variables, "
             f"groups={self.group_names}, links={len(self.link_names)})"
         )
+
+
+def group_configuration(model: RobotModel, x: np.ndarray, slots: np.ndarray | None, q: np.ndarray,
+                        full: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """The Pinocchio configuration with the group values ``x`` (at ``idx`` of the positions):
+    written into the buffer ``q`` at ``slots`` when the model gives them (RobotModel.q_slots),
+    else through the positions buffer ``full`` and RobotModel.to_q. Solvers that move only a
+    group's variables in a loop (IK-based Cartesian steps, CHOMP, constraint projection) build
+    their configurations with it."""
+    if slots is not None:
+        q[slots] = x
+        return q
+    full[idx] = x
+    return model.to_q(full)

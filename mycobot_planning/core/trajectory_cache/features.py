@@ -29,7 +29,7 @@ import numpy as np
 
 from ..kinematic_constraints.kinematic_constraints import PathConstraints
 from ..planning_interface.planning_interface import JointGoal, MotionPlanRequest, NamedGoal, PoseGoal, joint_goal_vector
-from ..robot_model.robot_model import RobotModel
+from ..robot_model.robot_model import JointModelGroup, RobotModel
 from ..robot_state.robot_state import RobotState
 from ..transforms import matrix_to_quat
 
@@ -187,18 +187,24 @@ class _Builder:
         return CacheKey(tuple(self.strings), tuple(self.names), tuple(self.kinds), np.array(self.values, dtype=float))
 
 
+def _workspace(model: RobotModel, group: str, features: str, frame_field: str) -> tuple[JointModelGroup, _Builder]:
+    """The request's group and a key that starts with its workspace ``features``: the group's
+    name and the frame (``frame_field``) the request is in. FeatureError for an unknown group."""
+    if not model.has_group(group):
+        raise FeatureError(f"unknown planning group {group!r}")
+    key = _Builder()
+    key.string(f"{features}.group_name", group)
+    key.string(f"{features}.{frame_field}", WORLD)
+    return model.group(group), key
+
+
 def motion_plan_request_features(model: RobotModel, request: MotionPlanRequest) -> CacheKey:
     """The key of a completed motion plan request (plan.complete_request's output): MoveIt's
     WorkspaceFeatures, StartStateJointStateFeatures, MaxSpeedAndAccelerationFeatures,
     GoalConstraintsFeatures and PathConstraintsFeatures, plus the pipeline and planner (a PTP or
     LIN request must not be answered with another planner's motion). FeatureError when the goal
     cannot be resolved."""
-    if not model.has_group(request.group):
-        raise FeatureError(f"unknown planning group {request.group!r}")
-    jmg = model.group(request.group)
-    key = _Builder()
-    key.string("WorkspaceFeatures.group_name", request.group)
-    key.string("WorkspaceFeatures.workspace_parameters.header.frame_id", WORLD)
+    jmg, key = _workspace(model, request.group, "WorkspaceFeatures", "workspace_parameters.header.frame_id")
     key.string("PlannerFeatures.pipeline_id", request.pipeline_id)
     key.string("PlannerFeatures.planner_id", request.planner_id)
     key.start_state("StartStateJointStateFeatures", model, request.start_state)
@@ -240,12 +246,7 @@ def cartesian_path_request_features(model: RobotModel, request: GetCartesianPath
     CartesianStartStateJointStateFeatures, CartesianMaxSpeedAndAccelerationFeatures,
     CartesianMaxStepAndJumpThresholdFeatures, CartesianWaypointsFeatures and
     CartesianPathConstraintsFeatures (the fraction is matched by the fetch, ``min_fraction``)."""
-    if not model.has_group(request.group):
-        raise FeatureError(f"unknown planning group {request.group!r}")
-    jmg = model.group(request.group)
-    key = _Builder()
-    key.string("CartesianWorkspaceFeatures.group_name", request.group)
-    key.string("CartesianWorkspaceFeatures.header.frame_id", WORLD)
+    jmg, key = _workspace(model, request.group, "CartesianWorkspaceFeatures", "header.frame_id")
     key.start_state("CartesianStartStateJointStateFeatures", model, request.start_state)
     key.scaling("CartesianMaxSpeedAndAccelerationFeatures", request.max_velocity_scaling_factor,
                 request.max_acceleration_scaling_factor)

@@ -26,7 +26,7 @@ from rclpy.callback_groups import ReentrantCallbackGroup
 from trajectory_msgs.msg import JointTrajectoryPoint
 
 from interfaces_py.ros_conversions import duration_to_seconds, seconds_to_duration
-from mycobot_planning.ros.action_servers import ACTION_SERVER_OPTIONS
+from mycobot_planning.ros.action_servers import ACTION_SERVER_OPTIONS, end_goal
 from mycobot_planning.ros.stamped_cdr import StampedCdr
 from mycobot_planning.mock_control.joint_trajectory_follower import ControllerStatus, FollowerState, TrajectoryCommand
 
@@ -274,13 +274,8 @@ class ControllerActions:
                  "goal": FJT.GOAL_TOLERANCE_VIOLATED, "stalled": FJT.GOAL_TOLERANCE_VIOLATED}
         result.error_code = codes.get(outcome, FJT.PATH_TOLERANCE_VIOLATED)
         result.error_string = "" if outcome == "succeeded" else message
-        if outcome == "succeeded":
-            goal_handle.succeed()
-        elif outcome == "canceled":
-            goal_handle.canceled()
-        else:
-            self._log().warning(f"{self._c.config.name}: FollowJointTrajectory goal ended: {message}")
-            goal_handle.abort()
+        end_goal(goal_handle, outcome, self._log(),
+                 f"{self._c.config.name}: FollowJointTrajectory goal ended: {message}")
         return result
 
     # ------------------------------------------------------------------ GripperCommand
@@ -324,12 +319,6 @@ class ControllerActions:
         result.effort = 0.0
         result.stalled = outcome == "stalled" or state.status == ControllerStatus.STALLED
         result.reached_goal = outcome == "succeeded"
-        if outcome == "succeeded":
-            goal_handle.succeed()
-        elif outcome == "canceled":
-            goal_handle.canceled()
-        else:
-            self._log().warning(f"{self._c.config.name}: GripperCommand goal ended: {message}")
-            goal_handle.abort()
+        end_goal(goal_handle, outcome, self._log(), f"{self._c.config.name}: GripperCommand goal ended: {message}")
         return result
 

@@ -26,18 +26,10 @@ from visualization_msgs.msg import Marker
 
 from interfaces_py.msgs import Pose
 from mycobot_planning.ros.node_runtime import Parameters, ParameterSpec
-from mycobot_planning.demos.seed_scenarios import DEFAULT_MARKER_POSE, pose_from_list
+from mycobot_planning.demos.seed_scenarios import DEFAULT_MARKER_POSE, pose_from_list, pose_list_check
 
 NODE_NAME = "fake_marker_publisher"
 MARKER_SIZE = (0.04, 0.04, 0.002)  # m: a printed tag's square
-
-
-def _pose_check(value: Any) -> str | None:
-    try:
-        pose_from_list(value, "marker_pose")
-    except (ValueError, TypeError) as exc:
-        return str(exc)
-    return None
 
 
 class FakeMarkerPublisher(Node):
@@ -48,7 +40,7 @@ class FakeMarkerPublisher(Node):
         self.params = Parameters(self, [
             ParameterSpec("marker_pose", list(DEFAULT_MARKER_POSE),
                           "pose of the marker in the camera frame [x, y, z, qx, qy, qz, qw] (m)", array_size=7,
-                          validator=_pose_check),
+                          validator=pose_list_check("marker_pose")),
             ParameterSpec("camera_frame", "camera_frame", "frame the marker pose is expressed in", non_empty=True,
                           read_only=True),
             ParameterSpec("rate", 10.0, "publications per second", range=(0.1, 1000.0), read_only=True),

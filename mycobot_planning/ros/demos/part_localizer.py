@@ -17,20 +17,12 @@ from std_srvs.srv import Trigger
 from interfaces_py.json_rpc import BAD_REQUEST, JsonRpcServer, RpcError
 from interfaces_py.msgs import MessageError, Pose
 from mycobot_planning.ros.node_runtime import Parameters, ParameterSpec
-from mycobot_planning.demos.seed_scenarios import DEFAULT_CAMERA_POSE, localize, pose_from_list
+from mycobot_planning.demos.seed_scenarios import DEFAULT_CAMERA_POSE, localize, pose_from_list, pose_list_check
 
 NODE_NAME = "part_localizer"
 NO_MARKER = -1  # RPC error codes of localize_part
 STALE_MARKER = -2
 UNKNOWN_FRAME = -3
-
-
-def _pose_check(value: Any) -> str | None:
-    try:
-        pose_from_list(value, "camera_pose")
-    except (ValueError, TypeError) as exc:
-        return str(exc)
-    return None
 
 
 class PartLocalizer(Node):
@@ -46,7 +38,7 @@ class PartLocalizer(Node):
                           non_empty=True),
             ParameterSpec("camera_pose", list(DEFAULT_CAMERA_POSE),
                           "mounting pose of the camera in the base frame [x, y, z, qx, qy, qz, qw] (m)",
-                          array_size=7, validator=_pose_check),
+                          array_size=7, validator=pose_list_check("camera_pose")),
             ParameterSpec("max_marker_age", 2.0, "refuse marker poses older than this (s); 0 accepts any age",
                           range=(0.0, 3600.0)),
         ])

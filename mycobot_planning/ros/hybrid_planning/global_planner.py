@@ -22,6 +22,7 @@ from moveit_msgs.srv import GetMotionPlan
 from rclpy.callback_groups import ReentrantCallbackGroup
 
 from interfaces_py import names
+from mycobot_planning.ros.action_servers import ABORTED, CANCELED
 from mycobot_planning.ros.hybrid_planning.component import HybridPlanningComponent
 from mycobot_planning.ros.hybrid_planning.goal_checks import GoalError, motion_plan_request
 from mycobot_planning.ros.node_runtime import ParameterSpec, Parameters
@@ -67,24 +68,14 @@ class GlobalPlannerComponent(HybridPlanningComponent):
         result = GlobalPlanner.Result()
         result.response.group_name = group
         result.response.error_code = MoveItErrorCodes(val=code, message=message, source="global_planner_component")
-        if self.going_down():  # the goal ends with the node
-            return result
-        if goal_handle.is_cancel_requested:
-            goal_handle.canceled()
-        else:
-            self.get_logger().warning(f"global planning failed: {message}")
-            goal_handle.abort()
-        return result
+        outcome = CANCELED if goal_handle.is_cancel_requested else ABORTED
+        return self.end(goal_handle, result, outcome, f"global planning failed: {message}")
 
     def _execute(self, goal_handle: Any) -> GlobalPlanner.Result:
-        try:
-            return self._plan(goal_handle)
-        except Exception as exc:  # never leave a goal without an answer
-            if self.going_down():
-                return GlobalPlanner.Result()
-            self.get_logger().error(f"global planning failed: {type(exc).__name__}: {exc}")
-            return self._answer(goal_handle, MoveItErrorCodes.FAILURE,
-                                f"internal error ({type(exc).__name__}); the log has the details")
+        return self.answer_always(
+            goal_handle, self._plan, GlobalPlanner.Result, "global planning",
+            lambda exc: self._answer(goal_handle, MoveItErrorCodes.FAILURE,
+                                     f"internal error ({type(exc).__name__}); the log has the details"))
 
     def _plan(self, goal_handle: Any) -> GlobalPlanner.Result:
         goal = goal_handle.request

@@ -34,6 +34,7 @@ from interfaces_py.ros_message_reading import ConversionError
 from mycobot_planning.core.hybrid_planning import ForwardTrajectory
 from mycobot_planning.core.planning_scene.planning_scene import PlanningScene
 from mycobot_planning.core.robot_model.robot_model import RobotModel
+from mycobot_planning.ros.action_servers import ABORTED, CANCELED, SUCCEEDED
 from mycobot_planning.ros.hybrid_planning.component import HybridPlanningComponent
 from mycobot_planning.ros.move_group.moveit_translation import joint_trajectory_from_ros
 from mycobot_planning.ros.node_runtime import ParameterSpec, Parameters
@@ -154,16 +155,7 @@ class LocalPlannerComponent(HybridPlanningComponent):
     def _finish(self, goal_handle: Any, code: int, message: str, how: str) -> LocalPlanner.Result:
         result = LocalPlanner.Result(error_message=message)
         result.error_code = MoveItErrorCodes(val=code, message=message, source="local_planner_component")
-        if self.going_down():  # the goal ends with the node
-            return result
-        if how == "succeed":
-            goal_handle.succeed()
-        elif how == "canceled":
-            goal_handle.canceled()
-        else:
-            self.get_logger().warning(f"local planning aborted: {message}")
-            goal_handle.abort()
-        return result
+        return self.end(goal_handle, result, how, f"local planning aborted: {message}")
 
     def _robot_model(self) -> RobotModel:
         if self._model is None:
@@ -190,15 +182,12 @@ class LocalPlannerComponent(HybridPlanningComponent):
                 busy, self._active = False, True
         if busy:
             return self._finish(goal_handle, MoveItErrorCodes.FAILURE, "another local planning goal is running",
-                                "abort")
+                                ABORTED)
         try:
-            return self._run(goal_handle)
-        except Exception as exc:  # never leave a goal without an answer
-            if self.going_down():
-                return LocalPlanner.Result()
-            self.get_logger().error(f"local planning failed: {type(exc).__name__}: {exc}")
-            return self._finish(goal_handle, MoveItErrorCodes.FAILURE,
-                                f"internal error ({type(exc).__name__}: {exc})", "abort")
+            return self.answer_always(
+                goal_handle, self._run, LocalPlanner.Result, "local planning",
+                lambda exc: self._finish(goal_handle, MoveItErrorCodes.FAILURE,
+                                         f"internal error ({type(exc).__name__}: {exc})", ABORTED))
         finally:
             with self._lock:
                 self._active = False
@@ -208,20 +197,20 @@ class LocalPlannerComponent(HybridPlanningComponent):
         try:
             model = self._robot_model()
         except (ValueError, TimeoutError) as exc:
-            return self._finish(goal_handle, MoveItErrorCodes.FAILURE, f"no robot model: {exc}", "abort")
+            return self._finish(goal_handle, MoveItErrorCodes.FAILURE, f"no robot model: {exc}", ABORTED)
         group = self._params.get("group_name")
         if not model.has_group(group):
             return self._finish(goal_handle, MoveItErrorCodes.INVALID_GROUP_NAME,
-                                f"group_name '{group}' is not a group of robot '{model.name}'", "abort")
+                                f"group_name '{group}' is not a group of robot '{model.name}'", ABORTED)
         topic = self._params.get("global_solution_topic")
         if not self._wait_for("trajectory", lambda: self._trajectory is not None, goal_handle):
             if goal_handle.is_cancel_requested:
-                return self._finish(goal_handle, MoveItErrorCodes.PREEMPTED, "canceled", "canceled")
+                return self._finish(goal_handle, MoveItErrorCodes.PREEMPTED, "canceled", CANCELED)
             return self._finish(goal_handle, MoveItErrorCodes.FAILURE,
-                                f"no global trajectory on {topic} within {INPUT_TIMEOUT:g} s", "abort")
+                                f"no global trajectory on {topic} within {INPUT_TIMEOUT:g} s", ABORTED)
         if not self._wait_for("joint states", lambda: self._joint_stamp > 0, goal_handle):
             return self._finish(goal_handle, MoveItErrorCodes.ROBOT_STATE_STALE,
-                                f"no {self._params.get('joint_states_topic')} within {INPUT_TIMEOUT:g} s", "abort")
+                                f"no {self._params.get('joint_states_topic')} within {INPUT_TIMEOUT:g} s", ABORTED)
         period = 1.0 / float(self._params.get("local_planning_frequency"))
         solver: ForwardTrajectory | None = None
         scene: PlanningScene | None = None
@@ -243,18 +232,18 @@ class LocalPlannerComponent(HybridPlanningComponent):
                     if stop is not None:
                         self._publish(stop)
                 return self._finish(goal_handle, MoveItErrorCodes.PREEMPTED, "local planning canceled: the arm "
-                                    "is brought to rest along its path", "canceled")
+                                    "is brought to rest along its path", CANCELED)
             if now - joint_time > INPUT_TIMEOUT:
                 if solver is not None:
                     self._publish(solver.halt())
                 return self._finish(goal_handle, MoveItErrorCodes.ROBOT_STATE_STALE,
-                                    f"no {self._params.get('joint_states_topic')} for {INPUT_TIMEOUT:g} s", "abort")
+                                    f"no {self._params.get('joint_states_topic')} for {INPUT_TIMEOUT:g} s", ABORTED)
             if trajectory is not None:
                 problem = self._check_trajectory(model, group, trajectory, joints)
                 if problem:
                     if solver is not None:
                         self._publish(solver.halt())
-                    return self._finish(goal_handle, MoveItErrorCodes.INVALID_MOTION_PLAN, problem, "abort")
+                    return self._finish(goal_handle, MoveItErrorCodes.INVALID_MOTION_PLAN, problem, ABORTED)
                 self._goal_counter += 1
                 solver = ForwardTrajectory(model, trajectory, period, bool(self._params.get("stop_before_collision")),
                                            float(self._params.get("goal_tolerance")),
@@ -279,7 +268,7 @@ class LocalPlannerComponent(HybridPlanningComponent):
                 self.get_logger().info(f"feedback: {out.feedback}")
                 goal_handle.publish_feedback(LocalPlanner.Feedback(feedback=out.feedback))
             if out.done:
-                return self._finish(goal_handle, MoveItErrorCodes.SUCCESS, "", "succeed")
+                return self._finish(goal_handle, MoveItErrorCodes.SUCCESS, "", SUCCEEDED)
             next_time += period
             delay = next_time - time.monotonic()
             if delay > 0:

@@ -15,7 +15,7 @@ from __future__ import annotations
 import queue
 import threading
 import time
-from typing import Any
+from typing import Any, Callable
 
 from action_msgs.msg import GoalStatus
 from moveit_msgs.action import GlobalPlanner, HybridPlanner, LocalPlanner
@@ -29,6 +29,7 @@ from mycobot_planning.core.hybrid_planning import (
     HybridPlanningEvent,
     planner_logic,
 )
+from mycobot_planning.ros.action_servers import ABORTED, CANCELED, SUCCEEDED
 from mycobot_planning.ros.hybrid_planning.component import HybridPlanningComponent
 from mycobot_planning.ros.hybrid_planning.goal_checks import GoalError, motion_plan_request
 from mycobot_planning.ros.node_runtime import ParameterSpec, Parameters
@@ -75,6 +76,33 @@ class _Run:
     def idle(self) -> bool:
         with self.lock:
             return not (self.global_pending or self.local_pending or self.global_goal or self.local_goal)
+
+
+def _goal_answer(run: _Run, kind: str, rejected: Any, finished: Callable[[Any], None],
+                 pending_until_result: bool) -> Callable[[Any], None]:
+    """The callback of the global or local planner's (``kind``) goal request: an accepted goal
+    is followed to its result, which goes to ``finished``; the event ``rejected`` when the planner
+    did not accept it. The run's ``<kind>_pending`` ends there, unless ``pending_until_result``
+    and the goal was accepted (then ``finished`` ends it)."""
+
+    def answered(future: Any) -> None:
+        handle = future.result()
+        refused = handle is None or not handle.accepted
+        if refused or not pending_until_result:
+            with run.lock:
+                setattr(run, f"{kind}_pending", False)
+        if refused:
+            run.events.put((rejected, f"the {kind} planner rejected the goal"))
+            return
+        if run.adopt(kind, handle):
+            handle.get_result_async().add_done_callback(lambda r: finished(r.result()))
+
+    return answered
+
+
+def _status_event(status: int, succeeded: Any, canceled: Any, aborted: Any) -> Any:
+    """The event a planner goal's final status raises."""
+    return {GoalStatus.STATUS_SUCCEEDED: succeeded, GoalStatus.STATUS_CANCELED: canceled}.get(status, aborted)
 
 
 class HybridPlanningManager(HybridPlanningComponent):
@@ -128,28 +156,17 @@ class HybridPlanningManager(HybridPlanningComponent):
         future = self._global.send_goal_async(GlobalPlanner.Goal(planning_group=goal.planning_group,
                                                                  motion_sequence=goal.motion_sequence))
 
-        def accepted(f: Any) -> None:
-            handle = f.result()
-            if handle is None or not handle.accepted:
-                with run.lock:
-                    run.global_pending = False
-                run.events.put((_E.GLOBAL_PLANNING_ACTION_REJECTED, "the global planner rejected the goal"))
-                return
-            if run.adopt("global", handle):
-                    handle.get_result_async().add_done_callback(lambda r: finished(r.result()))
-
         def finished(answer: Any) -> None:
             with run.lock:
                 run.global_pending = False
                 run.global_goal = None
             code = answer.result.response.error_code
             detail = f"{code.message or 'error code'} ({code.val})" if code.val != MoveItErrorCodes.SUCCESS else ""
-            event = {GoalStatus.STATUS_SUCCEEDED: _E.GLOBAL_PLANNING_ACTION_SUCCESSFUL,
-                     GoalStatus.STATUS_CANCELED: _E.GLOBAL_PLANNING_ACTION_CANCELED}.get(
-                answer.status, _E.GLOBAL_PLANNING_ACTION_ABORTED)
-            run.events.put((event, detail))
+            run.events.put((_status_event(answer.status, _E.GLOBAL_PLANNING_ACTION_SUCCESSFUL,
+                                          _E.GLOBAL_PLANNING_ACTION_CANCELED, _E.GLOBAL_PLANNING_ACTION_ABORTED),
+                            detail))
 
-        future.add_done_callback(accepted)
+        future.add_done_callback(_goal_answer(run, "global", _E.GLOBAL_PLANNING_ACTION_REJECTED, finished, True))
         return None
 
     def _send_local(self, run: _Run) -> str | None:
@@ -163,43 +180,29 @@ class HybridPlanningManager(HybridPlanningComponent):
             run.local_pending = True
         future = self._local.send_goal_async(LocalPlanner.Goal(), feedback_callback=feedback)
 
-        def accepted(f: Any) -> None:
-            handle = f.result()
-            with run.lock:
-                run.local_pending = False
-            if handle is None or not handle.accepted:
-                run.events.put((_E.LOCAL_PLANNING_ACTION_REJECTED, "the local planner rejected the goal"))
-                return
-            if run.adopt("local", handle):
-                handle.get_result_async().add_done_callback(lambda r: finished(r.result()))
-
         def finished(answer: Any) -> None:
             with run.lock:
                 run.local_goal = None
             message = answer.result.error_message or answer.result.error_code.message
-            event = {GoalStatus.STATUS_SUCCEEDED: _E.LOCAL_PLANNING_ACTION_SUCCESSFUL,
-                     GoalStatus.STATUS_CANCELED: _E.LOCAL_PLANNING_ACTION_CANCELED}.get(
-                answer.status, _E.LOCAL_PLANNING_ACTION_ABORTED)
-            run.events.put((event, message))
+            run.events.put((_status_event(answer.status, _E.LOCAL_PLANNING_ACTION_SUCCESSFUL,
+                                          _E.LOCAL_PLANNING_ACTION_CANCELED, _E.LOCAL_PLANNING_ACTION_ABORTED),
+                            message))
 
-        future.add_done_callback(accepted)
+        future.add_done_callback(_goal_answer(run, "local", _E.LOCAL_PLANNING_ACTION_REJECTED, finished, False))
         return None
 
     # ------------------------------------------------------------------ the run
     def _answer(self, goal_handle: Any, code: int, message: str) -> HybridPlanner.Result:
         result = HybridPlanner.Result(error_message=message)
         result.error_code = MoveItErrorCodes(val=code, message=message, source="hybrid_planning_manager")
-        if self.going_down():  # the goal ends with the node
-            return result
         if code == MoveItErrorCodes.SUCCESS:
-            goal_handle.succeed()
+            outcome = SUCCEEDED
         elif goal_handle.is_cancel_requested:
             result.error_code.val = MoveItErrorCodes.PREEMPTED
-            goal_handle.canceled()
+            outcome = CANCELED
         else:
-            self.get_logger().warning(f"hybrid planning failed: {message}")
-            goal_handle.abort()
-        return result
+            outcome = ABORTED
+        return self.end(goal_handle, result, outcome, f"hybrid planning failed: {message}")
 
     def _execute(self, goal_handle: Any) -> HybridPlanner.Result:
         goal = goal_handle.request

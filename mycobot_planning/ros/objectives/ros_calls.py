@@ -11,6 +11,8 @@ from action_msgs.msg import GoalStatus
 
 #: how long a request waits for its server to be discovered before it fails
 DISCOVERY_TIMEOUT = 10.0
+#: PendingCall.answer_of's answer when the future failed
+FAILED = object()
 
 
 def _when_ready(is_ready: Callable[[], bool], wait: Callable[[float], bool], send: Callable[[], None],
@@ -53,6 +55,15 @@ class PendingCall:
         """Give up on the answer (services cannot be canceled)."""
         self.resolve(error="canceled")
 
+    def answer_of(self, future: Any) -> Any:
+        """The future's result; when it carries the transport's error instead, the call fails
+        with that error and the answer is FAILED."""
+        try:
+            return future.result()
+        except Exception as exc:
+            self.resolve(error=f"{type(exc).__name__}: {exc}")
+            return FAILED
+
 
 class PendingService(PendingCall):
     def __init__(self, client: Any, request: Any, wake: Callable[[], None], name: str) -> None:
@@ -62,10 +73,9 @@ class PendingService(PendingCall):
                     lambda: self.resolve(error=f"service {name} is not available"))
 
     def _on_response(self, future: Any) -> None:
-        try:
-            self.resolve(future.result())
-        except Exception as exc:  # the future carries the transport's error
-            self.resolve(error=f"{type(exc).__name__}: {exc}")
+        response = self.answer_of(future)
+        if response is not FAILED:
+            self.resolve(response)
 
 
 class PendingGoal(PendingCall):
@@ -81,10 +91,8 @@ class PendingGoal(PendingCall):
                     lambda: self.resolve(error=f"action server {name} is not available"))
 
     def _on_accepted(self, future: Any) -> None:
-        try:
-            handle = future.result()
-        except Exception as exc:
-            self.resolve(error=f"{type(exc).__name__}: {exc}")
+        handle = self.answer_of(future)
+        if handle is FAILED:
             return
         if not handle.accepted:
             self.resolve(error=f"{self.name} rejected the goal")
@@ -97,12 +105,9 @@ class PendingGoal(PendingCall):
         handle.get_result_async().add_done_callback(self._on_result)
 
     def _on_result(self, future: Any) -> None:
-        try:
-            answer = future.result()
-        except Exception as exc:
-            self.resolve(error=f"{type(exc).__name__}: {exc}")
-            return
-        self.resolve(answer.result, status=answer.status)
+        answer = self.answer_of(future)
+        if answer is not FAILED:
+            self.resolve(answer.result, status=answer.status)
 
     def cancel(self) -> None:
         with self._lock:

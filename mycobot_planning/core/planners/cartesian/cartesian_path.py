@@ -16,14 +16,14 @@ from scipy.spatial.transform import Rotation
 
 from interfaces_py.msgs import MoveItErrorCode
 
-from .cartesian_precision import CartesianPrecision, PrecisionCheck, group_configuration
+from .cartesian_precision import CartesianPrecision, PrecisionCheck
 from ...errors import PlanningError
 from ...kinematic_constraints.kinematic_constraints import CONSTRAINT_CHECK_STEP
 from ...kinematics.ik_solver import IKSolver
 from ...planning_interface.planning_interface import (MotionPlanResponse, PlanningFailure, check_group, check_start_state,
                                                        failure, time_group_path)
 from ...planning_scene.planning_scene import PlanningScene
-from ...robot_model.robot_model import JointModelGroup, RobotModel
+from ...robot_model.robot_model import JointModelGroup, RobotModel, group_configuration
 from ...robot_state.robot_state import RobotState
 from ...robot_trajectory.robot_trajectory import TimedTrajectory
 from ...transforms import check_pose

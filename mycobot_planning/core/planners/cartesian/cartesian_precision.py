@@ -19,10 +19,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 import pinocchio as pin
+
+from ...robot_model.robot_model import group_configuration
 
 __all__ = ["CartesianPrecision", "PrecisionCheck"]
 
@@ -45,18 +46,6 @@ class CartesianPrecision:
     def __str__(self) -> str:
         return (f"CartesianPrecision(translational={self.translational:g}, rotational={self.rotational:g}, "
                 f"max_resolution={self.max_resolution:g})")
-
-
-def group_configuration(model: Any, x: np.ndarray, slots: np.ndarray | None, q: np.ndarray, full: np.ndarray,
-                        idx: np.ndarray) -> np.ndarray:
-    """The Pinocchio configuration with the group values ``x`` (at ``idx`` of the positions):
-    written into the buffer ``q`` at ``slots`` when the model gives them (RobotModel.q_slots),
-    else through the positions buffer ``full`` and RobotModel.to_q."""
-    if slots is not None:
-        q[slots] = x
-        return q
-    full[idx] = x
-    return model.to_q(full)
 
 
 class PrecisionCheck:

@@ -50,7 +50,7 @@ from ...planning_interface.planning_interface import (
     timed_and_validated,
 )
 from ...planning_scene.planning_scene import PlanningScene
-from ...robot_model.robot_model import RobotModel
+from ...robot_model.robot_model import RobotModel, group_configuration
 from ...robot_state.robot_state import RobotState
 from .. import trajectory_optimization as optimization
 
@@ -233,11 +233,7 @@ class _SphereKinematics:
         self.jacobian_map = model.jacobian_map(self.indices)
 
     def configuration(self, values: np.ndarray) -> np.ndarray:
-        if self.slots is not None:
-            self.q[self.slots] = values
-            return self.q
-        self.full[self.indices] = values
-        return np.asarray(self.model.to_q(self.full), dtype=float)
+        return group_configuration(self.model, values, self.slots, self.q, self.full, self.indices)
 
     def positions(self, path: np.ndarray) -> np.ndarray:
         """(N, S, 3) sphere centres in the world for each row of ``path`` (N, d)."""

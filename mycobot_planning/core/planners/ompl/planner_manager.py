@@ -34,7 +34,8 @@ from .config import (
 )
 from .planners import OmplConfigError, canonical_planner_type, validate_params
 from .solve import OmplResult, plan_joint_space
-from ...kinematic_constraints.kinematic_constraints import CONSTRAINT_CHECK_STEP, ConstraintManifold, dense_violation
+from ...kinematic_constraints.constraint_manifold import ConstraintManifold
+from ...kinematic_constraints.kinematic_constraints import CONSTRAINT_CHECK_STEP, dense_violation
 from ...robot_state.robot_state import RobotState
 from ...planning_interface.planning_interface import (
     MotionPlanRequest,

@@ -20,11 +20,8 @@ from typing import Any, Callable, ClassVar, Mapping, Sequence
 
 import numpy as np
 
-from ...kinematic_constraints.kinematic_constraints import (
-    NEARLY_FREE,
-    XYZ_EULER_ANGLES,
-    ConstraintManifold,
-)
+from ...kinematic_constraints.constraint_manifold import ConstraintManifold
+from ...kinematic_constraints.kinematic_constraints import NEARLY_FREE, XYZ_EULER_ANGLES
 from ...planning_interface.planning_interface import (
     MotionPlanRequest,
     MotionPlanResponse,

@@ -30,29 +30,31 @@ def joint_goal_constraints(state: Any, group: str, tolerance: float) -> Constrai
     return constraints
 
 
+def _on_link(constraint: Any, link_name: str, frame: str) -> Any:
+    """``constraint`` (a position or orientation constraint) on ``link_name`` in ``frame``, weight 1."""
+    constraint.header.frame_id = frame
+    constraint.link_name = link_name
+    constraint.weight = 1.0
+    return constraint
+
+
 def _position_constraint(link_name: str, frame: str, position: Sequence[float], tolerance: float
                          ) -> PositionConstraint:
-    pc = PositionConstraint()
-    pc.header.frame_id = frame
-    pc.link_name = link_name
+    pc = _on_link(PositionConstraint(), link_name, frame)
     sphere = SolidPrimitive(type=SolidPrimitive.SPHERE, dimensions=[float(tolerance)])
     pc.constraint_region.primitives.append(sphere)
     centre = Pose()
     centre.position.x, centre.position.y, centre.position.z = (float(v) for v in position)
     centre.orientation.w = 1.0
     pc.constraint_region.primitive_poses.append(centre)
-    pc.weight = 1.0
     return pc
 
 
 def _orientation_constraint(link_name: str, frame: str, quaternion: Sequence[float], tolerance: float
                             ) -> OrientationConstraint:
-    oc = OrientationConstraint()
-    oc.header.frame_id = frame
-    oc.link_name = link_name
+    oc = _on_link(OrientationConstraint(), link_name, frame)
     oc.orientation.x, oc.orientation.y, oc.orientation.z, oc.orientation.w = (float(v) for v in quaternion)
     oc.absolute_x_axis_tolerance = oc.absolute_y_axis_tolerance = oc.absolute_z_axis_tolerance = float(tolerance)
-    oc.weight = 1.0
     return oc
 
 

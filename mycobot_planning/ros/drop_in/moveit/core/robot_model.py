@@ -145,13 +145,19 @@ class RobotModel:
         return f"RobotModel({self.name!r}, groups={self.joint_model_group_names})"
 
 
+def unwrap(value: Any, wrapper: type, core_type: type, attribute: str) -> Any:
+    """The core object a moveit_py ``wrapper`` holds in ``attribute`` (a core one: itself); a
+    TypeError for anything else."""
+    if isinstance(value, wrapper):
+        return getattr(value, attribute)
+    if isinstance(value, core_type):
+        return value
+    raise TypeError(f"expected a {wrapper.__name__}, got {type(value).__name__}")
+
+
 def core_model(model: Any) -> CoreRobotModel:
     """The core RobotModel of a moveit_py RobotModel (or of a core one: itself)."""
-    if isinstance(model, RobotModel):
-        return model._model
-    if isinstance(model, CoreRobotModel):
-        return model
-    raise TypeError(f"expected a RobotModel, got {type(model).__name__}")
+    return unwrap(model, RobotModel, CoreRobotModel, "_model")
 
 
 def robot_model(model: Any) -> RobotModel:

@@ -21,7 +21,7 @@ from mycobot_planning.core.errors import PlanningError
 from mycobot_planning.core.kinematics.ik_solver import IKSolver
 from mycobot_planning.core.robot_state.robot_state import RobotState as CoreRobotState
 
-from .robot_model import JointModelGroup, RobotModel, core_model, robot_model
+from .robot_model import JointModelGroup, RobotModel, core_model, robot_model, unwrap
 
 __all__ = ["RobotState", "core_state", "random_generator", "robotStateToRobotStateMsg", "seed"]
 
@@ -30,6 +30,19 @@ _UPDATE_KINDS = ("all", "links_only", "collisions_only")
 
 def _group_name(group: Any) -> str:
     return group.name if isinstance(group, JointModelGroup) else str(group)
+
+
+def _per_variable(attribute: str, what: str) -> property:
+    """The property ``what``: the per-variable array ``attribute`` of a RobotState (velocities,
+    accelerations, efforts) read and written as a dict by variable name."""
+
+    def get(self: RobotState) -> dict[str, float]:
+        return self._named(getattr(self, attribute))
+
+    def set_(self: RobotState, values: Mapping[str, float]) -> None:
+        self._set_named(getattr(self, attribute), values, what)
+
+    return property(get, set_, doc=f"{what} by variable name")
 
 
 class RobotState:
@@ -99,29 +112,9 @@ class RobotState:
             raise KeyError(f"joint_positions: {unknown} are not variables of robot '{model.name}'")
         self._state.set_joint_positions(dict(values))
 
-    @property
-    def joint_velocities(self) -> dict[str, float]:
-        return self._named(self._velocities)
-
-    @joint_velocities.setter
-    def joint_velocities(self, values: Mapping[str, float]) -> None:
-        self._set_named(self._velocities, values, "joint_velocities")
-
-    @property
-    def joint_accelerations(self) -> dict[str, float]:
-        return self._named(self._accelerations)
-
-    @joint_accelerations.setter
-    def joint_accelerations(self, values: Mapping[str, float]) -> None:
-        self._set_named(self._accelerations, values, "joint_accelerations")
-
-    @property
-    def joint_efforts(self) -> dict[str, float]:
-        return self._named(self._efforts)
-
-    @joint_efforts.setter
-    def joint_efforts(self, values: Mapping[str, float]) -> None:
-        self._set_named(self._efforts, values, "joint_efforts")
+    joint_velocities = _per_variable("_velocities", "joint_velocities")
+    joint_accelerations = _per_variable("_accelerations", "joint_accelerations")
+    joint_efforts = _per_variable("_efforts", "joint_efforts")
 
     # ------------------------------------------------------------------ groups
     def get_joint_group_positions(self, joint_model_group_name: str) -> np.ndarray:
@@ -265,11 +258,7 @@ def seed(value: int | None) -> None:
 
 def core_state(state: Any) -> CoreRobotState:
     """The core RobotState of a moveit_py RobotState (or of a core one: itself)."""
-    if isinstance(state, RobotState):
-        return state._state
-    if isinstance(state, CoreRobotState):
-        return state
-    raise TypeError(f"expected a RobotState, got {type(state).__name__}")
+    return unwrap(state, RobotState, CoreRobotState, "_state")
 
 
 def robotStateToRobotStateMsg(state: Any, copy_attached_bodies: bool = True) -> RobotStateMsg:  # noqa: N802
