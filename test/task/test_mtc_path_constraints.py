@@ -21,9 +21,9 @@ from shape_msgs.msg import SolidPrimitive
 from std_msgs.msg import Header
 
 from interfaces_py.msgs import CollisionObject
+from mycobot_planning.core.kinematic_constraints.constraint_manifold import ConstraintManifold
 from mycobot_planning.core.kinematic_constraints.kinematic_constraints import (
     ConstraintError,
-    ConstraintManifold,
     attached_frames,
     constraints_json_from_msg,
     path_constraints_from_json,
