@@ -301,6 +301,29 @@ def test_acm_change_through_the_property_takes_effect(model):
     assert not scene.is_state_valid()
 
 
+
+def test_scenes_with_the_same_content_share_one_compiled_model(model):
+    """Copies that reach the same objects and allowed collisions by separate edits (a task's
+    branches each allowing the same collision) are compiled once; a different content never
+    takes another's compiled model, and the verdicts follow each scene's own content."""
+    base = PlanningScene(model, ready(model))
+    flange = base.current_state.frame_pose("link6_flange")[:3, 3]
+    base.add_object(CollisionObject.sphere("ball", 0.01, make_pose(flange)))
+    assert not base.is_state_valid()
+    first, second, other = base.copy(), base.copy(), base.copy()
+    first.acm.allow("ball", "link6_flange")
+    second.acm.allow("ball", "link6_flange")
+    first.set_current_state(RobotState(model))  # the state is not part of the compiled model
+    assert first.is_state_valid(ready(model)) and second.is_state_valid()
+    assert first._slot is not second._slot and first._slot.value is second._slot.value
+    other.acm.allow("ball", "link1")  # other content: its own model, still colliding
+    assert not other.is_state_valid()
+    assert other._slot.value is not first._slot.value
+    second.acm.forbid("ball", "link6_flange")  # back to the base's content
+    assert not second.is_state_valid()
+    assert second._slot.value is not first._slot.value
+
+
 # ----------------------------------------------------------------------------------- messages
 def scene_content(scene: PlanningScene) -> dict:
     return {

@@ -71,6 +71,46 @@ class _Slot:
         self.value = value
 
 
+class _CompiledScenes:
+    """The last few compiled collision models by content: the robot, the world and attached
+    objects (by identity: they are immutable and shared by scene copies) in their order, and
+    the allowed collisions. Scenes that reach the same content by different edits (a task
+    allowing the same collision in each of its branches' scene copies) share one compiled
+    model, as copies of one scene do, instead of compiling it again. The entries keep what
+    their keys name alive, so an identity in a key is never reused while the entry lives."""
+
+    SIZE = 8
+
+    def __init__(self) -> None:
+        self._entries: dict[tuple, tuple[CompiledScene, tuple]] = {}
+        self._lock = threading.Lock()
+
+    @staticmethod
+    def key(robot: RobotCollisionInfo, world: Mapping[str, SceneObject], attached: Mapping[str, AttachedBody],
+            acm: AllowedCollisionMatrix) -> tuple:
+        return (id(robot), tuple((name, id(obj)) for name, obj in world.items()),
+                tuple((name, id(body)) for name, body in attached.items()),
+                frozenset(acm.entries().items()), frozenset(acm.defaults().items()))
+
+    def get(self, robot: RobotCollisionInfo, world: Mapping[str, SceneObject],
+            attached: Mapping[str, AttachedBody], acm: AllowedCollisionMatrix) -> CompiledScene:
+        key = self.key(robot, world, attached, acm)
+        with self._lock:
+            entry = self._entries.pop(key, None)
+            if entry is not None:
+                self._entries[key] = entry  # most recently used last
+                return entry[0]
+        compiled = CompiledScene(robot, world, attached, acm)
+        with self._lock:
+            self._entries[key] = (compiled, (robot, tuple(world.values()), tuple(attached.values())))
+            while len(self._entries) > self.SIZE:
+                self._entries.pop(next(iter(self._entries)))
+        return compiled
+
+
+_COMPILED_SCENES = _CompiledScenes()
+
+
 @dataclass(frozen=True)
 class _Snapshot:
     """What a diff() child remembers of its parent, to report only its own changes."""
@@ -558,7 +598,7 @@ class PlanningScene:
     def _compiled(self) -> CompiledScene:
         compiled = self._slot.value
         if compiled is None:
-            compiled = CompiledScene(self._robot, self._world, self._attached, self._acm)
+            compiled = _COMPILED_SCENES.get(self._robot, self._world, self._attached, self._acm)
             self._slot.value = compiled
         return compiled
 

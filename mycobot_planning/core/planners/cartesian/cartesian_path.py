@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 import pinocchio as pin
@@ -68,6 +68,9 @@ _ORIENTATION_TOLERANCE = 1e-5  # rad
 _CORRECTOR_ITERATIONS = 6  # Newton iterations from the previous step before falling back
 _CORRECTOR_MAX_STEP = 0.5  # rad per joint per Newton iteration: larger means leaving the branch
 _DAMPING = 1e-10
+#: Steps whose IK is solved before their checks run (vectorised): the IK done past a refused
+#: step is at most this many steps of wasted work.
+_CHUNK = 32
 
 
 # ---------------------------------------------------------------------------- results
@@ -335,6 +338,27 @@ class _StepSolver:
             self.update(np.minimum(np.maximum(self.x + step, lower), upper))
         return False
 
+    def follow(self, p_link: np.ndarray, r_link: np.ndarray, start: int, end: int, path: np.ndarray,
+               fallback: Callable[[np.ndarray, int], np.ndarray | None]) -> int:
+        """Solve steps ``start``..``end - 1`` in turn (step s into ``path[s + 1]``), each from the
+        previous solution, with ``fallback(previous, s)`` (a candidate to correct from) when the
+        corrector fails. Returns the first step not solved (``end`` when all were); the solver
+        is then left at the last solution."""
+        correct = self.correct
+        for s in range(start, end):
+            previous = self.x
+            if not correct(p_link[s], r_link[s]):
+                candidate = fallback(previous, s)
+                ok = False
+                if candidate is not None:
+                    self.update(candidate)
+                    ok = correct(p_link[s], r_link[s])
+                if not ok:
+                    self.update(previous)
+                    return s
+            path[s + 1] = self.x
+        return end
+
 
 # ---------------------------------------------------------------------------- main entry
 def compute_cartesian_path(
@@ -484,7 +508,26 @@ def _compute(
     # States are within the limits by construction (every IK step is clipped to them).
     is_valid = scene.validity_checker(jmg.name, start, check_bounds=False)
     check_buffer = full.copy()
-    fallback: IKSolver | None = None
+    jump_checked = revolute_jump_threshold > 0 or prismatic_jump_threshold > 0
+    fallback: list[IKSolver] = []
+
+    def fallback_refine(previous: np.ndarray, s: int) -> np.ndarray | None:
+        """A longer descent from the previous solution only (no table seeds, no restarts): the
+        path stays on the seed's IK branch or stops, it never hops to another branch."""
+        if not fallback:
+            fallback.append(IKSolver(model, jmg.name, link))
+        seed_positions = full.copy()
+        seed_positions[idx] = previous
+        target = np.eye(4)
+        target[:3, :3], target[:3, 3] = r_link[s], p_link[s]
+        refined = fallback[0].refine(target, RobotState(model, seed_positions))
+        if refined is None:
+            return None
+        x = refined.positions[idx].copy()
+        if continuous.any():  # stay continuous: nearest 2*pi-equivalent to the seed
+            x[continuous] = previous[continuous] + (
+                (x[continuous] - previous[continuous] + math.pi) % (2 * math.pi) - math.pi)
+        return x
     straightness = None if precision is None else PrecisionCheck(
         model, idx, link, offset, full, precision, revolute_only=bool(np.all(revolute)),
         tolerances=(_POSITION_TOLERANCE, _ORIENTATION_TOLERANCE))
@@ -496,84 +539,72 @@ def _compute(
                           f"the start state violates the path constraints: {problem}")
     stop_reason, detail = STOP_COMPLETE, ""
     done = 0  # steps achieved
-    for s in range(n_steps):
-        previous = solver.x
-        if not solver.correct(p_link[s], r_link[s]):
-            # A longer descent from the previous solution only (no table seeds, no restarts):
-            # the path stays on the seed's IK branch or stops, it never hops to another branch.
-            if fallback is None:
-                fallback = IKSolver(model, jmg.name, link)
-            seed_positions = full.copy()
-            seed_positions[idx] = previous
-            target = np.eye(4)
-            target[:3, :3], target[:3, 3] = r_link[s], p_link[s]
-            refined = fallback.refine(target, RobotState(model, seed_positions))
-            ok = False
-            if refined is not None:
-                x = refined.positions[idx].copy()
-                if continuous.any():  # stay continuous: nearest 2*pi-equivalent to the seed
-                    x[continuous] = previous[continuous] + (
-                        (x[continuous] - previous[continuous] + math.pi) % (2 * math.pi) - math.pi)
-                solver.update(x)
-                ok = solver.correct(p_link[s], r_link[s])
-            if not ok:
-                solver.update(previous)
-                stop_reason = STOP_NO_IK
-                detail = f"no IK solution for '{link}' at step {s + 1}"
-                break
-        x = solver.x
-        delta = x - previous
-        jump = _joint_jump(delta, jump_limits, s + 1)
-        if jump is not None:
-            solver.update(previous)
-            stop_reason = STOP_JOINT_JUMP
-            detail = jump
-            break
-        largest = float(np.abs(delta).max())
-        if straightness is not None and straightness.needs_check(delta, largest):
-            p0, r0 = (p_ik[s - 1], r_ik[s - 1]) if s > 0 else (ik_start[:3, 3], ik_start[:3, :3])
-            off_line, turned = straightness.deviation(previous, x, p0, r0, p_ik[s], r_ik[s])
-            if straightness.exceeded(off_line, turned):
-                if 0.5 / n_steps >= precision.max_resolution:
-                    raise _RefineSteps()
-                solver.update(previous)
-                stop_reason = STOP_PRECISION
-                detail = (f"the motion to step {s + 1} leaves the line by {off_line * 1000:.3f} mm / {turned:.4f} rad "
-                          f"with steps at the finest resolution ({precision})")
-                break
-        if avoid_collisions:
-            colliding = None
-            between = int(math.ceil(largest / resolution)) if largest > resolution else 1
-            for j in range(1, between + 1):
-                values = x if j == between else previous + (j / between) * delta
-                if not is_valid(values):
-                    check_buffer[idx] = values
-                    colliding = check_buffer.copy()
+    # The steps go in chunks: the IK of a chunk first (the solver only ever continues from its
+    # own last solution, so what the checks decide never changes it), then the chunk's checks
+    # vectorised and in the order one step at a time would meet them (joint jump, precision,
+    # collision, path constraints), the path ending before the first step any of them refuses.
+    while done < n_steps and stop_reason == STOP_COMPLETE:
+        end = min(n_steps, done + _CHUNK)
+        reached = solver.follow(p_link, r_link, done, end, path, fallback_refine)
+        limit = reached  # steps [done, limit) still pass every check so far
+        if reached < end:
+            stop_reason = STOP_NO_IK
+            detail = f"no IK solution for '{link}' at step {reached + 1}"
+        deltas = path[done + 1:reached + 1] - path[done:reached]
+        if jump_checked and len(deltas):
+            jumps = np.zeros(len(deltas), dtype=bool)
+            for mask, threshold, _, _ in jump_limits:
+                if threshold > 0:
+                    jumps |= np.any(np.abs(deltas[:, mask]) > threshold, axis=1)
+            first = np.flatnonzero(jumps)
+            if first.size:
+                limit = done + int(first[0])
+                stop_reason = STOP_JOINT_JUMP
+                detail = _joint_jump(deltas[limit - done], jump_limits, limit + 1) or ""
+        largest = np.abs(deltas).max(axis=1) if len(deltas) else np.zeros(0)
+        refine = False
+        if straightness is not None:
+            for s in np.flatnonzero(straightness.needs_checks(deltas[:limit - done], largest[:limit - done])).tolist():
+                s += done
+                p0, r0 = (p_ik[s - 1], r_ik[s - 1]) if s > 0 else (ik_start[:3, 3], ik_start[:3, :3])
+                off_line, turned = straightness.deviation(path[s], path[s + 1], p0, r0, p_ik[s], r_ik[s])
+                if straightness.exceeded(off_line, turned):
+                    limit = s
+                    refine = 0.5 / n_steps >= precision.max_resolution
+                    stop_reason = STOP_PRECISION
+                    detail = (f"the motion to step {s + 1} leaves the line by {off_line * 1000:.3f} mm / "
+                              f"{turned:.4f} rad with steps at the finest resolution ({precision})")
                     break
-            if colliding is not None:
-                solver.update(previous)
+        if avoid_collisions and limit > done:
+            hit = _first_invalid_motion(is_valid, path, done, limit, largest[:limit - done], resolution)
+            if hit is not None:
+                s, values, at_state = hit
+                limit, refine = s, False
+                check_buffer[idx] = values
                 stop_reason = STOP_COLLISION
-                report = scene.check_collision(RobotState(model, colliding), max_contacts=3)
+                report = scene.check_collision(RobotState(model, check_buffer.copy()), max_contacts=3)
                 what = "; ".join(str(c) for c in report.contacts) or "joint limits"
-                where = "state" if j == between else "motion to the state"
-                detail = f"{where} of step {s + 1} invalid: {what}"
-                break
+                detail = f"{'state' if at_state else 'motion to the state'} of step {s + 1} invalid: {what}"
         if path_constraints:
-            # the state, and the joint-space motion to it, every CONSTRAINT_CHECK_STEP
-            between = max(1, int(math.ceil(largest / CONSTRAINT_CHECK_STEP)))
-            problem = None
-            for j in range(between, 0, -1):
-                check_buffer[idx] = x if j == between else previous + (j / between) * delta
-                problem = path_constraints.violation(RobotState(model, check_buffer.copy()))
+            for s in range(done, limit):
+                previous, x = path[s], path[s + 1]
+                delta = x - previous
+                # the state, and the joint-space motion to it, every CONSTRAINT_CHECK_STEP
+                between = max(1, int(math.ceil(float(np.abs(delta).max()) / CONSTRAINT_CHECK_STEP)))
+                problem = None
+                for j in range(between, 0, -1):
+                    check_buffer[idx] = x if j == between else previous + (j / between) * delta
+                    problem = path_constraints.violation(RobotState(model, check_buffer.copy()))
+                    if problem:
+                        break
                 if problem:
+                    limit, refine = s, False
+                    stop_reason = STOP_PATH_CONSTRAINTS
+                    detail = f"step {s + 1} violates the path constraints: {problem}"
                     break
-            if problem:
-                solver.update(previous)
-                stop_reason = STOP_PATH_CONSTRAINTS
-                detail = f"step {s + 1} violates the path constraints: {problem}"
-                break
-        path[s + 1] = x
-        done = s + 1
+        if refine:
+            raise _RefineSteps()
+        done = limit
 
     # MoveIt's relative jump test over the computed path.
     if jump_threshold > 0 and done + 1 >= MIN_STEPS_FOR_JUMP_THRESHOLD:
@@ -617,6 +648,28 @@ def _compute(
         start_state=start,
         planning_time=time.perf_counter() - started,
     )
+
+
+def _first_invalid_motion(is_valid: Callable[[np.ndarray], bool], path: np.ndarray, start: int, end: int,
+                          largest: np.ndarray, resolution: float) -> tuple[int, np.ndarray, bool] | None:
+    """The first invalid state of the motions from ``path[s]`` to ``path[s + 1]`` for steps
+    ``start``..``end - 1``, each checked every ``resolution`` (max-norm; ``largest`` holds each
+    step's largest joint motion) and at its end: (step, the invalid values, whether they are
+    the step's state itself), or None when all are valid."""
+    between = np.where(largest > resolution, np.ceil(largest / resolution), 1.0).astype(int)
+    if np.all(between == 1):  # steps shorter than the resolution: the states alone
+        for s in range(start, end):
+            if not is_valid(path[s + 1]):
+                return s, path[s + 1], True
+        return None
+    for s, count in zip(range(start, end), between.tolist()):
+        previous, x = path[s], path[s + 1]
+        delta = x - previous
+        for j in range(1, count + 1):
+            values = x if j == count else previous + (j / count) * delta
+            if not is_valid(values):
+                return s, values, j == count
+    return None
 
 
 def _step_distances(path: np.ndarray, continuous: np.ndarray) -> np.ndarray:

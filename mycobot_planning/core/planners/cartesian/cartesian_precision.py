@@ -83,6 +83,17 @@ class PrecisionCheck:
             return False
         return float(np.abs(delta).sum()) >= self._skip_below
 
+    def needs_checks(self, deltas: np.ndarray, largest: np.ndarray) -> np.ndarray:
+        """:meth:`needs_check` for many steps at once (rows of ``deltas``; ``largest`` their
+        largest magnitudes): a boolean per step."""
+        deltas = np.asarray(deltas, dtype=float)
+        if not self._skip_below:
+            return np.ones(len(deltas), dtype=bool)
+        candidates = np.asarray(largest, dtype=float) * self.dof >= self._skip_below
+        if not candidates.any():
+            return candidates
+        return candidates & (np.abs(deltas).sum(axis=1) >= self._skip_below)
+
     def deviation(self, a: np.ndarray, b: np.ndarray, p0: np.ndarray, r0: np.ndarray, p1: np.ndarray,
                   r1: np.ndarray) -> tuple[float, float]:
         """(m, rad): how far the ik frame is, halfway from group values ``a`` to ``b``, from the
