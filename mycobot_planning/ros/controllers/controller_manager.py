@@ -44,6 +44,7 @@ from mycobot_planning.mock_control.joint_trajectory_follower import (
     TrajectoryCommand,
 )
 from mycobot_planning.paths import config_file, package_share_dirs
+from mycobot_planning.ros import fast_log
 from mycobot_planning.ros.controllers.controller_actions import ControllerActions
 from mycobot_planning.ros.node_runtime import Parameters, ParameterSpec, load_yaml_file
 from mycobot_planning.ros.stamped_cdr import StampedCdr
@@ -94,6 +95,7 @@ class Controller:
         self._lock = lock
         self._clock = clock
         self._logger = logger
+        self._log_throttle = fast_log.Throttle(1.0)
         self._state_pub = state_pub
         self._on_accepted = on_accepted
         self._last_state_key: tuple = ()
@@ -156,8 +158,11 @@ class Controller:
         for event in result.events:
             if event.status in (ControllerStatus.PREEMPTED, ControllerStatus.EXECUTING):
                 # a stream of commands (servo, the hybrid local planner: 100 a second) would log two
-                # lines each; the state topic carries every one of them
-                self._logger.info(f"{self.name}: {event.message}", throttle_duration_sec=1.0)
+                # lines each; the state topic carries every one of them. Throttled here, not by
+                # rclpy's throttle_duration_sec: that looks its caller up on every call (most of
+                # the controllers' CPU while servoing)
+                if self._log_throttle(event.status):
+                    fast_log.log(self._logger, "info", f"{self.name}: {event.message}")
             elif event.status != ControllerStatus.ABORTED:  # the rejection was logged above
                 self._logger.info(f"{self.name}: {event.message}")
             self.publish_event(event)

@@ -60,6 +60,7 @@ from mycobot_planning.core.servo import (
 )
 from mycobot_planning.core.servo.parameters import COMMAND_IN_TYPES, STATUS_MESSAGES
 from mycobot_planning.core.transforms import make_pose
+from mycobot_planning.ros import fast_log
 from mycobot_planning.ros.node_runtime import Parameters, ParameterSpec
 from mycobot_planning.ros.node_waiter import NodeWaiter
 from mycobot_planning.ros.robot_model_loader import load_robot_model
@@ -170,18 +171,6 @@ def parameter_specs() -> list[ParameterSpec]:
     ]
 
 
-class _Throttle:
-    def __init__(self) -> None:
-        self._last: dict[str, float] = {}
-
-    def __call__(self, key: str) -> bool:
-        now = time.monotonic()
-        if now - self._last.get(key, -1e9) < LOG_THROTTLE:
-            return False
-        self._last[key] = now
-        return True
-
-
 class ServoNode(Node):
     """See the module docstring."""
 
@@ -195,7 +184,7 @@ class ServoNode(Node):
         if values[P + "active_subgroup"] not in ("", servo_params.move_group_name):
             raise ValueError("active_subgroup: only the move_group_name group itself (or empty) is supported")
         self._lock = threading.RLock()  # the step (under it) calls _collides (which takes it)
-        self._throttle = _Throttle()
+        self._throttle = fast_log.Throttle(LOG_THROTTLE)
         self._period = float(values[P + "publish_period"])
         self._latency = float(values[P + "max_expected_latency"])
         self._thread_priority = int(values[P + "thread_priority"])
