@@ -9,12 +9,13 @@ hands the text to rcutils directly, as rclpy itself does at the end of that call
 from __future__ import annotations
 
 import sys
-from typing import Any
+import time
+from typing import Any, Hashable
 
 from rclpy.impl.implementation_singleton import rclpy_implementation as rcutils_binding
 from rclpy.logging import LoggingSeverity
 
-__all__ = ["SEVERITIES", "log"]
+__all__ = ["SEVERITIES", "Throttle", "log"]
 
 SEVERITIES = {"debug": LoggingSeverity.DEBUG, "info": LoggingSeverity.INFO, "warning": LoggingSeverity.WARN,
               "warn": LoggingSeverity.WARN, "error": LoggingSeverity.ERROR, "fatal": LoggingSeverity.FATAL}
@@ -30,3 +31,21 @@ def log(logger: Any, level: str, text: str, depth: int = 1) -> bool:
     rcutils_binding.rclpy_logging_rcutils_log(severity, logger.name, text, frame.f_code.co_name,
                                               frame.f_code.co_filename, frame.f_lineno)
     return True
+
+
+class Throttle:
+    """At most one line per ``period`` s of each kind: ``if throttle(key): log(...)``. rclpy's
+    ``throttle_duration_sec`` looks the caller up before it filters, so a throttled line still
+    costs that lookup on every call (a command stream at 100 Hz logging through it took a tenth of
+    a core in mock_controllers)."""
+
+    def __init__(self, period: float = 1.0) -> None:
+        self.period = period
+        self._last: dict[Hashable, float] = {}
+
+    def __call__(self, key: Hashable) -> bool:
+        now = time.monotonic()
+        if now - self._last.get(key, -1e18) < self.period:
+            return False
+        self._last[key] = now
+        return True

@@ -62,6 +62,24 @@ class TopicReader:
             self.last_received_ns = int((info or {}).get("received_timestamp", 0) or 0)
         return latest
 
+    def take_all(self) -> list[Any]:
+        """Every message received since the last take, oldest first (at most the queue's depth)."""
+        taken_all: list[Any] = []
+        info = None
+        with self._lock:
+            if self._closed:
+                return taken_all
+            while True:
+                taken = self._handle.take_message(self._msg_type, self._raw)
+                if taken is None:
+                    break
+                taken_all.append(taken[0])
+                info = taken[1]
+        if taken_all:
+            self.last_taken = time.monotonic()
+            self.last_received_ns = int((info or {}).get("received_timestamp", 0) or 0)
+        return taken_all
+
     def wait(self, timeout: float) -> bool:
         """Block until a message can be taken, ``wake`` is called or ``timeout`` s pass; True when
         a message is there. Meant for one reading thread."""

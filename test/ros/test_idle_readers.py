@@ -1,6 +1,7 @@
 """Idle CPU (issue 27): the 100 Hz streams are read outside the executors.
 
-In-process and fast: a TopicReader keeps the newest message only and wakes a waiting reader;
+In-process and fast: a TopicReader keeps the newest message only and wakes a waiting reader, or
+gives every message in order (take_all);
 robot_state_publisher's executor never waits on /joint_states, and it publishes /tf when the
 joints change and once a second while they stand still (a late listener still gets the moving
 frames); the idle_cpu benchmark is registered. The figures themselves come from
@@ -72,6 +73,22 @@ def test_topic_reader_takes_the_newest_message_and_wakes(node):
     reader.destroy()
     reader.destroy()  # idempotent
     assert reader.take_latest() is None and reader.wait(0.01) is False
+
+
+def test_topic_reader_takes_every_message_in_order(node):
+    """take_all (the controllers' command topics, read once per control cycle): every message of
+    the queue, oldest first; then nothing."""
+    reader = TopicReader(node, JointState, "/idle_readers_test/commands", 10)
+    publisher = node.create_publisher(JointState, "/idle_readers_test/commands", 10)
+    assert wait_until(lambda: publisher.get_subscription_count() >= 1, 10.0)
+    assert reader.take_all() == []
+    for value in (0.1, 0.2, 0.3):
+        publisher.publish(_joint_state(value))
+    seen: list[float] = []
+    assert wait_until(lambda: seen.extend(m.position[0] for m in reader.take_all()) or len(seen) >= 3, 5.0)
+    assert seen == [0.1, 0.2, 0.3] and reader.take_all() == []
+    reader.destroy()
+    assert reader.take_all() == []
 
 
 def test_robot_state_publisher_publishes_on_change_and_keeps_alive(node):

@@ -22,7 +22,9 @@ import pty
 import select
 import subprocess
 import sys
+import threading
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -700,3 +702,36 @@ def test_keyboard_teleop_drives_the_arm(servo, mycobot):
         assert terminal.proc.wait(30) == 0
     finally:
         terminal.close()
+
+
+def _fifo_allowed() -> bool:
+    """Whether a thread of this machine's processes may take SCHED_FIFO (a short-lived thread of
+    the test process tries; it ends at once, nothing else changes)."""
+    allowed: list[bool] = []
+
+    def attempt() -> None:
+        try:
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(1))
+            allowed.append(True)
+        except OSError:
+            allowed.append(False)
+
+    thread = threading.Thread(target=attempt)
+    thread.start()
+    thread.join()
+    return allowed[0]
+
+
+def test_the_loop_runs_sched_fifo_at_thread_priority_when_the_system_allows(servo):
+    """As MoveIt's servo: the loop thread under SCHED_FIFO at thread_priority (default 40), the
+    node's other threads one below; without the right, a warning and normal scheduling."""
+    probe, node = servo
+    threads = set()
+    for task in Path(f"/proc/{node.proc.pid}/task").iterdir():
+        fields = (task / "stat").read_text().rsplit(")", 1)[1].split()
+        threads.add((int(fields[38]), int(fields[37])))  # (policy, rt_priority): stat fields 41, 40
+    if _fifo_allowed():
+        assert (os.SCHED_FIFO, 40) in threads and (os.SCHED_FIFO, 39) in threads, threads
+    else:
+        assert "Could not enable FIFO RT scheduling policy" in node.output()
+        assert all(policy != os.SCHED_FIFO for policy, _ in threads), threads

@@ -44,9 +44,11 @@ from mycobot_planning.mock_control.joint_trajectory_follower import (
     TrajectoryCommand,
 )
 from mycobot_planning.paths import config_file, package_share_dirs
+from mycobot_planning.ros import fast_log
 from mycobot_planning.ros.controllers.controller_actions import ControllerActions
 from mycobot_planning.ros.node_runtime import Parameters, ParameterSpec, load_yaml_file
 from mycobot_planning.ros.stamped_cdr import StampedCdr
+from mycobot_planning.ros.topic_reader import TopicReader
 
 JOINT_STATES_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
 #: Deep enough that a monitor never misses a status change in a burst of events.
@@ -90,10 +92,12 @@ class Controller:
         self.is_gripper = config.type.endswith("GripperActionController")
         self.divisor = 1  # updated every divisor-th loop of the controller manager
         self.actions: ControllerActions | None = None
+        self.command_reader: TopicReader | None = None  # /<name>/joint_trajectory, read by the control loop
         self._follower = follower
         self._lock = lock
         self._clock = clock
         self._logger = logger
+        self._log_throttle = fast_log.Throttle(1.0)
         self._state_pub = state_pub
         self._on_accepted = on_accepted
         self._last_state_key: tuple = ()
@@ -156,8 +160,11 @@ class Controller:
         for event in result.events:
             if event.status in (ControllerStatus.PREEMPTED, ControllerStatus.EXECUTING):
                 # a stream of commands (servo, the hybrid local planner: 100 a second) would log two
-                # lines each; the state topic carries every one of them
-                self._logger.info(f"{self.name}: {event.message}", throttle_duration_sec=1.0)
+                # lines each; the state topic carries every one of them. Throttled here, not by
+                # rclpy's throttle_duration_sec: that looks its caller up on every call (most of
+                # the controllers' CPU while servoing)
+                if self._log_throttle(event.status):
+                    fast_log.log(self._logger, "info", f"{self.name}: {event.message}")
             elif event.status != ControllerStatus.ABORTED:  # the rejection was logged above
                 self._logger.info(f"{self.name}: {event.message}")
             self.publish_event(event)
@@ -285,8 +292,10 @@ class ControllerManager(Node):
         name = config.name
         c = Controller(config, follower, indices, self._lock, self.now, self.get_logger(),
                        self.create_publisher(String, f"/{name}/state", STATE_QOS), self.plant.commanded)
-        self.create_subscription(JointTrajectory, f"/{name}/joint_trajectory", lambda msg, c=c: self._on_trajectory(c, msg),
-                                 COMMAND_QOS, callback_group=self._control_group)
+        # read by the control loop at the start of each cycle, as ros2_control's JTC reads its
+        # topic's realtime buffer in update(): a command stream (servo: 100 Hz) would otherwise wake
+        # the executor for every message, and its Python wait-set rebuild cost more than the command
+        c.command_reader = TopicReader(self, JointTrajectory, f"/{name}/joint_trajectory", COMMAND_QOS)
         self.create_service(Trigger, f"/{name}/stop", lambda req, resp, c=c: self._on_stop(c, resp),
                             callback_group=self._control_group)
         c.divisor = max(1, round(self.config.update_rate / config.update_rate))
@@ -406,7 +415,17 @@ class ControllerManager(Node):
                     failures_logged = now
                     self.get_logger().error(f"control loop: {type(exc).__name__}: {exc}")
 
+    def _take_commands(self) -> None:
+        """Hand each controller the JointTrajectory messages that came since the last cycle, in order."""
+        for c in self.controllers.values():
+            for msg in c.command_reader.take_all():
+                try:
+                    self._on_trajectory(c, msg)
+                except Exception as exc:  # one bad message must not cost the others or the cycle
+                    self.get_logger().error(f"{c.name}: joint_trajectory message failed: {type(exc).__name__}: {exc}")
+
     def _on_control_loop(self) -> None:
+        self._take_commands()
         due = self._every_cycle or [c for c in self.controllers.values() if self._loop_count % c.divisor == 0]
         report_idle = self._loop_count % IDLE_STATE_DIVISOR == 0
         self._loop_count += 1
@@ -488,4 +507,6 @@ class ControllerManager(Node):
         self._loop_stop.set()
         if self._loop_thread.is_alive() and self._loop_thread is not threading.current_thread():
             self._loop_thread.join(1.0)
+        for c in self.controllers.values():
+            c.command_reader.destroy()
         self.plant.close()

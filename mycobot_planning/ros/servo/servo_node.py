@@ -15,12 +15,14 @@ ROS-free servo computation (mycobot_planning.core.servo).
   start_servo the command type follows the topic a command arrives on, as Humble's servo took
   twists and joint jogs alike).
 
-The loop runs in a thread of its own at ``publish_period`` (sleeping to absolute deadlines); the
-collision monitor in another at ``collision_check_rate`` with a scene copy of its own.
+The loop runs in a thread of its own at ``publish_period`` (sleeping to absolute deadlines; SCHED_FIFO
+at ``thread_priority`` when the system allows it, as MoveIt's); the collision monitor in another at
+``collision_check_rate`` with a scene copy of its own.
 """
 from __future__ import annotations
 
 import math
+import os
 import threading
 import time
 from typing import Any
@@ -58,6 +60,7 @@ from mycobot_planning.core.servo import (
 )
 from mycobot_planning.core.servo.parameters import COMMAND_IN_TYPES, STATUS_MESSAGES
 from mycobot_planning.core.transforms import make_pose
+from mycobot_planning.ros import fast_log
 from mycobot_planning.ros.node_runtime import Parameters, ParameterSpec
 from mycobot_planning.ros.node_waiter import NodeWaiter
 from mycobot_planning.ros.robot_model_loader import load_robot_model
@@ -94,8 +97,9 @@ def parameter_specs() -> list[ParameterSpec]:
         ParameterSpec("robot_description", "", "URDF of the robot; empty: read it from /move_group", read_only=True),
         ParameterSpec("robot_description_semantic", "", "SRDF of the robot; empty: read it from /move_group",
                       read_only=True),
-        ParameterSpec(P + "thread_priority", 40, "priority of the servo loop thread (accepted for MoveIt "
-                      "compatibility; Python threads run at normal priority)", range=(0, 99), read_only=True),
+        ParameterSpec(P + "thread_priority", 40, "SCHED_FIFO priority of the servo loop thread (as MoveIt's; "
+                      "0: normal scheduling; without the right to it, normal scheduling and a warning)",
+                      range=(0, 99), read_only=True),
         ParameterSpec(P + "move_group_name", "arm", "planning group to servo", non_empty=True, read_only=True),
         ParameterSpec(P + "active_subgroup", "", "subgroup to servo (only the group itself or empty is supported)"),
         ParameterSpec(P + "publish_period", 0.01, "s between two servo loop iterations (and commands out)",
@@ -167,18 +171,6 @@ def parameter_specs() -> list[ParameterSpec]:
     ]
 
 
-class _Throttle:
-    def __init__(self) -> None:
-        self._last: dict[str, float] = {}
-
-    def __call__(self, key: str) -> bool:
-        now = time.monotonic()
-        if now - self._last.get(key, -1e9) < LOG_THROTTLE:
-            return False
-        self._last[key] = now
-        return True
-
-
 class ServoNode(Node):
     """See the module docstring."""
 
@@ -192,9 +184,10 @@ class ServoNode(Node):
         if values[P + "active_subgroup"] not in ("", servo_params.move_group_name):
             raise ValueError("active_subgroup: only the move_group_name group itself (or empty) is supported")
         self._lock = threading.RLock()  # the step (under it) calls _collides (which takes it)
-        self._throttle = _Throttle()
+        self._throttle = fast_log.Throttle(LOG_THROTTLE)
         self._period = float(values[P + "publish_period"])
         self._latency = float(values[P + "max_expected_latency"])
+        self._thread_priority = int(values[P + "thread_priority"])
         self._joint_names = list(self.servo.joint_names)
         self._output_is_trajectory = values[P + "command_out_type"] == OUTPUT_TYPES[0]
         self._flags = {k: v for k, v in values.items() if k.startswith(P + "publish_joint_")}
@@ -252,6 +245,15 @@ class ServoNode(Node):
         self._params.on_change(self._on_params)
         self.add_on_set_parameters_callback(self._check_together)
 
+        # As MoveIt's servo node: SCHED_FIFO at thread_priority, set in the constructor, so the
+        # threads started from here on (the loop, the collision monitor, run_node's executor)
+        # inherit it. The loop takes thread_priority, the others one below: a thread holding the GIL
+        # the loop needs must not be preempted by ordinary processes (a priority inversion of up
+        # to a scheduler time slice, several ms on a loaded machine), nor delay the loop itself.
+        self._realtime = self._thread_priority > 0 and self._schedule_fifo(max(1, self._thread_priority - 1))
+        if self._realtime:
+            self.get_logger().info(f"SCHED_FIFO: servo loop thread at priority {self._thread_priority}, the "
+                                   f"node's other threads at {max(1, self._thread_priority - 1)}")
         self._loop_thread = threading.Thread(target=self._loop, name="servo loop", daemon=True)
         self._collision_thread = threading.Thread(target=self._collision_loop, name="servo collision monitor",
                                                   daemon=True)
@@ -481,7 +483,21 @@ class ServoNode(Node):
         self._loop_state.set_positions(full)
         return bool(self._loop_scene.is_state_colliding(self._loop_state))
 
+    def _schedule_fifo(self, priority: int) -> bool:
+        """The calling thread (and the threads it starts afterwards) under SCHED_FIFO at
+        ``priority``; False (and a warning, as MoveIt's) without the right to it (no
+        CAP_SYS_NICE / rtprio limit) or off Linux: the thread stays at normal priority."""
+        try:
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+        except (AttributeError, OSError) as exc:  # AttributeError: not Linux
+            self.get_logger().warning(f"Could not enable FIFO RT scheduling policy ({exc}). Continuing with the "
+                                      "default.")
+            return False
+        return True
+
     def _loop(self) -> None:
+        if self._realtime:
+            self._schedule_fifo(self._thread_priority)
         next_time = time.monotonic()
         while self._running:
             next_time += self._period
