@@ -48,19 +48,8 @@ class TopicReader:
 
     def take_latest(self) -> Any:
         """The newest message received since the last take (older ones dropped), or None."""
-        latest = info = None
-        with self._lock:
-            if self._closed:
-                return None
-            while True:
-                taken = self._handle.take_message(self._msg_type, self._raw)
-                if taken is None:
-                    break
-                latest, info = taken
-        if latest is not None:
-            self.last_taken = time.monotonic()
-            self.last_received_ns = int((info or {}).get("received_timestamp", 0) or 0)
-        return latest
+        taken = self.take_all()
+        return taken[-1] if taken else None
 
     def take_all(self) -> list[Any]:
         """Every message received since the last take, oldest first (at most the queue's depth)."""
