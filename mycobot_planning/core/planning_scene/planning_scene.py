@@ -27,6 +27,7 @@ from interfaces_py.msgs import (
 )
 
 from ..collision_detection.acm import AllowedCollisionMatrix
+from ..collision_detection.batch_check import numba_available
 from ..collision_detection.collision import (
     OBJECT,
     ROBOT_ATTACHED,
@@ -642,6 +643,48 @@ class PlanningScene:
 
         return check
 
+    def batch_free_checker(
+        self,
+        group: str | Sequence[int] | np.ndarray,
+        reference_state: RobotState | None = None,
+    ) -> Callable[[np.ndarray], np.ndarray] | None:
+        """``f(values) -> (N,) bool`` for (N, d) rows of a group's values in reference_state
+        (default: the current state, copied now): True where a state is certainly collision-free
+        by the batch sphere test (collision_detection/batch_check.py), False where it is
+        undecided (ask validity_checker). Never True for a state the exact check finds in
+        collision; joint limits are not considered. None when the group's variables are not
+        plain configuration slots (continuous joints, mimic leaders) or numba is missing. Like
+        validity_checker it follows later changes of this scene; on a scene without a batch
+        path (a shape or joint it does not model, or one where it does not pay) every state is
+        undecided."""
+        if not numba_available():
+            return None
+        indices = self._model.group(group).variable_indices if isinstance(group, str) else np.asarray(group, dtype=int)
+        slots = self._model.q_slots(indices)
+        if slots is None or not len(indices):
+            return None
+        full = np.array(self._state_or_current(reference_state).positions, dtype=float)
+        moving = self.moving_joints(indices)
+        q_ref = np.array(self._robot.to_q(full), dtype=float)
+        low = np.where(np.isfinite(self._model.lower_limits[indices]), self._model.lower_limits[indices], -np.pi)
+        high = np.where(np.isfinite(self._model.upper_limits[indices]), self._model.upper_limits[indices], np.pi)
+        scene = self
+        last: list[Any] = [(None, None)]  # (compiled scene, its batch test), replaced as one
+
+        def free(values: np.ndarray) -> np.ndarray:
+            compiled = scene._slot.value
+            if compiled is None:
+                compiled = scene._compiled()
+            pair = last[0]
+            if pair[0] is not compiled:
+                pair = last[0] = (compiled, compiled.batch_check(moving, q_ref, slots, low, high))
+            check = pair[1]
+            if check is None:
+                return np.zeros(len(values), dtype=bool)
+            return check.free(values)
+
+        return free
+
     def moving_joints(self, indices: np.ndarray) -> frozenset[int]:
         """The Pinocchio joints that move when these variables change: their own joints and the
         mimic followers they drive (what the group collision test may not hold fixed)."""
@@ -698,7 +741,9 @@ class PlanningScene:
         pairs whose path holds none of the given variables' joints are decided once.
         ``all_pairs=True`` decides with the plain exact check of every active pair (no broad phase,
         no pre-test, nothing decided once), the same verdicts at several times the cost: for a
-        checker that must not share the one it judges (the trajectory validator as a judge)."""
+        checker that must not share the one it judges (the trajectory validator as a judge).
+        Without it, the rows first go to the batch sphere test in one call (batch_free_checker)
+        and only the rows it leaves undecided to the group's test: the same verdicts."""
         values = np.asarray(values, dtype=float)
         if values.ndim != 2:
             raise StateError(f"expected a 2-D array of states, got shape {values.shape}")
@@ -723,10 +768,18 @@ class PlanningScene:
 
             def check(row: np.ndarray) -> bool:
                 return collides(to_q(row))
+        batch = None if all_pairs or slots is None or count < 2 else self.batch_free_checker(indices, reference_state)
+        free = batch(values) if batch is not None else None
+        if free is not None and free.all():
+            return np.zeros(count, dtype=bool)
         if order is None and not stop_at_first:
-            return np.fromiter((check(row) for row in q), dtype=bool, count=count)
+            if free is None:
+                return np.fromiter((check(row) for row in q), dtype=bool, count=count)
+            return np.fromiter((not f and check(row) for row, f in zip(q, free.tolist())), dtype=bool, count=count)
         out = np.zeros(count, dtype=bool)
         for i in (range(count) if order is None else np.asarray(order, dtype=int).tolist()):
+            if free is not None and free[i]:
+                continue
             if check(q[i]):
                 out[i] = True
                 if stop_at_first:

@@ -252,6 +252,8 @@ class OmplPlanner:
         # OMPL samples and interpolates inside its bounds; projecting onto a constraint manifold
         # does not, so constrained states are checked against the joint limits too
         validity = scene.validity_checker(jmg.name, start, check_bounds=manifold is not None)
+        # the batch sphere test judges collisions only: not with path constraints (or bounds) to keep
+        batch_free = None if manifold is not None or constraints else scene.batch_free_checker(jmg.name, start)
         if constraints:
             validity = _constrained(validity, constraints.for_planning([start, *goals]), start, jmg)
 
@@ -298,6 +300,7 @@ class OmplPlanner:
                 manifold=manifold,
                 manifold_delta=_manifold_delta(lower, upper, fraction) if manifold is not None else None,
                 try_direct=bool(constraints),  # without constraints _straight_motion has tried (finer)
+                batch_free=batch_free,
             )
             last = result
             if result.status == "ABORT":
