@@ -33,7 +33,7 @@ try:  # a pinned dependency; without it the batch path is off and every state is
 except ImportError:  # pragma: no cover - exercised only on an install without numba
     njit = None
 
-__all__ = ["BATCH_MARGIN", "MIN_FREE_SHARE", "BatchCheck", "build_batch_check", "joint_tables", "numba_available"]
+__all__ = ["BATCH_MARGIN", "BATCH_RULE_SAMPLES", "MIN_FREE_SHARE", "BatchCheck", "build_batch_check", "joint_tables", "numba_available"]
 
 _LOG = logging.getLogger(__name__)
 
@@ -46,7 +46,7 @@ BATCH_MARGIN = 1e-5
 #: and the exact check both (on a cluttered scene, or a robot whose spheres always overlap).
 MIN_FREE_SHARE = 0.1
 #: how many random states that rule samples
-_SAMPLES = 256
+BATCH_RULE_SAMPLES = 256
 
 # joint kinds of the compiled forward kinematics
 _FIXED, _REVOLUTE, _PRISMATIC, _UNBOUNDED = 0, 1, 2, 3
@@ -152,12 +152,12 @@ def build_batch_check(
     slots: np.ndarray,
     covers: Sequence[tuple[np.ndarray, np.ndarray] | None],
     margin: float,
-    sample_low: np.ndarray,
-    sample_high: np.ndarray,
+    sample: np.ndarray,
 ) -> BatchCheck | None:
     """The batch test of ``pairs`` (geometry index pairs: robot-robot, robot-world), or None
     when it cannot be built (no numba, a joint or shape it does not model) or does not pay
-    (MIN_FREE_SHARE of random values in [sample_low, sample_high] decided free).
+    (it calls less than MIN_FREE_SHARE of the ``sample`` rows of slot values free: random
+    states of the group, BATCH_RULE_SAMPLES of them).
     ``robot_geometries[g]``: geometry g moves with the robot (link or attached object), and
     ``covers[g]`` is then its enclosing spheres in its own shape frame."""
     if njit is None or not len(slots):
@@ -212,8 +212,6 @@ def build_batch_check(
     spheres = sum(len(r) for _, _, r in bodies)
     check = BatchCheck(np.ascontiguousarray(q_ref, dtype=np.float64), np.asarray(slots, dtype=np.int64),
                        ints, floats, spheres, len(world_pairs), len(self_pairs))
-    rng = np.random.default_rng(7)
-    sample = rng.uniform(sample_low, sample_high, (_SAMPLES, len(slots)))
     share = float(np.mean(check.free(sample)))
     if share < MIN_FREE_SHARE:
         _LOG.debug("batch collision check not used: it decides %.0f%% of random states", 100.0 * share)

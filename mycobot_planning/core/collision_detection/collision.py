@@ -768,17 +768,17 @@ class CompiledScene:
         return cached
 
     def batch_check(self, moving_joints: frozenset[int], q_ref: np.ndarray, slots: np.ndarray,
-                    low: np.ndarray, high: np.ndarray) -> BatchCheck | None:
+                    sample: np.ndarray) -> BatchCheck | None:
         """The sphere test (batch_check.py) for states that differ from ``q_ref`` only in the
-        configuration ``slots`` (a group's joints: ``moving_joints``, as group_collides), between
-        ``low`` and ``high``; None when there is none for this scene (a shape or joint it does not
+        configuration ``slots`` (a group's joints: ``moving_joints``, as group_collides), judged
+        on ``sample`` (rows of slot values) whether it pays; None when there is none for this scene (a shape or joint it does not
         model, a fixed pair that collides, or it would not pay: batch_check.MIN_FREE_SHARE).
         Built once per key and shared by every thread (it holds no buffers)."""
         key = (moving_joints, np.asarray(q_ref, dtype=float).tobytes(), np.asarray(slots).tobytes())
         with self._batch_lock:
             if key in self._batch_checks:
                 return self._batch_checks[key]
-        check = self._build_batch_check(moving_joints, np.array(q_ref, dtype=float), slots, low, high)
+        check = self._build_batch_check(moving_joints, np.array(q_ref, dtype=float), slots, sample)
         with self._batch_lock:
             if len(self._batch_checks) >= 8:
                 self._batch_checks.pop(next(iter(self._batch_checks)))
@@ -786,7 +786,7 @@ class CompiledScene:
         return check
 
     def _build_batch_check(self, moving_joints: frozenset[int], q_ref: np.ndarray, slots: np.ndarray,
-                           low: np.ndarray, high: np.ndarray) -> BatchCheck | None:
+                           sample: np.ndarray) -> BatchCheck | None:
         fixed = self.fixed_pairs(moving_joints)
         pin_model, gm = self.pin_model, self.geometry_model
         if fixed:  # decided once, as group_collides does: if one collides every state does
@@ -808,7 +808,7 @@ class CompiledScene:
                 covers.append(None)
         movers = [kind != OBJECT for kind in self.geometry_kinds]
         return build_batch_check(pin_model, gm, pairs, movers, q_ref, slots, covers, SECURITY_MARGIN + BATCH_MARGIN,
-                                 low, high)
+                                 sample)
 
     def fixed_pairs(self, moving_joints: frozenset[int]) -> list[int]:
         """Active pair indices whose two bodies are linked by a kinematic path without any of

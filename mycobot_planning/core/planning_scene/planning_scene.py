@@ -27,7 +27,7 @@ from interfaces_py.msgs import (
 )
 
 from ..collision_detection.acm import AllowedCollisionMatrix
-from ..collision_detection.batch_check import numba_available
+from ..collision_detection.batch_check import BATCH_RULE_SAMPLES, numba_available
 from ..collision_detection.collision import (
     OBJECT,
     ROBOT_ATTACHED,
@@ -652,22 +652,35 @@ class PlanningScene:
         (default: the current state, copied now): True where a state is certainly collision-free
         by the batch sphere test (collision_detection/batch_check.py), False where it is
         undecided (ask validity_checker). Never True for a state the exact check finds in
-        collision; joint limits are not considered. None when the group's variables are not
-        plain configuration slots (continuous joints, mimic leaders) or numba is missing. Like
+        collision; joint limits are not considered. None when a group variable's map to the
+        configuration is not affine (continuous joints) or numba is missing. Like
         validity_checker it follows later changes of this scene; on a scene without a batch
         path (a shape or joint it does not model, or one where it does not pay) every state is
         undecided."""
         if not numba_available():
             return None
         indices = self._model.group(group).variable_indices if isinstance(group, str) else np.asarray(group, dtype=int)
-        slots = self._model.q_slots(indices)
-        if slots is None or not len(indices):
+        if not len(indices):
             return None
+        slots = self._model.q_slots(indices)
         full = np.array(self._state_or_current(reference_state).positions, dtype=float)
-        moving = self.moving_joints(indices)
-        q_ref = np.array(self._robot.to_q(full), dtype=float)
+        q_matrix = self._robot.q_matrix
+        if slots is None and q_matrix is None:
+            return None  # continuous joints: no affine map to the configuration
         low = np.where(np.isfinite(self._model.lower_limits[indices]), self._model.lower_limits[indices], -np.pi)
         high = np.where(np.isfinite(self._model.upper_limits[indices]), self._model.upper_limits[indices], np.pi)
+        moving = self.moving_joints(indices)
+        q_ref = np.array(self._robot.to_q(full), dtype=float)
+        if slots is None:  # mimic followers: the rows become whole configurations through the affine map
+            slots = np.arange(len(q_ref))
+            rows = q_ref - q_matrix[:, indices] @ full[indices]  # the configuration without the group's share
+            group_columns = np.ascontiguousarray(q_matrix[:, indices].T)
+        else:
+            rows = group_columns = None
+        # the rule that decides whether the test pays is judged on random states of the group
+        sample = np.random.default_rng(7).uniform(low, high, (BATCH_RULE_SAMPLES, len(indices)))
+        if group_columns is not None:
+            sample = sample @ group_columns + rows
         scene = self
         last: list[Any] = [(None, None)]  # (compiled scene, its batch test), replaced as one
 
@@ -677,10 +690,12 @@ class PlanningScene:
                 compiled = scene._compiled()
             pair = last[0]
             if pair[0] is not compiled:
-                pair = last[0] = (compiled, compiled.batch_check(moving, q_ref, slots, low, high))
+                pair = last[0] = (compiled, compiled.batch_check(moving, q_ref, slots, sample))
             check = pair[1]
             if check is None:
                 return np.zeros(len(values), dtype=bool)
+            if group_columns is not None:
+                values = np.asarray(values, dtype=float) @ group_columns + rows
             return check.free(values)
 
         return free
