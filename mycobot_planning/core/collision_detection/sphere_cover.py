@@ -71,9 +71,6 @@ def shape_spheres(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return centres[radii > 0.0], radii[radii > 0.0]
 
 
-#: a mesh triangle longer than this fraction of its slab is cut in four (repeatedly) before the
-#: slabs are filled, so one long triangle does not swell the sphere of the slab it falls in
-_TRIANGLE_PER_SLAB = 0.5
 #: at most this many triangles after cutting (a very fine mesh keeps its own)
 _MAX_TRIANGLES = 20_000
 
@@ -120,7 +117,7 @@ def enclosing_spheres(geometry: coal.CollisionGeometry) -> tuple[np.ndarray, np.
     """Spheres (centres (k, 3) in the shape's frame, radii (k,)) whose union contains the shape:
     proved for primitives (a box slab's corners, a cylinder slab's rim are on its sphere), for a
     convex by one sphere around its vertices, and for a mesh every triangle (cut until short)
-    lies in the sphere of its slab (the sphere holds its corners, and a sphere is convex). None
+    lies in the sphere of its cluster (the sphere holds its corners, and a sphere is convex). None
     for a shape this cannot cover (octree, plane, height field...). The batch collision check
     (collision_detection/batch_check.py) calls a state free when these clear everything."""
     if isinstance(geometry, coal.Sphere):
@@ -152,11 +149,46 @@ def enclosing_spheres(geometry: coal.CollisionGeometry) -> tuple[np.ndarray, np.
     if isinstance(geometry, coal.BVHModelBase):
         if geometry.num_tris == 0:
             return None
-        own, triangles = _mesh_triangles(geometry)
-        _, _, edges, _ = _slabs(own)
-        slab = float(edges[1] - edges[0])
-        vertices = own
-        if len(edges) > 2 and slab > 0.0:  # the cut adds points of the surface; the slabs stay the mesh's own
-            vertices, triangles = _split_triangles(own, triangles, _TRIANGLE_PER_SLAB * slab)
-        return _cover(vertices, triangles, own)
+        vertices, triangles = _mesh_triangles(geometry)
+        size = float(np.linalg.norm(np.ptp(vertices, axis=0)))
+        if size > 0.0:  # the cut adds points of the surface: pieces small against the clusters
+            vertices, triangles = _split_triangles(vertices, triangles, _TRIANGLE_PER_CLUSTER * size)
+        return _cluster_cover(vertices, triangles)
     return None
+
+
+#: a mesh is covered by at most this many spheres, one per cluster of its triangles
+MESH_SPHERES = 16
+#: a mesh triangle longer than this fraction of the mesh's size is cut in four (repeatedly)
+#: before clustering, so one long triangle does not swell the sphere of its cluster
+_TRIANGLE_PER_CLUSTER = 0.1
+
+
+def _cluster_cover(vertices: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Spheres holding every triangle: the triangles' centroids in MESH_SPHERES clusters
+    (k-means from farthest-point seeds, deterministic), each cluster's sphere centred on the
+    box around its triangles' corners and reaching the farthest corner."""
+    centroids = vertices[triangles].mean(axis=1)
+    k = min(MESH_SPHERES, len(centroids))
+    seeds = [0]
+    gap = np.linalg.norm(centroids - centroids[0], axis=1)
+    for _ in range(1, k):
+        seeds.append(int(np.argmax(gap)))
+        gap = np.minimum(gap, np.linalg.norm(centroids - centroids[seeds[-1]], axis=1))
+    means = centroids[seeds]
+    label = np.zeros(len(centroids), dtype=int)
+    for _ in range(10):
+        label = np.argmin(np.linalg.norm(centroids[:, None] - means[None], axis=2), axis=1)
+        for c in range(k):
+            mine = centroids[label == c]
+            if len(mine):
+                means[c] = mine.mean(axis=0)
+    centres, radii = [], []
+    for c in range(k):
+        corners = vertices[triangles[label == c].ravel()]
+        if not len(corners):
+            continue
+        middle = 0.5 * (corners.min(axis=0) + corners.max(axis=0))
+        centres.append(middle)
+        radii.append(float(np.max(np.linalg.norm(corners - middle, axis=1))))
+    return np.array(centres), np.array(radii)

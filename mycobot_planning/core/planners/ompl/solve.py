@@ -251,11 +251,16 @@ def _edge_valid(a: np.ndarray, b: np.ndarray, fractions: np.ndarray, valid: Call
     answer is ``valid``'s, for fewer calls. ``end_known``: the end is known to be valid."""
     states = a + fractions[:, None] * (b - a)
     states[0] = b  # the end state exactly (a + (b - a) may round)
-    free = batch(states) if batch is not None else None
+    if batch is None:
+        for k in range(1 if end_known else 0, len(states)):
+            if not valid(states[k].copy() if k == 0 else states[k]):  # a copy of the end: it is kept
+                return 1 if k else 0
+        return 2
+    free = batch(states).tolist()
+    if all(free):
+        return 2
     for k in range(1 if end_known else 0, len(states)):
-        if free is not None and free[k]:
-            continue
-        if not valid(states[k].copy() if k == 0 else states[k]):  # a copy of the end: it is kept
+        if not free[k] and not valid(states[k].copy() if k == 0 else states[k]):
             return 1 if k else 0
     return 2
 
