@@ -176,3 +176,20 @@ def test_a_scene_change_is_followed(panda):
     assert free_of(values)[0]
     scene.add_object(CollisionObject.box("everywhere", [4.0, 4.0, 4.0], make_pose([0.0, 0.0, 0.0])))
     assert not free_of(values)[0]
+
+
+def test_nan_and_malformed_states_are_never_free(panda):
+    scene = PlanningScene(panda)
+    free_of = scene.batch_free_checker("arm", RobotState(panda))
+    ready = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785])
+    states = np.array([ready, ready])
+    states[1, 2] = np.nan
+    assert free_of(states).tolist() == [True, False]
+    one = scene.batch_free_checker("arm", RobotState(panda), one_state=True)
+    assert one(ready) and not one(states[1]) and not one(ready[:5]) and not one([0.0] * 7)
+    with pytest.raises(ValueError):
+        free_of(np.zeros((2, 5)))
+    check = scene.validity_checker("arm", RobotState(panda), check_bounds=False)
+    assert check(ready)
+    with pytest.raises(ValueError):
+        check(ready[:5])

@@ -138,9 +138,18 @@ class BatchCheck:
         values = np.ascontiguousarray(values, dtype=np.float64)
         if values.ndim == 1:
             values = values.reshape(1, -1)
+        if values.ndim != 2 or values.shape[1] != len(self.slots):
+            raise ValueError(f"expected (N, {len(self.slots)}) states, got shape {values.shape}")
         out = np.empty(values.shape[0], dtype=np.bool_)
         _free_states(values, self.q_ref, self.slots, self.ints, self.floats, out)
         return out
+
+    def free_one(self, values: np.ndarray) -> bool:
+        """``free`` of one state (a float64 vector; anything else is undecided): one compiled
+        call, no arrays made here."""
+        if type(values) is not np.ndarray or values.dtype != np.float64:
+            return False
+        return _free_one(values, self.q_ref, self.slots, self.ints, self.floats)
 
 
 def build_batch_check(
@@ -374,8 +383,14 @@ def _free_states(values, q_ref, slots, ints, floats, out):  # pragma: no cover -
     base = np.empty((3, 3))
     local_rot = np.empty((3, 3))
     for s in range(values.shape[0]):
+        finite = True
         for k in range(slots.shape[0]):
             q[slots[k]] = values[s, k]
+            if not math.isfinite(values[s, k]):
+                finite = False
+        if not finite:  # NaN would slip through every comparison below: undecided
+            out[s] = False
+            continue
         _kinematics(q, parents, kinds, index, axes, rot0, trans0, rot, trans, base, local_rot)
         for b in range(nb):
             _place(rot, trans, body_joint[b], outer[b, :3], outer_centre[b])
@@ -439,3 +454,12 @@ def _free_states(values, q_ref, slots, ints, floats, out):  # pragma: no cover -
                 if not free:
                     break
         out[s] = free
+
+
+@_compiled
+def _free_one(values, q_ref, slots, ints, floats):  # pragma: no cover - compiled
+    if values.ndim != 1 or values.shape[0] != slots.shape[0]:
+        return False  # the exact check says what is wrong
+    out = np.empty(1, dtype=np.bool_)
+    _free_states(values.reshape((1, values.shape[0])), q_ref, slots, ints, floats, out)
+    return out[0]

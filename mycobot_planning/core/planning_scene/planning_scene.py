@@ -609,6 +609,16 @@ class PlanningScene:
             slots = self._model.q_slots(indices)
             if slots is not None:
                 q = np.array(self._robot.to_q(full), dtype=float)
+                sphere_free = self.batch_free_checker(indices, self._state_or_current(reference_state),
+                                                      one_state=True)
+                if sphere_free is not None:  # the sphere test first: ~2 µs, most free states end there
+                    def sphere_then_exact(values: np.ndarray) -> bool:
+                        if sphere_free(values):
+                            return True
+                        q[slots] = values
+                        return not collides(q)
+
+                    return sphere_then_exact
 
                 def collision_free(values: np.ndarray) -> bool:
                     q[slots] = values
@@ -647,7 +657,8 @@ class PlanningScene:
         self,
         group: str | Sequence[int] | np.ndarray,
         reference_state: RobotState | None = None,
-    ) -> Callable[[np.ndarray], np.ndarray] | None:
+        one_state: bool = False,
+    ) -> Callable[[np.ndarray], Any] | None:
         """``f(values) -> (N,) bool`` for (N, d) rows of a group's values in reference_state
         (default: the current state, copied now): True where a state is certainly collision-free
         by the batch sphere test (collision_detection/batch_check.py), False where it is
@@ -656,7 +667,9 @@ class PlanningScene:
         configuration is not affine (continuous joints) or numba is missing. Like
         validity_checker it follows later changes of this scene; on a scene without a batch
         path (a shape or joint it does not model, or one where it does not pay) every state is
-        undecided."""
+        undecided. ``one_state=True``: ``f(values) -> bool`` for one float64 vector (one compiled
+        call, about 2 µs: the pre-test validity_checker puts before the exact check); None
+        also for groups that drive mimic followers."""
         if not numba_available():
             return None
         indices = self._model.group(group).variable_indices if isinstance(group, str) else np.asarray(group, dtype=int)
@@ -698,7 +711,24 @@ class PlanningScene:
                 values = np.asarray(values, dtype=float) @ group_columns + rows
             return check.free(values)
 
-        return free
+        if not one_state:
+            return free
+        if group_columns is not None:
+            return None  # one state through the affine map costs more than it saves
+
+        def free_one(values: np.ndarray) -> bool:
+            compiled = scene._slot.value
+            if compiled is None:
+                compiled = scene._compiled()
+            pair = last[0]
+            if pair[0] is not compiled:
+                pair = last[0] = (compiled, compiled.batch_check(moving, q_ref, slots, sample))
+            check = pair[1]
+            if check is None:
+                return False
+            return check.free_one(values)  # anything but a float64 vector: False, the exact check decides
+
+        return free_one
 
     def moving_joints(self, indices: np.ndarray) -> frozenset[int]:
         """The Pinocchio joints that move when these variables change: their own joints and the
