@@ -585,6 +585,7 @@ class PlanningScene:
         group: str | Sequence[int] | np.ndarray | None = None,
         reference_state: RobotState | None = None,
         check_bounds: bool = True,
+        sphere_pretest: bool = True,
     ) -> Callable[[np.ndarray], bool]:
         """A ``f(values) -> bool`` for planners working in a group's variables (OMPL state
         validity): values fill the group's joints of reference_state (default: the current
@@ -596,6 +597,11 @@ class PlanningScene:
         joint limits by construction (OMPL samples and interpolates inside its bounded space;
         IK steps are clipped to the limits). Planners call this tens of thousands of times per
         plan, and the per-joint limit test in Python is a third of the cost around the C++ call.
+        Then, for plain configuration slots, the one-state sphere test (batch_free_checker) runs
+        first and a state it calls free is not checked exactly; ``sphere_pretest=False`` leaves it
+        out, for callers that send it the states the batch test left undecided (an OMPL plan
+        whose edges go through the batch test: measured, the pre-test there costs more than it
+        saves).
         """
         if group is None:
             return self.is_valid_positions
@@ -610,7 +616,7 @@ class PlanningScene:
             if slots is not None:
                 q = np.array(self._robot.to_q(full), dtype=float)
                 sphere_free = self.batch_free_checker(indices, self._state_or_current(reference_state),
-                                                      one_state=True)
+                                                      one_state=True) if sphere_pretest else None
                 if sphere_free is not None:  # the sphere test first: ~2 µs, most free states end there
                     def sphere_then_exact(values: np.ndarray) -> bool:
                         if sphere_free(values):
