@@ -9,12 +9,16 @@ from __future__ import annotations
 
 import coal
 import numpy as np
+import pinocchio as pin
 import pytest
 
 from interfaces_py.msgs import CollisionObject, Mesh, Pose
+from mycobot_planning.bench.peers.parts import OursParts
+from mycobot_planning.bench.peers.problems import panda_parts_problems
 from mycobot_planning.core import PlanningScene, RobotModel, RobotState
 from mycobot_planning.core.collision_detection.batch_check import joint_tables, numba_available
 from mycobot_planning.core.collision_detection.sphere_cover import enclosing_spheres
+from mycobot_planning.core.planning_interface.planning_interface import JointGoal, MotionPlanRequest
 from mycobot_planning.core.planners.ompl.solve import _bisection_order, _edge_fractions, _edge_valid
 from mycobot_planning.core.trajectory_processing.trajectory_validator import validate_trajectory
 from mycobot_planning.core.transforms import make_pose
@@ -82,7 +86,7 @@ def test_an_attached_object_is_covered(panda):
     scene = PlanningScene(panda)
     _obstacles(scene, 0.8)
     hand = "panda_hand"
-    scene.add_object(CollisionObject.box("held", [0.06, 0.3, 0.06], make_pose([0.0, 0.0, 0.1])), )
+    scene.add_object(CollisionObject.box("held", [0.06, 0.3, 0.06], make_pose([0.0, 0.0, 0.1])))
     scene.attach_object("held", hand, touch_links=["panda_hand", "panda_leftfinger", "panda_rightfinger"])
     free, wrong = _agreement(scene, "arm", 5_000, seed=3)
     assert wrong == 0 and free > 0
@@ -93,12 +97,28 @@ def test_spheres_contain_the_shapes():
     for geometry in (coal.Box(0.4, 0.1, 0.05), coal.Cylinder(0.05, 0.6), coal.Capsule(0.03, 0.4),
                      coal.Cone(0.1, 0.3), coal.Sphere(0.2)):
         centres, radii = enclosing_spheres(geometry)
-        geometry.computeLocalAABB()
+        geometry.computeLocalAABB()  # the box the random points are drawn from
         low, high = np.asarray(geometry.aabb_local.min_), np.asarray(geometry.aabb_local.max_)
-        points = rng.uniform(low, high, (20_000, 3))
-        inside = np.array([geometry.computeLocalAABB() is None and _inside(geometry, p) for p in points[:4000]])
+        points = rng.uniform(low, high, (4000, 3))
+        inside = np.array([_inside(geometry, p) for p in points[:4000]])
         covered = np.min(np.linalg.norm(points[:4000, None] - centres[None], axis=2) - radii[None], axis=1) <= 1e-12
         assert np.all(covered[inside]), type(geometry).__name__
+
+
+def test_mesh_spheres_hold_every_point_of_every_triangle(panda):
+    rng = np.random.default_rng(1)
+    for geom in panda.pin_collision_model.geometryObjects:
+        if not isinstance(geom.geometry, coal.BVHModelBase):
+            continue
+        mesh = geom.geometry
+        vertices = np.asarray(mesh.vertices())
+        triangles = np.array([[t[0], t[1], t[2]] for t in (mesh.tri_indices(i) for i in range(mesh.num_tris))])
+        weights = rng.dirichlet(np.ones(3), (len(triangles), 8))  # 8 random points per triangle
+        points = np.einsum("tkc,tcx->tkx", weights, vertices[triangles]).reshape(-1, 3)
+        points = np.vstack([points, vertices])
+        centres, radii = enclosing_spheres(mesh)
+        gap = np.min(np.linalg.norm(points[:, None] - centres[None], axis=2) - radii[None], axis=1)
+        assert gap.max() <= 1e-12, geom.name
 
 
 def _inside(geometry: coal.CollisionGeometry, point: np.ndarray) -> bool:
@@ -108,8 +128,6 @@ def _inside(geometry: coal.CollisionGeometry, point: np.ndarray) -> bool:
 
 
 def test_unsupported_joints_have_no_batch_path():
-    import pinocchio as pin
-
     model = pin.Model()
     model.addJoint(0, pin.JointModelFreeFlyer(), pin.SE3.Identity(), "base")
     assert joint_tables(model) is None
@@ -147,10 +165,6 @@ def test_edge_answers_are_the_validity_functions():
 
 
 def test_every_peers_plan_passes_the_exact_validator():
-    from mycobot_planning.bench.peers.parts import OursParts
-    from mycobot_planning.bench.peers.problems import panda_parts_problems
-    from mycobot_planning.core.planning_interface.planning_interface import JointGoal, MotionPlanRequest
-
     parts = panda_parts_problems(0, ik_count=1, check_count=1)
     ours = OursParts(parts)
     assert ours.scene.batch_free_checker(ours.group, ours.start) is not None
