@@ -773,8 +773,13 @@ class CompiledScene:
         configuration ``slots`` (a group's joints: ``moving_joints``, as group_collides), judged
         on ``sample`` (rows of slot values) whether it pays; None when there is none for this scene (a shape or joint it does not
         model, a fixed pair that collides, or it would not pay: batch_check.MIN_FREE_SHARE).
-        Built once per key and shared by every thread (it holds no buffers)."""
-        key = (moving_joints, np.asarray(q_ref, dtype=float).tobytes(), np.asarray(slots).tobytes())
+        Built once per key (q_ref counts only at the joints that do not move: the others are
+        overwritten by every state) and shared by every thread (it holds no buffers)."""
+        # the test depends on q_ref only where no moving joint is: plans from other starts share it
+        held = np.array(q_ref, dtype=float)
+        for j in moving_joints:
+            held[self.pin_model.idx_qs[j]:self.pin_model.idx_qs[j] + self.pin_model.nqs[j]] = 0.0
+        key = (moving_joints, held.tobytes(), np.asarray(slots).tobytes())
         with self._batch_lock:
             if key in self._batch_checks:
                 return self._batch_checks[key]
