@@ -20,6 +20,8 @@ from scipy.spatial import ConvexHull
 
 from ...paths import package_share_dirs
 from ..errors import SceneError
+from .batch_check import BATCH_MARGIN, BatchCheck, build_batch_check
+from .sphere_cover import enclosing_spheres
 
 if TYPE_CHECKING:  # pragma: no cover
     from interfaces_py.msgs import Mesh, SolidPrimitive
@@ -311,6 +313,15 @@ class RobotCollisionInfo:
         self.upper = [float(x) for x in model.upper_limits]
         self.neutral_q = np.asarray(pin.neutral(pin_model), dtype=float)
         self._build_q_map()
+        self._link_covers: list[tuple[np.ndarray, np.ndarray] | None] | None = None
+
+    @property
+    def link_covers(self) -> list[tuple[np.ndarray, np.ndarray] | None]:
+        """Each robot geometry's enclosing spheres in its shape frame (sphere_cover), made once."""
+        with self._lock:
+            if self._link_covers is None:
+                self._link_covers = [enclosing_spheres(g.geometry) for g in self.geometry_objects]
+            return self._link_covers
 
     def _build_q_map(self) -> None:
         model = self.model
@@ -647,6 +658,9 @@ class CompiledScene:
         self._hull_model = self._hull_geometry(robot, gm) if self._manager_type is not None else None
         # the constructing thread's buffers: the ones made above
         self._local.scene_data = _SceneData(self, data)
+        #: batch_check's tests by (moving joints, reference configuration, slots); None: no batch path
+        self._batch_checks: dict[tuple, BatchCheck | None] = {}
+        self._batch_lock = threading.Lock()
 
     def _geometry_data_of(self, gm: pin.GeometryModel, margin: float = SECURITY_MARGIN) -> pin.GeometryData:
         """Fresh geometry data for this scene's geometry (or its hulls', with the pre-test's wider
@@ -752,6 +766,54 @@ class CompiledScene:
                 checkers.pop(next(iter(checkers)))
             checkers[key] = cached
         return cached
+
+    def batch_check(self, moving_joints: frozenset[int], q_ref: np.ndarray, slots: np.ndarray,
+                    sample: np.ndarray) -> BatchCheck | None:
+        """The sphere test (batch_check.py) for states that differ from ``q_ref`` only in the
+        configuration ``slots`` (a group's joints: ``moving_joints``, as group_collides), judged
+        on ``sample`` (rows of slot values) whether it pays; None when there is none for this scene (a shape or joint it does not
+        model, a fixed pair that collides, or it would not pay: batch_check.MIN_FREE_SHARE).
+        Built once per key (q_ref counts only at the joints that do not move: the others are
+        overwritten by every state) and shared by every thread (it holds no buffers)."""
+        # the test depends on q_ref only where no moving joint is: plans from other starts share it
+        held = np.array(q_ref, dtype=float)
+        for j in moving_joints:
+            held[self.pin_model.idx_qs[j]:self.pin_model.idx_qs[j] + self.pin_model.nqs[j]] = 0.0
+        key = (moving_joints, held.tobytes(), np.asarray(slots).tobytes())
+        with self._batch_lock:
+            if key in self._batch_checks:
+                return self._batch_checks[key]
+        check = self._build_batch_check(moving_joints, np.array(q_ref, dtype=float), slots, sample)
+        with self._batch_lock:
+            if len(self._batch_checks) >= 8:
+                self._batch_checks.pop(next(iter(self._batch_checks)))
+            self._batch_checks[key] = check
+        return check
+
+    def _build_batch_check(self, moving_joints: frozenset[int], q_ref: np.ndarray, slots: np.ndarray,
+                           sample: np.ndarray) -> BatchCheck | None:
+        fixed = self.fixed_pairs(moving_joints)
+        pin_model, gm = self.pin_model, self.geometry_model
+        if fixed:  # decided once, as group_collides does: if one collides every state does
+            gd = self._geometry_data_of(gm)
+            pin.updateGeometryPlacements(pin_model, pin_model.createData(), gm, gd, q_ref)
+            if any(pin.computeCollision(gm, gd, k) for k in fixed):
+                return None
+        skip = set(fixed)
+        pairs = [self.pairs[k] for k in self.active_pairs if k not in skip]
+        robot_covers = self.robot.link_covers
+        n_robot = len(robot_covers)
+        covers: list[tuple[np.ndarray, np.ndarray] | None] = []
+        for g, geom in enumerate(gm.geometryObjects):
+            if g < n_robot:
+                covers.append(robot_covers[g])
+            elif self.geometry_kinds[g] == ROBOT_ATTACHED:
+                covers.append(enclosing_spheres(geom.geometry))
+            else:
+                covers.append(None)
+        movers = [kind != OBJECT for kind in self.geometry_kinds]
+        return build_batch_check(pin_model, gm, pairs, movers, q_ref, slots, covers, SECURITY_MARGIN + BATCH_MARGIN,
+                                 sample)
 
     def fixed_pairs(self, moving_joints: frozenset[int]) -> list[int]:
         """Active pair indices whose two bodies are linked by a kinematic path without any of

@@ -3,9 +3,8 @@
 A gradient-based planner (CHOMP) needs, for every state of a path, points on the robot whose
 distance to the world it can read from a distance field and push along a Jacobian. MoveIt
 covers each link shape with spheres along its bounding cylinder's axis; here each shape's
-points (mesh vertices, or points on a primitive's surface) are cut into slabs along their
-principal axis and each slab is covered by one sphere around its centre, a tighter cover of
-the same kind. The spheres are fixed in the frame of the shape's Pinocchio joint, so their
+points (mesh vertices, or points on a primitive's surface) are covered by the slab spheres of
+collision_detection.sphere_cover (the cover the batch collision check uses too). The spheres are fixed in the frame of the shape's Pinocchio joint, so their
 world positions and Jacobians come from forward kinematics of that joint.
 """
 from __future__ import annotations
@@ -17,16 +16,11 @@ from typing import Iterable, Sequence
 import coal
 import numpy as np
 
+from ..collision_detection.sphere_cover import shape_spheres
 from ..robot_model.robot_model import RobotModel
 
-__all__ = ["BodySpheres", "geometry_points", "group_spheres", "moving_joints", "shape_spheres", "spheres_of_bodies"]
-
-#: most spheres one shape is covered with (a long thin link gets this many along its axis)
-MAX_SPHERES_PER_SHAPE = 12
-#: a slab along the axis is at most this many times as long as the shape is thick
-SLAB_PER_RADIUS = 1.0
-#: smallest radius considered when spacing the spheres (m): a flat plate is still covered
-MIN_SPACING_RADIUS = 0.01
+__all__ = ["BodySpheres", "geometry_points", "group_spheres", "moving_joints", "shape_spheres",
+           "spheres_of_bodies"]
 
 
 @dataclass(frozen=True)
@@ -81,36 +75,6 @@ def geometry_points(geometry: coal.CollisionGeometry, samples: int = 8) -> np.nd
             points = np.vstack([points, [[0, 0, h + r], [0, 0, -h - r]]])
         return points
     return None
-
-
-def shape_spheres(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(centres (k, 3), radii (k,)) covering ``points``: slabs along the principal axis, one
-    sphere per slab at the slab's centre on the axis, its radius the farthest point of the slab."""
-    centre = points.mean(axis=0)
-    spread = points - centre
-    if len(points) > 1 and np.ptp(points, axis=0).max() > 0.0:
-        _, _, vt = np.linalg.svd(spread, full_matrices=False)
-        axis = vt[0]
-    else:
-        axis = np.array([0.0, 0.0, 1.0])
-    along = spread @ axis
-    perpendicular = np.linalg.norm(spread - np.outer(along, axis), axis=1)
-    low, high = float(along.min()), float(along.max())
-    thickness = max(float(perpendicular.max()), MIN_SPACING_RADIUS)
-    count = int(min(MAX_SPHERES_PER_SHAPE, max(1, math.ceil((high - low) / (SLAB_PER_RADIUS * thickness)))))
-    edges = np.linspace(low, high, count + 1)
-    slab = np.clip(np.searchsorted(edges, along, side="right") - 1, 0, count - 1)
-    mids = 0.5 * (edges[:-1] + edges[1:])
-    centres = centre + mids[:, None] * axis
-    radii = np.zeros(count)
-    for k in range(count):
-        mine = points[slab == k]
-        if len(mine):
-            radii[k] = float(np.max(np.linalg.norm(mine - centres[k], axis=1)))
-    keep = radii > 0.0
-    if not keep.any():  # every point at the centre: one small sphere
-        return centre[None], np.array([1e-3])
-    return centres[keep], radii[keep]
 
 
 def _spheres_of(geometry: coal.CollisionGeometry, placement: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -27,6 +27,7 @@ from interfaces_py.msgs import (
 )
 
 from ..collision_detection.acm import AllowedCollisionMatrix
+from ..collision_detection.batch_check import BATCH_RULE_SAMPLES, numba_available
 from ..collision_detection.collision import (
     OBJECT,
     ROBOT_ATTACHED,
@@ -624,6 +625,7 @@ class PlanningScene:
         group: str | Sequence[int] | np.ndarray | None = None,
         reference_state: RobotState | None = None,
         check_bounds: bool = True,
+        sphere_pretest: bool = True,
     ) -> Callable[[np.ndarray], bool]:
         """A ``f(values) -> bool`` for planners working in a group's variables (OMPL state
         validity): values fill the group's joints of reference_state (default: the current
@@ -635,6 +637,11 @@ class PlanningScene:
         joint limits by construction (OMPL samples and interpolates inside its bounded space;
         IK steps are clipped to the limits). Planners call this tens of thousands of times per
         plan, and the per-joint limit test in Python is a third of the cost around the C++ call.
+        Then, for plain configuration slots, the one-state sphere test (batch_free_checker) runs
+        first and a state it calls free is not checked exactly; ``sphere_pretest=False`` leaves it
+        out, for callers that send it the states the batch test left undecided (an OMPL plan
+        whose edges go through the batch test: measured, the pre-test there costs more than it
+        saves).
         """
         if group is None:
             return self.is_valid_positions
@@ -648,6 +655,16 @@ class PlanningScene:
             slots = self._model.q_slots(indices)
             if slots is not None:
                 q = np.array(self._robot.to_q(full), dtype=float)
+                sphere_free = self.batch_free_checker(indices, self._state_or_current(reference_state),
+                                                      one_state=True) if sphere_pretest else None
+                if sphere_free is not None:  # the sphere test first: ~2 µs, most free states end there
+                    def sphere_then_exact(values: np.ndarray) -> bool:
+                        if sphere_free(values):
+                            return True
+                        q[slots] = values
+                        return not collides(q)
+
+                    return sphere_then_exact
 
                 def collision_free(values: np.ndarray) -> bool:
                     q[slots] = values
@@ -681,6 +698,83 @@ class PlanningScene:
             return not collides(to_q(full))
 
         return check
+
+    def batch_free_checker(
+        self,
+        group: str | Sequence[int] | np.ndarray,
+        reference_state: RobotState | None = None,
+        one_state: bool = False,
+    ) -> Callable[[np.ndarray], Any] | None:
+        """``f(values) -> (N,) bool`` for (N, d) rows of a group's values in reference_state
+        (default: the current state, copied now): True where a state is certainly collision-free
+        by the batch sphere test (collision_detection/batch_check.py), False where it is
+        undecided (ask validity_checker). Never True for a state the exact check finds in
+        collision; joint limits are not considered. None when a group variable's map to the
+        configuration is not affine (continuous joints) or numba is missing. Like
+        validity_checker it follows later changes of this scene; on a scene without a batch
+        path (a shape or joint it does not model, or one where it does not pay) every state is
+        undecided. ``one_state=True``: ``f(values) -> bool`` for one float64 vector (one compiled
+        call, about 2 µs: the pre-test validity_checker puts before the exact check); None
+        also for groups that drive mimic followers."""
+        if not numba_available():
+            return None
+        indices = self._model.group(group).variable_indices if isinstance(group, str) else np.asarray(group, dtype=int)
+        if not len(indices):
+            return None
+        slots = self._model.q_slots(indices)
+        full = np.array(self._state_or_current(reference_state).positions, dtype=float)
+        q_matrix = self._robot.q_matrix
+        if slots is None and q_matrix is None:
+            return None  # continuous joints: no affine map to the configuration
+        low = np.where(np.isfinite(self._model.lower_limits[indices]), self._model.lower_limits[indices], -np.pi)
+        high = np.where(np.isfinite(self._model.upper_limits[indices]), self._model.upper_limits[indices], np.pi)
+        moving = self.moving_joints(indices)
+        q_ref = np.array(self._robot.to_q(full), dtype=float)
+        if slots is None:  # mimic followers: the rows become whole configurations through the affine map
+            slots = np.arange(len(q_ref))
+            rows = q_ref - q_matrix[:, indices] @ full[indices]  # the configuration without the group's share
+            group_columns = np.ascontiguousarray(q_matrix[:, indices].T)
+        else:
+            rows = group_columns = None
+        # the rule that decides whether the test pays is judged on random states of the group
+        sample = np.random.default_rng(7).uniform(low, high, (BATCH_RULE_SAMPLES, len(indices)))
+        if group_columns is not None:
+            sample = sample @ group_columns + rows
+        scene = self
+        last: list[Any] = [(None, None)]  # (compiled scene, its batch test), replaced as one
+
+        def free(values: np.ndarray) -> np.ndarray:
+            compiled = scene._slot.value
+            if compiled is None:
+                compiled = scene._compiled()
+            pair = last[0]
+            if pair[0] is not compiled:
+                pair = last[0] = (compiled, compiled.batch_check(moving, q_ref, slots, sample))
+            check = pair[1]
+            if check is None:
+                return np.zeros(len(values), dtype=bool)
+            if group_columns is not None:
+                values = np.asarray(values, dtype=float) @ group_columns + rows
+            return check.free(values)
+
+        if not one_state:
+            return free
+        if group_columns is not None:
+            return None  # one state through the affine map costs more than it saves
+
+        def free_one(values: np.ndarray) -> bool:
+            compiled = scene._slot.value
+            if compiled is None:
+                compiled = scene._compiled()
+            pair = last[0]
+            if pair[0] is not compiled:
+                pair = last[0] = (compiled, compiled.batch_check(moving, q_ref, slots, sample))
+            check = pair[1]
+            if check is None:
+                return False
+            return check.free_one(values)  # anything but a float64 vector: False, the exact check decides
+
+        return free_one
 
     def moving_joints(self, indices: np.ndarray) -> frozenset[int]:
         """The Pinocchio joints that move when these variables change: their own joints and the
@@ -738,7 +832,9 @@ class PlanningScene:
         pairs whose path holds none of the given variables' joints are decided once.
         ``all_pairs=True`` decides with the plain exact check of every active pair (no broad phase,
         no pre-test, nothing decided once), the same verdicts at several times the cost: for a
-        checker that must not share the one it judges (the trajectory validator as a judge)."""
+        checker that must not share the one it judges (the trajectory validator as a judge).
+        Without it, the rows first go to the batch sphere test in one call (batch_free_checker)
+        and only the rows it leaves undecided to the group's test: the same verdicts."""
         values = np.asarray(values, dtype=float)
         if values.ndim != 2:
             raise StateError(f"expected a 2-D array of states, got shape {values.shape}")
@@ -763,10 +859,18 @@ class PlanningScene:
 
             def check(row: np.ndarray) -> bool:
                 return collides(to_q(row))
+        batch = None if all_pairs or slots is None or count < 2 else self.batch_free_checker(indices, reference_state)
+        free = batch(values) if batch is not None else None
+        if free is not None and free.all():
+            return np.zeros(count, dtype=bool)
         if order is None and not stop_at_first:
-            return np.fromiter((check(row) for row in q), dtype=bool, count=count)
+            if free is None:
+                return np.fromiter((check(row) for row in q), dtype=bool, count=count)
+            return np.fromiter((not f and check(row) for row, f in zip(q, free.tolist())), dtype=bool, count=count)
         out = np.zeros(count, dtype=bool)
         for i in (range(count) if order is None else np.asarray(order, dtype=int).tolist()):
+            if free is not None and free[i]:
+                continue
             if check(q[i]):
                 out[i] = True
                 if stop_at_first:

@@ -255,7 +255,13 @@ class OmplPlanner:
                 manifold = None  # nothing to project onto (or no freedom left): rejection only
         # OMPL samples and interpolates inside its bounds; projecting onto a constraint manifold
         # does not, so constrained states are checked against the joint limits too
-        validity = scene.validity_checker(jmg.name, start, check_bounds=manifold is not None)
+        # the batch sphere test judges collisions only: not with path constraints (or bounds) to keep
+        batch_free = None if manifold is not None or constraints else scene.batch_free_checker(jmg.name, start)
+        # with it, the states checked one by one are mostly those it left undecided: no one-state
+        # sphere test before the exact check (measured: 7.8 ms a myCobot plan_ompl plan with it
+        # off, 8.0 ms on; 12.3 ms without any batch test; CPU time, docs/core.md)
+        validity = scene.validity_checker(jmg.name, start, check_bounds=manifold is not None,
+                                          sphere_pretest=batch_free is None)
         if constraints:
             validity = _constrained(validity, constraints.for_planning([start, *goals]), start, jmg)
 
@@ -303,6 +309,7 @@ class OmplPlanner:
                 manifold=manifold,
                 manifold_delta=_manifold_delta(lower, upper, fraction) if manifold is not None else None,
                 try_direct=bool(constraints),  # without constraints _straight_motion has tried (finer)
+                batch_free=batch_free,
             )
             last = result
             if result.status == "ABORT":

@@ -109,6 +109,33 @@ def _guarded_validity(
     return valid
 
 
+def _guarded_batch(
+    fn: Callable[[np.ndarray], np.ndarray] | None,
+    ctx: _CallbackContext,
+    counter: list[int],
+) -> Callable[[np.ndarray], np.ndarray] | None:
+    """The batch test (``batch_free``) as the edge checks call it: never raising (an exception is
+    stored and re-raised by plan_joint_space, as _guarded_validity does) and counted: each state
+    it calls free counts as a check (the others go on to the validity function, counted there)."""
+    if fn is None:
+        return None
+
+    def free(states: np.ndarray) -> np.ndarray:
+        if ctx.error is not None or ctx.cancelled:
+            return np.zeros(len(states), dtype=bool)
+        try:
+            out = np.asarray(fn(states), dtype=bool)
+        except BaseException as e:  # noqa: BLE001 - re-raised by plan_joint_space
+            ctx.error = e
+            if ctx.ptc is not None:
+                ctx.ptc.terminate()
+            return np.zeros(len(states), dtype=bool)
+        counter[0] += int(np.count_nonzero(out))
+        return out
+
+    return free
+
+
 def _make_validity_bridge(valid: Callable[[np.ndarray], bool], dim: int,
                           indexed: bool = False) -> Callable[[Any], bool]:
     """The callable OMPL calls per state: state -> fresh numpy array -> guarded user function.
@@ -201,25 +228,59 @@ def _bisection_order(segments: int) -> np.ndarray:
     return order
 
 
-def _direct_motion(a: np.ndarray, b: np.ndarray, valid: Callable[[np.ndarray], bool], resolution: float) -> bool:
+_WITH_END: dict[int, np.ndarray] = {}
+
+
+def _edge_fractions(segments: int) -> np.ndarray:
+    """1.0 (the end state), then _bisection_order(segments): an edge's states in checking order."""
+    order = _WITH_END.get(segments)
+    if order is None:
+        order = np.concatenate([[1.0], _bisection_order(segments)])
+        order.setflags(write=False)
+        if len(_WITH_END) < 4096:
+            _WITH_END[segments] = order
+    return order
+
+
+def _edge_valid(a: np.ndarray, b: np.ndarray, fractions: np.ndarray, valid: Callable[[np.ndarray], bool],
+                batch: Callable[[np.ndarray], np.ndarray] | None, end_known: bool = False) -> int:
+    """How far the edge's states ``a + f (b - a)`` (f in ``fractions``, _edge_fractions: the end
+    first) are valid, asked in that order, the first invalid one ending it: 0 the end state is
+    invalid, 1 an interior state is, 2 all are valid. Each state the batch test calls free is
+    valid (it never calls an invalid state free); every other one is asked of ``valid``: the
+    answer is ``valid``'s, for fewer calls. ``end_known``: the end is known to be valid."""
+    states = a + fractions[:, None] * (b - a)
+    states[0] = b  # the end state exactly (a + (b - a) may round)
+    if batch is None:
+        for k in range(1 if end_known else 0, len(states)):
+            if not valid(states[k].copy() if k == 0 else states[k]):  # a copy of the end: it is kept
+                return 1 if k else 0
+        return 2
+    free = batch(states).tolist()
+    if all(free):
+        return 2
+    for k in range(1 if end_known else 0, len(states)):
+        if not free[k] and not valid(states[k].copy() if k == 0 else states[k]):
+            return 1 if k else 0
+    return 2
+
+
+def _direct_motion(a: np.ndarray, b: np.ndarray, valid: Callable[[np.ndarray], bool], resolution: float,
+                   batch: Callable[[np.ndarray], np.ndarray] | None = None) -> bool:
     """The straight edge a -> b checked as DiscreteMotionValidator checks an edge (the end, then
     the interior by halving, at most ``resolution`` apart in the Euclidean norm), by ``valid``
-    (_guarded_validity's function)."""
-    if not valid(b.copy()):
-        return False
+    (_guarded_validity's function) after the batch test (_guarded_batch's, or None)."""
     segments = max(1, int(math.ceil(float(np.linalg.norm(b - a)) / resolution)))
-    fractions = _bisection_order(segments)
-    for q in a + fractions[:, None] * (b - a):
-        if not valid(q):
-            return False
-    return True
+    return _edge_valid(a, b, _edge_fractions(segments), valid, batch) == 2
 
 
 class _EdgeValidator(ob.MotionValidator):
     """OMPL's DiscreteMotionValidator, with each edge's states made by NumPy and checked in one
     Python loop: the end state first, then the interior by repeated halving (the same states in
     the same order, so plans are identical), but without an OMPL-to-Python call, a state copy
-    and an array per state. Edge checks are most of a plan's validity checks (the simplifier
+    and an array per state. With a batch test (``batch_free`` of plan_joint_space) the edge's
+    states first go to it in one call, and only those it cannot call free to the validity
+    function (_edge_valid): the same answers for a fraction of the cost. Edge checks are most of a plan's validity checks (the simplifier
     alone makes two thirds of them). Used only for planners that ask plain (from, to)
     questions (``PlannerSpec.plain_motion_checks``).
 
@@ -229,17 +290,15 @@ class _EdgeValidator(ob.MotionValidator):
     edges) are not checked again. Same questions, same answers, so the same path: only fewer
     states go to the validity function."""
 
-    def __init__(self, si: Any, valid: Callable[[np.ndarray], bool], dim: int) -> None:
+    def __init__(self, si: Any, valid: Callable[[np.ndarray], bool], dim: int,
+                 batch: Callable[[np.ndarray], np.ndarray] | None = None) -> None:
         super().__init__(si)
         self._space = si.getStateSpace()
         self._valid = valid  # _guarded_validity's function: counted, never raising, cancellable
+        self._batch = batch  # _guarded_batch's function or None
         self._dim = dim
         self._edges: dict[bytes, bool] = {}
         self._ends: dict[bytes, bool] = {}
-
-    def _order(self, segments: int) -> np.ndarray:
-        """Interior fractions in DiscreteMotionValidator's order (breadth-first halving)."""
-        return _bisection_order(segments)
 
     def checkMotion(self, s1: Any, s2: Any, *last_valid: Any) -> bool:  # noqa: N802 - OMPL's name
         if last_valid:  # never asked by the planners this is installed for
@@ -253,16 +312,15 @@ class _EdgeValidator(ob.MotionValidator):
         if known is not None:
             return known
         ok = self._ends.get(end)
-        if ok is None:
+        if ok is None and self._batch is None:  # without the batch test: the end alone first
             ok = self._ends[end] = bool(self._valid(b.copy()))  # a copy: the function may write into it
-        if ok:
-            fractions = self._order(self._space.validSegmentCount(s1, s2))
-            if fractions.size:
-                valid = self._valid
-                for q in a + fractions[:, None] * (b - a):
-                    if not valid(q):
-                        ok = False
-                        break
+        if ok is False:
+            self._edges[edge] = False
+            return False
+        fractions = _edge_fractions(self._space.validSegmentCount(s1, s2))
+        reached = _edge_valid(a, b, fractions, self._valid, self._batch, end_known=ok is True)
+        self._ends[end] = reached > 0
+        ok = reached == 2
         self._edges[edge] = ok
         return ok
 
@@ -337,6 +395,7 @@ def plan_joint_space(
     manifold: Any = None,
     manifold_delta: float | None = None,
     try_direct: bool = False,
+    batch_free: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> OmplResult:
     """Plan a collision-free joint-space path from ``start`` to any of ``goals`` with OMPL.
 
@@ -383,6 +442,12 @@ def plan_joint_space(
     edge is what the simplifier would end at) and interpolation as asked. Easy problems then
     cost one edge check; when every direct edge is blocked (most checks fail at the first
     halvings) the planner runs as usual.
+
+    ``batch_free`` (not with a manifold): ``f(states (N, d)) -> (N,) bool``, True only for states
+    ``is_state_valid`` certainly calls valid (PlanningScene.batch_free_checker): edges (the
+    planner's, when it asks plain edge questions, and try_direct's) go to it in one call per
+    edge first, and to ``is_state_valid`` only for the states it leaves undecided. Same
+    answers, so the same path, for fewer calls.
 
     Raises OmplConfigError for malformed input (naming it) and re-raises any exception from
     ``is_state_valid`` (or the manifold's functions) after stopping the planner.
@@ -432,6 +497,8 @@ def plan_joint_space(
                 f"projection_dims must be distinct state dimensions in [0, {dim}), got {list(projection_dims)!r}"
             )
 
+    if batch_free is not None and not callable(batch_free):
+        raise OmplConfigError("batch_free must be None or callable: states (N, d) -> (N,) bool")
     if cancel is not None and not callable(getattr(cancel, "is_set", None)):
         raise OmplConfigError("cancel must be None or an object with is_set() (e.g. threading.Event)")
     constrained = manifold is not None
@@ -449,6 +516,7 @@ def plan_joint_space(
     counter = [0]
     ctx = _CallbackContext()
     guarded = _guarded_validity(is_state_valid, ctx, counter, cancel)
+    guarded_batch = _guarded_batch(batch_free, ctx, counter)
     bridge = _make_validity_bridge(guarded, dim, indexed=constrained)
 
     def result(status: str, path: np.ndarray | None = None, **kw: Any) -> OmplResult:
@@ -499,7 +567,7 @@ def plan_joint_space(
         extent = float(np.linalg.norm(hi - lo))
         resolution = float(longest_valid_segment_fraction) * extent
         for i, g in sorted(valid_goals, key=lambda ig: float(np.linalg.norm(ig[1] - q_start))):
-            ok = _direct_motion(q_start, g, guarded, resolution)
+            ok = _direct_motion(q_start, g, guarded, resolution, guarded_batch)
             if ctx.error is not None:
                 raise ctx.error
             if ctx.cancelled:
@@ -543,7 +611,7 @@ def plan_joint_space(
     si.setStateValidityChecker(bridge)
     si.setStateValidityCheckingResolution(float(longest_valid_segment_fraction))
     if edge_validator:
-        si.setMotionValidator(_EdgeValidator(si, guarded, dim))
+        si.setMotionValidator(_EdgeValidator(si, guarded, dim, guarded_batch))
     si.setup()
 
     planning_time = 0.0
