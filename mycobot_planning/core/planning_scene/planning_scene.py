@@ -743,14 +743,18 @@ class PlanningScene:
         scene = self
         last: list[Any] = [(None, None)]  # (compiled scene, its batch test), replaced as one
 
-        def free(values: np.ndarray) -> np.ndarray:
+        def current() -> Any:
+            """The batch test of the scene's compiled model now (None: no batch path)."""
             compiled = scene._slot.value
             if compiled is None:
                 compiled = scene._compiled()
             pair = last[0]
             if pair[0] is not compiled:
                 pair = last[0] = (compiled, compiled.batch_check(moving, q_ref, slots, sample))
-            check = pair[1]
+            return pair[1]
+
+        def free(values: np.ndarray) -> np.ndarray:
+            check = current()
             if check is None:
                 return np.zeros(len(values), dtype=bool)
             if group_columns is not None:
@@ -763,13 +767,7 @@ class PlanningScene:
             return None  # one state through the affine map costs more than it saves
 
         def free_one(values: np.ndarray) -> bool:
-            compiled = scene._slot.value
-            if compiled is None:
-                compiled = scene._compiled()
-            pair = last[0]
-            if pair[0] is not compiled:
-                pair = last[0] = (compiled, compiled.batch_check(moving, q_ref, slots, sample))
-            check = pair[1]
+            check = current()
             if check is None:
                 return False
             return check.free_one(values)  # anything but a float64 vector: False, the exact check decides
