@@ -175,6 +175,7 @@ class PlanningServer(Node):
         # compete with it for the interpreter); the newest plan wins if several queue up.
         self._display_next: JointTrajectory | None = None
         self._display_wake = threading.Condition()
+        self._display_stop = False  # close(): the thread ends before the publisher is destroyed
         self._display_thread = threading.Thread(target=self._display_loop, name="display publisher", daemon=True)
         self._display_thread.start()
         self.core.trajectory_listeners.append(self._queue_display)
@@ -385,6 +386,10 @@ class PlanningServer(Node):
         self._scene_stop.set()
         self._scene_dirty.set()
         self._scene_thread.join(1.0)
+        with self._display_wake:
+            self._display_stop = True
+            self._display_wake.notify()
+        self._display_thread.join(1.0)
         self._monitor_stop.set()
         self._joint_states.wake()
         self._joint_state_thread.join(1.0)
@@ -480,12 +485,18 @@ class PlanningServer(Node):
         unsent: JointTrajectory | None = None
         while True:
             with self._display_wake:
-                while self._display_next is None and (unsent is None or not self._display_listened()):
+                while (not self._display_stop and self._display_next is None
+                       and (unsent is None or not self._display_listened())):
                     self._display_wake.wait(None if unsent is None else DISPLAY_SUBSCRIBER_POLL)
+                if self._display_stop:
+                    return
                 fresh = self._display_next is not None
             if fresh:
-                time.sleep(DISPLAY_DELAY)
+                with self._display_wake:
+                    self._display_wake.wait_for(lambda: self._display_stop, DISPLAY_DELAY)
             with self._display_wake:
+                if self._display_stop:
+                    return
                 trajectory = self._display_next if self._display_next is not None else unsent
                 self._display_next = None
             unsent = None
