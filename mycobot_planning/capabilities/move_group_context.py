@@ -60,7 +60,7 @@ class PlanningDefaults:
     num_planning_attempts: int = 1
     max_velocity_scaling_factor: float = 1.0
     max_acceleration_scaling_factor: float = 1.0
-    sample_period: float = 0.01  # s between published trajectory points (0: planner breakpoints only)
+    sample_period: float = 0.1  # s between published trajectory points, as MoveIt's resample_dt (0: planner breakpoints only)
 
 
 def check_number(value: Any, what: str, code: int = MoveItErrorCode.INVALID_MOTION_PLAN) -> float:

@@ -462,7 +462,8 @@ def test_goals_queued_behind_the_running_one_are_superseded_by_the_newest(system
         for key in ("second", "third"):
             assert clients[key].wait_for_server(10.0)
             threads[key].start()
-            time.sleep(0.5)  # the second is accepted before the third
+            # the second is accepted before the third is sent (a fixed sleep was not enough under load)
+            assert wait_until(lambda k=key: getattr(clients[k], "handle", None) is not None, 60), f"{key} not answered"
         for key in ("second", "third"):
             threads[key].join(120)
     finally:

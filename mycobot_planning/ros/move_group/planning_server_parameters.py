@@ -106,8 +106,9 @@ def planning_server_parameter_specs(model: RobotModel, pipeline: PlanningPipelin
                       "refuse a stale current state", range=(0.01, 3600.0)),
         ParameterSpec("scene_publish_rate", 2.0, "Hz at which the monitored planning scene (both faces) and the scene markers "
                       "are republished (they are also published on every change)", range=(0.1, 100.0)),
-        ParameterSpec("trajectory_sample_period", 0.01,
-                      "seconds between the points of planned trajectories (0: the planner's breakpoints only)",
+        ParameterSpec("trajectory_sample_period", 0.1,
+                      "seconds between the points of planned trajectories, MoveIt's resample_dt (the breakpoints are "
+                      "always kept, so controllers interpolating cubically follow them exactly; 0: breakpoints only)",
                       range=(0.0, 1.0)),
         ParameterSpec(ex + "allowed_execution_duration_scaling", 1.2,
                       "execution may take this many times the trajectory's duration (plus the margin)",
