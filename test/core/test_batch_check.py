@@ -82,6 +82,23 @@ def test_no_state_the_exact_check_finds_colliding_is_called_free(robot, group, r
     assert free > 0.05 * count  # the test decides something: not a test that only says "undecided"
 
 
+@pytest.mark.parametrize("robot, reach", [("mycobot", 0.3), ("panda", 0.8)])
+def test_one_state_answers_are_the_batch_answers(robot, reach, mycobot, panda):
+    """The one-state call (what validity_checker runs before the exact check) reads the same
+    tables as the batch call: the same verdict on every state, both kinds represented."""
+    model = {"mycobot": mycobot, "panda": panda}[robot]
+    scene = PlanningScene(model)
+    _obstacles(scene, reach)
+    start = scene.current_state
+    indices = model.group("arm").variable_indices
+    low, high = model.lower_limits[indices], model.upper_limits[indices]
+    values = np.random.default_rng(5).uniform(low, high, (3_000, len(indices)))
+    batch = scene.batch_free_checker("arm", start)(values)
+    one = scene.batch_free_checker("arm", start, one_state=True)
+    assert [one(row) for row in values] == batch.tolist()
+    assert 0 < batch.sum() < len(batch)
+
+
 def test_an_attached_object_is_covered(panda):
     scene = PlanningScene(panda)
     _obstacles(scene, 0.8)
@@ -187,9 +204,10 @@ def test_a_scene_change_is_followed(panda):
     scene = PlanningScene(panda)
     free_of = scene.batch_free_checker("arm", RobotState(panda))
     values = np.array([[0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]])  # the SRDF's "ready"
-    assert free_of(values)[0]
+    one = scene.batch_free_checker("arm", RobotState(panda), one_state=True)
+    assert free_of(values)[0] and one(values[0])
     scene.add_object(CollisionObject.box("everywhere", [4.0, 4.0, 4.0], make_pose([0.0, 0.0, 0.0])))
-    assert not free_of(values)[0]
+    assert not free_of(values)[0] and not one(values[0])
 
 
 def test_nan_and_malformed_states_are_never_free(panda):

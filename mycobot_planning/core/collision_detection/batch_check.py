@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import logging
 import math
+import dataclasses
 from dataclasses import dataclass
 from typing import Sequence
 
@@ -33,7 +34,8 @@ try:  # a pinned dependency; without it the batch path is off and every state is
 except ImportError:  # pragma: no cover - exercised only on an install without numba
     njit = None
 
-__all__ = ["BATCH_MARGIN", "BATCH_RULE_SAMPLES", "MIN_FREE_SHARE", "BatchCheck", "build_batch_check", "joint_tables", "numba_available"]
+__all__ = ["BATCH_MARGIN", "BATCH_RULE_SAMPLES", "MIN_FREE_SHARE", "BatchCheck", "build_batch_check", "joint_tables", "numba_available",
+           "one_state_free"]
 
 _LOG = logging.getLogger(__name__)
 
@@ -133,6 +135,15 @@ class BatchCheck:
     spheres: int
     world_tests: int
     self_tests: int
+    #: the tables with ``slots`` and ``q_ref`` appended (see _one_state_tables): the one-state
+    #: call then takes three arguments, and a compiled call's cost grows with their count
+    one_ints: np.ndarray = dataclasses.field(init=False, repr=False, compare=False)
+    one_floats: np.ndarray = dataclasses.field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        one_ints, one_floats = _one_state_tables(self.ints, self.floats, self.slots, self.q_ref)
+        object.__setattr__(self, "one_ints", one_ints)
+        object.__setattr__(self, "one_floats", one_floats)
 
     def free(self, values: np.ndarray) -> np.ndarray:
         values = np.ascontiguousarray(values, dtype=np.float64)
@@ -149,7 +160,7 @@ class BatchCheck:
         call, no arrays made here."""
         if type(values) is not np.ndarray or values.dtype != np.float64:
             return False
-        return _free_one(values, self.q_ref, self.slots, self.ints, self.floats)
+        return one_state_free(values, self.one_ints, self.one_floats)
 
 
 def build_batch_check(
@@ -272,6 +283,15 @@ def _pack(parents, kinds, index, axes, placements, bodies, world_pairs, obstacle
     return np.ascontiguousarray(ints), np.ascontiguousarray(np.concatenate(float_parts), dtype=np.float64)
 
 
+def _one_state_tables(ints: np.ndarray, floats: np.ndarray, slots: np.ndarray,
+                      q_ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``ints`` + ``slots`` + [where q_ref starts in the floats, where the slots start] and
+    ``floats`` + ``q_ref``: one_state_free reads them from the ends."""
+    one_ints = np.concatenate([ints, np.asarray(slots, dtype=np.int64), [len(floats), len(ints)]]).astype(np.int64)
+    one_floats = np.concatenate([floats, np.asarray(q_ref, dtype=np.float64)])
+    return np.ascontiguousarray(one_ints), np.ascontiguousarray(one_floats)
+
+
 def _compiled(function):
     return njit(cache=True, nogil=True)(function) if njit is not None else function
 
@@ -376,12 +396,12 @@ def _free_states(values, q_ref, slots, ints, floats, out):  # pragma: no cover -
     trans = np.zeros((nj, 3))
     centre = np.empty((ns, 3))
     outer_centre = np.empty((nb, 3))
+    base = np.empty((3, 3))
+    local_rot = np.empty((3, 3))
     placed = np.zeros(nb, dtype=np.bool_)  # the body's spheres are placed for this state
     for i in range(3):
         for k in range(3):
             rot[0, i, k] = 1.0 if i == k else 0.0
-    base = np.empty((3, 3))
-    local_rot = np.empty((3, 3))
     for s in range(values.shape[0]):
         finite = True
         for k in range(slots.shape[0]):
@@ -440,7 +460,15 @@ def _free_states(values, q_ref, slots, ints, floats, out):  # pragma: no cover -
                         for n in range(first[c], first[c + 1]):
                             _place(rot, trans, body_joint[c], local[n], centre[n])
                         placed[c] = True
+                bx, by, bz = outer_centre[b, 0], outer_centre[b, 1], outer_centre[b, 2]
                 for m in range(first[a], first[a + 1]):
+                    # this sphere against b's bounding sphere first: most are clear of it
+                    dx = centre[m, 0] - bx
+                    dy = centre[m, 1] - by
+                    dz = centre[m, 2] - bz
+                    reach = radius[m] + outer[b, 3] + margin
+                    if dx * dx + dy * dy + dz * dz > reach * reach:
+                        continue
                     for n in range(first[b], first[b + 1]):
                         dx = centre[m, 0] - centre[n, 0]
                         dy = centre[m, 1] - centre[n, 1]
@@ -457,9 +485,15 @@ def _free_states(values, q_ref, slots, ints, floats, out):  # pragma: no cover -
 
 
 @_compiled
-def _free_one(values, q_ref, slots, ints, floats):  # pragma: no cover - compiled
+def one_state_free(values, one_ints, one_floats):  # pragma: no cover - compiled
+    """BatchCheck.free_one without its type check, for callers that make sure ``values`` is a
+    float64 vector (a planner's validity callback: one Python call less per state); the tables
+    are a BatchCheck's ``one_ints`` and ``one_floats``."""
+    n = one_ints.shape[0]
+    slots = one_ints[one_ints[n - 1]:n - 2]
     if values.ndim != 1 or values.shape[0] != slots.shape[0]:
         return False  # the exact check says what is wrong
+    q_ref = one_floats[one_ints[n - 2]:]
     out = np.empty(1, dtype=np.bool_)
-    _free_states(values.reshape((1, values.shape[0])), q_ref, slots, ints, floats, out)
+    _free_states(values.reshape((1, values.shape[0])), q_ref, slots, one_ints, one_floats, out)
     return out[0]

@@ -27,7 +27,7 @@ from interfaces_py.msgs import (
 )
 
 from ..collision_detection.acm import AllowedCollisionMatrix
-from ..collision_detection.batch_check import BATCH_RULE_SAMPLES, numba_available
+from ..collision_detection.batch_check import BATCH_RULE_SAMPLES, numba_available, one_state_free
 from ..collision_detection.collision import (
     OBJECT,
     ROBOT_ATTACHED,
@@ -767,10 +767,16 @@ class PlanningScene:
             return None  # one state through the affine map costs more than it saves
 
         def free_one(values: np.ndarray) -> bool:
-            check = current()
-            if check is None:
-                return False
-            return check.free_one(values)  # anything but a float64 vector: False, the exact check decides
+            # current() and BatchCheck.free_one inlined: planners call this for every state
+            compiled = scene._slot.value
+            pair = last[0]
+            if compiled is None or pair[0] is not compiled:
+                current()
+                pair = last[0]
+            check = pair[1]
+            if check is None or type(values) is not np.ndarray or values.dtype != np.float64:
+                return False  # anything but a float64 vector: undecided, the exact check decides
+            return one_state_free(values, check.one_ints, check.one_floats)
 
         return free_one
 
