@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import logging
 import math
+import re
 import time
 
 import numpy as np
@@ -211,7 +212,11 @@ def test_a_reset_while_running_is_not_taken_for_lag_and_the_speed_can_change(sim
                 time.sleep(0.01)
             status = sim.status()
         assert 0.05 <= status.time < 0.3 and status.lag < 0.2, status
-        assert not any("falling behind" in r.getMessage() for r in caplog.records)
+        # the bug took the jump back (>= 0.3 s of simulated time) for lag; a loaded machine may
+        # really fall behind by a few tens of ms meanwhile, which the loop rightly reports
+        lags = [float(m.group(1)) for r in caplog.records
+                if (m := re.search(r"falling behind real time: ([0-9.]+) s late", r.getMessage()))]
+        assert not [lag for lag in lags if lag >= 0.25], lags
         sim.set_speed_factor(0.5)
         assert sim.speed_factor == 0.5 and sim.status().speed_factor == 0.5
         for bad in (0.0, -1.0, float("nan"), 101.0, True):
