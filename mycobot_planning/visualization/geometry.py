@@ -256,7 +256,7 @@ def object_shapes(obj: CollisionObject, package_dirs: Iterable[Any] = (), segmen
     """The shapes of a collision object, posed in the object frame (its ``pose``).
 
     Mesh resources are loaded the way the collision checker loads them
-    (``core.collision_detection.collision.mesh_geometry``); a mesh that cannot be loaded raises the checker's
+    (``core.collision_detection.world.mesh_geometry``); a mesh that cannot be loaded raises the checker's
     SceneError, so the viewer and the checker never disagree silently.
     """
     out: list[ObjectShape] = []
@@ -264,7 +264,7 @@ def object_shapes(obj: CollisionObject, package_dirs: Iterable[Any] = (), segmen
         out.append(ObjectShape(obj.id, k, primitive.type_name.lower(), primitive_mesh(primitive, segments),
                                pose.to_matrix()))
     if obj.meshes:
-        from ..core.collision_detection.collision import mesh_geometry
+        from ..core.collision_detection.world import mesh_geometry
 
         for k, (mesh, pose) in enumerate(zip(obj.meshes, obj.mesh_poses)):
             geometry = mesh_geometry(mesh, f"collision object '{obj.id}' mesh {k}", package_dirs)

@@ -9,7 +9,7 @@ import pytest
 
 from interfaces_py.msgs import CollisionObject, Mesh, Pose
 from mycobot_planning.core import RobotModel, RobotState
-from mycobot_planning.core.collision_detection.collision import OBJECT, ROBOT_ATTACHED, ROBOT_LINK
+from mycobot_planning.core.collision_detection.collision_common import OBJECT, ROBOT_ATTACHED, ROBOT_LINK
 from mycobot_planning.core.planning_scene.planning_scene import PlanningScene
 from mycobot_planning.core.transforms import make_pose
 from mycobot_planning.paths import example_robot_data_dir

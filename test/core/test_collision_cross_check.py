@@ -38,7 +38,7 @@ import pytest
 
 from interfaces_py.msgs import CollisionObject
 from mycobot_planning.core import PlanningScene, RobotModel, RobotState
-from mycobot_planning.core.collision_detection.collision import SECURITY_MARGIN
+from mycobot_planning.core.collision_detection.collision_common import SECURITY_MARGIN
 from mycobot_planning.core.collision_detection.collision_matrix import adjacent_pairs
 from mycobot_planning.core.errors import RobotModelError
 from mycobot_planning.core.robot_trajectory.robot_trajectory import TimedTrajectory

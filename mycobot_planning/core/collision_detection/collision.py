@@ -8,265 +8,34 @@ import logging
 import math
 import threading
 import weakref
-from dataclasses import dataclass, field
-from pathlib import Path
-from typing import TYPE_CHECKING, Callable, Iterable, Mapping, Sequence
-from urllib.parse import unquote, urlparse
+from typing import TYPE_CHECKING, Callable, Mapping
 
 import coal
 import numpy as np
 import pinocchio as pin
 from scipy.spatial import ConvexHull
 
-from ...paths import package_share_dirs
-from ..errors import SceneError
 from .batch_check import BATCH_MARGIN, BatchCheck, build_batch_check
+from .collision_common import (
+    KIND_ORDER,
+    OBJECT,
+    ROBOT_ATTACHED,
+    ROBOT_LINK,
+    SECURITY_MARGIN,
+    Contact,
+    DistanceReport,
+)
 from .sphere_cover import enclosing_spheres
+from .world import AttachedBody, SceneObject
 
 if TYPE_CHECKING:  # pragma: no cover
-    from interfaces_py.msgs import Mesh, SolidPrimitive
-
     from .acm import AllowedCollisionMatrix
     from ..robot_model.robot_model import RobotModel
 
 _LOG = logging.getLogger(__name__)
 
-#: Body kinds, spelled as MoveIt's collision_detection::BodyType names them in contact messages.
-ROBOT_LINK = "Robot link"
-ROBOT_ATTACHED = "Robot attached"
-OBJECT = "Object"
-_KIND_ORDER = {OBJECT: 0, ROBOT_ATTACHED: 1, ROBOT_LINK: 2}
-
-#: Objects closer than this count as touching (see docs/core.md (mycobot_planning.core.collision_detection.collision) for why it is not 0).
-SECURITY_MARGIN = 1e-6
 #: Above this many geometry objects the dynamic AABB tree beats the naive broad phase.
 _AABB_TREE_THRESHOLD = 150
-
-
-# ---------------------------------------------------------------------------------------------
-# Reports
-# ---------------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class Contact:
-    """Two bodies in contact. ``depth`` is the penetration depth in metres (0.0 when unknown,
-    e.g. between two triangle meshes); ``position`` is a world point between the bodies or None."""
-
-    body_a: str
-    kind_a: str
-    body_b: str
-    kind_b: str
-    depth: float = 0.0
-    position: tuple[float, float, float] | None = None
-
-    def __str__(self) -> str:
-        return f"contact between '{self.body_a}' ({self.kind_a}) and '{self.body_b}' ({self.kind_b})"
-
-    def involves(self, name: str) -> bool:
-        return name in (self.body_a, self.body_b)
-
-    @property
-    def bodies(self) -> frozenset[str]:
-        return frozenset((self.body_a, self.body_b))
-
-
-@dataclass(frozen=True)
-class CollisionReport:
-    """Result of PlanningScene.check_collision: the verdict and the contacts that make it."""
-
-    collision: bool
-    contacts: list[Contact] = field(default_factory=list)
-
-    def __bool__(self) -> bool:
-        """``if scene.check_collision(state):`` reads as "if in collision" (a report object is
-        otherwise always truthy, which would make that natural line a silent bug)."""
-        return self.collision
-
-    def __str__(self) -> str:
-        if not self.collision:
-            return "no collision"
-        return "; ".join(str(c) for c in self.contacts) or "collision"
-
-    def pairs(self) -> set[frozenset[str]]:
-        """The colliding body pairs, order-free (handy in tests and logs)."""
-        return {c.bodies for c in self.contacts}
-
-
-@dataclass(frozen=True)
-class DistanceReport:
-    """Result of PlanningScene.distance over the active (not allowed) pairs.
-
-    ``min_distance`` is negative when bodies penetrate and ``inf`` when no pair was considered.
-    ``per_link`` maps each robot body (link or attached object) that takes part in a considered
-    pair to (its minimum distance, the body realising it) — what MTC's Clearance cost reads.
-    """
-
-    min_distance: float
-    body_a: str | None = None
-    kind_a: str | None = None
-    body_b: str | None = None
-    kind_b: str | None = None
-    point_a: tuple[float, float, float] | None = None
-    point_b: tuple[float, float, float] | None = None
-    per_link: dict[str, tuple[float, str]] = field(default_factory=dict)
-
-    def __str__(self) -> str:
-        if self.body_a is None:
-            return "no collision pairs to measure"
-        return (
-            f"minimum distance {self.min_distance:.6f} m between '{self.body_a}' ({self.kind_a}) "
-            f"and '{self.body_b}' ({self.kind_b})"
-        )
-
-
-# ---------------------------------------------------------------------------------------------
-# Scene content: immutable values shared between scene copies
-# ---------------------------------------------------------------------------------------------
-
-
-def _frozen(matrix: np.ndarray) -> np.ndarray:
-    out = np.array(matrix, dtype=float)
-    out.setflags(write=False)
-    return out
-
-
-@dataclass(frozen=True, eq=False)
-class Shape:
-    """One Coal shape of an object, with its pose in the object frame and its message form."""
-
-    geometry: coal.CollisionGeometry
-    pose: np.ndarray  # 4x4, object frame -> shape frame (read-only)
-    primitive: "SolidPrimitive | None" = None
-    mesh: "Mesh | None" = None
-
-
-@dataclass(frozen=True, eq=False)
-class SceneObject:
-    """A collision object: id, pose (in world, or in its link frame once attached), shapes."""
-
-    id: str
-    pose: np.ndarray  # 4x4 (read-only)
-    shapes: tuple[Shape, ...]
-
-    def with_pose(self, pose: np.ndarray) -> "SceneObject":
-        return SceneObject(self.id, _frozen(pose), self.shapes)
-
-
-@dataclass(frozen=True, eq=False)
-class AttachedBody:
-    """An object rigidly attached to a robot link; ``object.pose`` is relative to that link."""
-
-    object: SceneObject
-    link: str
-    touch_links: frozenset[str]
-    weight: float = 0.0
-
-    @property
-    def id(self) -> str:
-        return self.object.id
-
-
-# ---------------------------------------------------------------------------------------------
-# Shapes from messages
-# ---------------------------------------------------------------------------------------------
-
-
-def _positive_dims(dims: Sequence[float], count: int, what: str) -> list[float]:
-    values = [float(d) for d in dims]
-    if len(values) != count:
-        raise SceneError(f"{what}: expected {count} dimensions, got {len(values)}")
-    for value in values:
-        if not math.isfinite(value) or value <= 0.0:
-            raise SceneError(f"{what}: dimensions must be finite and > 0, got {values}")
-    return values
-
-
-def primitive_geometry(primitive: "SolidPrimitive", what: str) -> coal.CollisionGeometry:
-    """Coal shape for a shape_msgs primitive (box [x,y,z], sphere [r], cylinder/cone [h, r], axis z)."""
-    kind = primitive.type
-    dims = primitive.dimensions
-    if kind == 1:
-        x, y, z = _positive_dims(dims, 3, f"{what} (BOX)")
-        geometry = coal.Box(x, y, z)
-    elif kind == 2:
-        (r,) = _positive_dims(dims, 1, f"{what} (SPHERE)")
-        geometry = coal.Sphere(r)
-    elif kind == 3:
-        h, r = _positive_dims(dims, 2, f"{what} (CYLINDER)")
-        geometry = coal.Cylinder(r, h)
-    elif kind == 4:
-        h, r = _positive_dims(dims, 2, f"{what} (CONE)")
-        geometry = coal.Cone(r, h)
-    else:
-        raise SceneError(f"{what}: unknown primitive type {kind}; expected BOX(1), SPHERE(2), CYLINDER(3) or CONE(4)")
-    geometry.computeLocalAABB()
-    return geometry
-
-
-def _resource_candidates(resource: str, package_dirs: Iterable[Path]) -> list[Path]:
-    if resource.startswith("package://"):
-        rest = resource[len("package://"):]
-        package, _, relative = rest.partition("/")
-        roots: list[Path] = list(package_dirs) + package_share_dirs()
-        out = []
-        for root in roots:
-            out.append(root / package / relative)
-        return out
-    if resource.startswith("file://"):
-        return [Path(unquote(urlparse(resource).path))]
-    return [Path(resource).expanduser()]
-
-
-_MESH_CACHE: dict[tuple[str, tuple[float, float, float]], coal.CollisionGeometry] = {}
-_MESH_CACHE_LOCK = threading.Lock()
-_MESH_CACHE_SIZE = 64
-
-
-def mesh_geometry(mesh: "Mesh", what: str, package_dirs: Iterable[Path] = ()) -> coal.CollisionGeometry:
-    """Coal BVH (OBBRSS) for a mesh file (cached per file and scale) or explicit triangles."""
-    scale = tuple(float(s) for s in mesh.scale)
-    if len(scale) != 3 or not all(math.isfinite(s) and s > 0 for s in scale):
-        raise SceneError(f"{what}: mesh scale must be three finite values > 0, got {list(mesh.scale)}")
-    if mesh.resource:
-        candidates = _resource_candidates(mesh.resource, package_dirs)
-        path = next((p for p in candidates if p.is_file()), None)
-        if path is None:
-            raise SceneError(
-                f"{what}: mesh file '{mesh.resource}' not found (looked at {', '.join(str(p) for p in candidates)})"
-            )
-        key = (str(path.resolve()), scale)
-        with _MESH_CACHE_LOCK:
-            cached = _MESH_CACHE.get(key)
-        if cached is not None:
-            return cached
-        try:
-            geometry = coal.MeshLoader().load(str(path), np.array(scale))
-        except Exception as exc:  # coal raises RuntimeError/ValueError/assimp errors
-            raise SceneError(f"{what}: cannot load mesh '{mesh.resource}': {exc}") from None
-        if geometry.num_tris == 0:
-            raise SceneError(f"{what}: mesh '{mesh.resource}' has no triangles")
-        geometry.computeLocalAABB()
-        with _MESH_CACHE_LOCK:
-            if len(_MESH_CACHE) >= _MESH_CACHE_SIZE:
-                _MESH_CACHE.pop(next(iter(_MESH_CACHE)))
-            _MESH_CACHE[key] = geometry
-        return geometry
-    vertices = np.asarray(mesh.vertices, dtype=float).reshape(-1, 3) * np.asarray(scale)
-    triangles = np.asarray(mesh.triangles, dtype=int).reshape(-1, 3)
-    if not np.all(np.isfinite(vertices)):
-        raise SceneError(f"{what}: mesh vertices contain NaN or infinite values")
-    if triangles.size == 0:
-        raise SceneError(f"{what}: mesh has no triangles")
-    if triangles.min() < 0 or triangles.max() >= len(vertices):
-        raise SceneError(f"{what}: mesh triangle index out of range for {len(vertices)} vertices")
-    geometry = coal.BVHModelOBBRSS()
-    geometry.beginModel(len(triangles), len(vertices))
-    geometry.addVertices(vertices)
-    geometry.addTriangles(triangles)
-    geometry.endModel()
-    geometry.computeLocalAABB()
-    return geometry
 
 
 # ---------------------------------------------------------------------------------------------
@@ -912,7 +681,7 @@ class CompiledScene:
 
     def _contact(self, i: int, j: int, depth: float, position) -> Contact:
         names, kinds = self.geometry_names, self.geometry_kinds
-        if _KIND_ORDER[kinds[j]] < _KIND_ORDER[kinds[i]]:
+        if KIND_ORDER[kinds[j]] < KIND_ORDER[kinds[i]]:
             i, j = j, i
         return Contact(names[i], kinds[i], names[j], kinds[j], depth, position)
 
@@ -957,7 +726,7 @@ class CompiledScene:
         result = results[best_pair]
         p1 = tuple(float(x) for x in result.getNearestPoint1())
         p2 = tuple(float(x) for x in result.getNearestPoint2())
-        if _KIND_ORDER[kinds[j]] < _KIND_ORDER[kinds[i]]:
+        if KIND_ORDER[kinds[j]] < KIND_ORDER[kinds[i]]:
             i, j, p1, p2 = j, i, p2, p1
         return DistanceReport(best, names[i], kinds[i], names[j], kinds[j], p1, p2, per_link)
 

@@ -20,7 +20,7 @@ import coal
 import numpy as np
 from scipy import ndimage
 
-from ..collision_detection.collision import SceneObject, Shape
+from ..collision_detection.world import SceneObject, Shape
 from ..planning_scene.planning_scene import PlanningScene
 
 __all__ = ["WorldDistanceField", "shape_distance"]

@@ -28,19 +28,20 @@ from interfaces_py.msgs import (
 
 from ..collision_detection.acm import AllowedCollisionMatrix
 from ..collision_detection.batch_check import BATCH_RULE_SAMPLES, numba_available, one_state_free
-from ..collision_detection.collision import (
+from ..collision_detection.collision import CompiledScene, RobotCollisionInfo
+from ..collision_detection.collision_common import (
     OBJECT,
     ROBOT_ATTACHED,
     ROBOT_LINK,
-    AttachedBody,
     CollisionReport,
-    CompiledScene,
     Contact,
     DistanceReport,
-    RobotCollisionInfo,
+)
+from ..collision_detection.world import (
+    AttachedBody,
     SceneObject,
     Shape,
-    _frozen,
+    frozen_pose,
     mesh_geometry,
     primitive_geometry,
 )
@@ -344,13 +345,13 @@ class PlanningScene:
                 raise SceneError(f"{where}: expected a SolidPrimitive, got {type(primitive).__name__}")
             geometry = primitive_geometry(primitive, where)
             stored = SolidPrimitive(int(primitive.type), [float(d) for d in primitive.dimensions])
-            shapes.append(Shape(geometry, _frozen(_pose_matrix(pose, f"{where} pose")), primitive=stored))
+            shapes.append(Shape(geometry, frozen_pose(_pose_matrix(pose, f"{where} pose")), primitive=stored))
         for k, (mesh, pose) in enumerate(zip(meshes, mesh_poses)):
             where = f"{what}: mesh {k}"
             if not isinstance(mesh, Mesh):
                 raise SceneError(f"{where}: expected a Mesh, got {type(mesh).__name__}")
             geometry = mesh_geometry(mesh, where)
-            shapes.append(Shape(geometry, _frozen(_pose_matrix(pose, f"{where} pose")), mesh=_copy.deepcopy(mesh)))
+            shapes.append(Shape(geometry, frozen_pose(_pose_matrix(pose, f"{where} pose")), mesh=_copy.deepcopy(mesh)))
         return shapes
 
     def _object_from_msg(self, msg: CollisionObject, what: str, state: RobotState | None = None) -> SceneObject:
@@ -358,7 +359,7 @@ class PlanningScene:
         frame = self.frame_pose(msg.frame_id, state)
         pose = frame @ _pose_matrix(msg.pose, f"{what} pose")
         shapes = self._shapes_from_msg(msg, what)
-        return SceneObject(msg.id, _frozen(pose), tuple(shapes))
+        return SceneObject(msg.id, frozen_pose(pose), tuple(shapes))
 
     def apply_collision_object(self, obj: CollisionObject | Mapping | str) -> None:
         """Apply a CollisionObject with MoveIt semantics: ADD (replaces an existing id), REMOVE,
@@ -390,7 +391,7 @@ class PlanningScene:
             base = frame @ _pose_matrix(msg.pose, f"{what} pose")
             relative = inverse(np.asarray(existing.pose)) @ base
             shapes = [
-                Shape(s.geometry, _frozen(relative @ s.pose), s.primitive, s.mesh)
+                Shape(s.geometry, frozen_pose(relative @ s.pose), s.primitive, s.mesh)
                 for s in self._shapes_from_msg(msg, what)
             ]
             self._world[msg.id] = SceneObject(msg.id, existing.pose, existing.shapes + tuple(shapes))
@@ -551,7 +552,7 @@ class PlanningScene:
             base = link_inverse @ self.frame_pose(obj.frame_id) @ _pose_matrix(obj.pose, f"{what} pose")
             relative = inverse(np.asarray(body.object.pose)) @ base
             shapes = tuple(
-                Shape(s.geometry, _frozen(relative @ s.pose), s.primitive, s.mesh)
+                Shape(s.geometry, frozen_pose(relative @ s.pose), s.primitive, s.mesh)
                 for s in self._shapes_from_msg(obj, what)
             )
             new_obj = SceneObject(obj.id, body.object.pose, body.object.shapes + shapes)

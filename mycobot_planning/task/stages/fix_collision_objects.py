@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from ...core.collision_detection.collision import OBJECT, SECURITY_MARGIN
+from ...core.collision_detection.collision_common import OBJECT, SECURITY_MARGIN
 from ...core.planning_scene.planning_scene import PlanningScene
 from ..cost_terms import Constant
 from ..errors import InitStageException
