@@ -19,7 +19,7 @@ from ..errors import SceneError
 if TYPE_CHECKING:  # pragma: no cover
     from interfaces_py.msgs import Mesh, SolidPrimitive
 
-__all__ = ["AttachedBody", "SceneObject", "Shape", "frozen_pose", "mesh_geometry", "primitive_geometry"]
+__all__ = ["AttachedBody", "SceneObject", "Shape", "read_only", "mesh_geometry", "primitive_geometry"]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -27,9 +27,9 @@ __all__ = ["AttachedBody", "SceneObject", "Shape", "frozen_pose", "mesh_geometry
 # ---------------------------------------------------------------------------------------------
 
 
-def frozen_pose(matrix: np.ndarray) -> np.ndarray:
-    """A read-only float copy of a 4x4 pose (the scene's values are shared, never changed)."""
-    out = np.array(matrix, dtype=float)
+def read_only(values: np.ndarray) -> np.ndarray:
+    """A read-only float copy (a pose, or any array that is shared and never changed)."""
+    out = np.array(values, dtype=float)
     out.setflags(write=False)
     return out
 
@@ -53,7 +53,7 @@ class SceneObject:
     shapes: tuple[Shape, ...]
 
     def with_pose(self, pose: np.ndarray) -> "SceneObject":
-        return SceneObject(self.id, frozen_pose(pose), self.shapes)
+        return SceneObject(self.id, read_only(pose), self.shapes)
 
 
 @dataclass(frozen=True, eq=False)

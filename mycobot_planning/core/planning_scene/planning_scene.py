@@ -41,7 +41,7 @@ from ..collision_detection.world import (
     AttachedBody,
     SceneObject,
     Shape,
-    frozen_pose,
+    read_only,
     mesh_geometry,
     primitive_geometry,
 )
@@ -345,13 +345,13 @@ class PlanningScene:
                 raise SceneError(f"{where}: expected a SolidPrimitive, got {type(primitive).__name__}")
             geometry = primitive_geometry(primitive, where)
             stored = SolidPrimitive(int(primitive.type), [float(d) for d in primitive.dimensions])
-            shapes.append(Shape(geometry, frozen_pose(_pose_matrix(pose, f"{where} pose")), primitive=stored))
+            shapes.append(Shape(geometry, read_only(_pose_matrix(pose, f"{where} pose")), primitive=stored))
         for k, (mesh, pose) in enumerate(zip(meshes, mesh_poses)):
             where = f"{what}: mesh {k}"
             if not isinstance(mesh, Mesh):
                 raise SceneError(f"{where}: expected a Mesh, got {type(mesh).__name__}")
             geometry = mesh_geometry(mesh, where)
-            shapes.append(Shape(geometry, frozen_pose(_pose_matrix(pose, f"{where} pose")), mesh=_copy.deepcopy(mesh)))
+            shapes.append(Shape(geometry, read_only(_pose_matrix(pose, f"{where} pose")), mesh=_copy.deepcopy(mesh)))
         return shapes
 
     def _object_from_msg(self, msg: CollisionObject, what: str, state: RobotState | None = None) -> SceneObject:
@@ -359,7 +359,7 @@ class PlanningScene:
         frame = self.frame_pose(msg.frame_id, state)
         pose = frame @ _pose_matrix(msg.pose, f"{what} pose")
         shapes = self._shapes_from_msg(msg, what)
-        return SceneObject(msg.id, frozen_pose(pose), tuple(shapes))
+        return SceneObject(msg.id, read_only(pose), tuple(shapes))
 
     def apply_collision_object(self, obj: CollisionObject | Mapping | str) -> None:
         """Apply a CollisionObject with MoveIt semantics: ADD (replaces an existing id), REMOVE,
@@ -391,7 +391,7 @@ class PlanningScene:
             base = frame @ _pose_matrix(msg.pose, f"{what} pose")
             relative = inverse(np.asarray(existing.pose)) @ base
             shapes = [
-                Shape(s.geometry, frozen_pose(relative @ s.pose), s.primitive, s.mesh)
+                Shape(s.geometry, read_only(relative @ s.pose), s.primitive, s.mesh)
                 for s in self._shapes_from_msg(msg, what)
             ]
             self._world[msg.id] = SceneObject(msg.id, existing.pose, existing.shapes + tuple(shapes))
@@ -552,7 +552,7 @@ class PlanningScene:
             base = link_inverse @ self.frame_pose(obj.frame_id) @ _pose_matrix(obj.pose, f"{what} pose")
             relative = inverse(np.asarray(body.object.pose)) @ base
             shapes = tuple(
-                Shape(s.geometry, frozen_pose(relative @ s.pose), s.primitive, s.mesh)
+                Shape(s.geometry, read_only(relative @ s.pose), s.primitive, s.mesh)
                 for s in self._shapes_from_msg(obj, what)
             )
             new_obj = SceneObject(obj.id, body.object.pose, body.object.shapes + shapes)
@@ -738,7 +738,10 @@ class PlanningScene:
         else:
             rows = group_columns = None
         # the rule that decides whether the test pays is judged on random states of the group
-        sample = np.random.default_rng(7).uniform(low, high, (BATCH_RULE_SAMPLES, len(indices)))
+        # (the same ones for every scene of the model: drawn once per variable set)
+        sample = np.array(self._model.cached(("batch_rule_sample", np.asarray(indices, dtype=int).tobytes()),
+                                             lambda: read_only(np.random.default_rng(7).uniform(
+                                                 low, high, (BATCH_RULE_SAMPLES, len(indices))))))
         if group_columns is not None:
             sample = sample @ group_columns + rows
         scene = self
@@ -783,14 +786,20 @@ class PlanningScene:
 
     def moving_joints(self, indices: np.ndarray) -> frozenset[int]:
         """The Pinocchio joints that move when these variables change: their own joints and the
-        mimic followers they drive (what the group collision test may not hold fixed)."""
-        jmap = self._model.jacobian_map(np.asarray(indices, dtype=int))
-        moving_v = set(np.flatnonzero(np.any(jmap != 0.0, axis=1)).tolist())
-        pin_model = self._model.pin_model
-        return frozenset(
-            j for j in range(1, pin_model.njoints)
-            if moving_v.intersection(range(pin_model.idx_vs[j], pin_model.idx_vs[j] + pin_model.nvs[j]))
-        )
+        mimic followers they drive (what the group collision test may not hold fixed). A fact
+        of the model alone: computed once per variable set (planners ask on every plan)."""
+        indices = np.asarray(indices, dtype=int)
+        model = self._model
+
+        def compute() -> frozenset[int]:
+            moving_v = set(np.flatnonzero(np.any(model.jacobian_map(indices) != 0.0, axis=1)).tolist())
+            pin_model = model.pin_model
+            return frozenset(
+                j for j in range(1, pin_model.njoints)
+                if moving_v.intersection(range(pin_model.idx_vs[j], pin_model.idx_vs[j] + pin_model.nvs[j]))
+            )
+
+        return model.cached(("moving_joints", indices.tobytes()), compute)
 
     def _group_collision_test(self, indices: np.ndarray, full: np.ndarray) -> Callable[[np.ndarray], bool]:
         """Collision test for configurations that differ from ``full`` only in ``indices``
