@@ -155,13 +155,6 @@ class BatchCheck:
         _free_states(values, self.q_ref, self.slots, self.ints, self.floats, out)
         return out
 
-    def free_one(self, values: np.ndarray) -> bool:
-        """``free`` of one state (a float64 vector; anything else is undecided): one compiled
-        call, no arrays made here."""
-        if type(values) is not np.ndarray or values.dtype != np.float64:
-            return False
-        return one_state_free(values, self.one_ints, self.one_floats)
-
 
 def build_batch_check(
     pin_model: pin.Model,
@@ -486,9 +479,9 @@ def _free_states(values, q_ref, slots, ints, floats, out):  # pragma: no cover -
 
 @_compiled
 def one_state_free(values, one_ints, one_floats):  # pragma: no cover - compiled
-    """BatchCheck.free_one without its type check, for callers that make sure ``values`` is a
-    float64 vector (a planner's validity callback: one Python call less per state); the tables
-    are a BatchCheck's ``one_ints`` and ``one_floats``."""
+    """``free`` of one state, a float64 vector (callers check that: PlanningScene.
+    batch_free_checker's one-state form), on a BatchCheck's ``one_ints`` and ``one_floats``: one
+    compiled call, no arrays made by the caller."""
     n = one_ints.shape[0]
     slots = one_ints[one_ints[n - 1]:n - 2]
     if values.ndim != 1 or values.shape[0] != slots.shape[0]:

@@ -771,7 +771,7 @@ class PlanningScene:
             return None  # one state through the affine map costs more than it saves
 
         def free_one(values: np.ndarray) -> bool:
-            # current() and BatchCheck.free_one inlined: planners call this for every state
+            # current() inlined and the compiled call made directly: planners call this for every state
             compiled = scene._slot.value
             pair = last[0]
             if compiled is None or pair[0] is not compiled:
