@@ -389,12 +389,12 @@ def _free_states(values, q_ref, slots, ints, floats, out):  # pragma: no cover -
     trans = np.zeros((nj, 3))
     centre = np.empty((ns, 3))
     outer_centre = np.empty((nb, 3))
-    base = np.empty((3, 3))
-    local_rot = np.empty((3, 3))
     placed = np.zeros(nb, dtype=np.bool_)  # the body's spheres are placed for this state
     for i in range(3):
         for k in range(3):
             rot[0, i, k] = 1.0 if i == k else 0.0
+    base = np.empty((3, 3))
+    local_rot = np.empty((3, 3))
     for s in range(values.shape[0]):
         finite = True
         for k in range(slots.shape[0]):
