@@ -24,6 +24,9 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from std_srvs.srv import Trigger
 
+# Imported for its effect too: rclpy's ActionClient fixed in place (ros2/rclpy#1123), also for
+# the clients that pymoveit2, a library nobody here wrote, builds in the test process.
+from interfaces_py.action_client import ActionClient
 from interfaces_py.background_spin import BackgroundSpin
 from mycobot_planning.paths import config_file
 from mycobot_planning.polling import wait_until
@@ -166,7 +169,6 @@ class ProbeNode:
         discovered before its first request, or it gives up at once ("not yet available")."""
         from moveit_msgs.action import ExecuteTrajectory, MoveGroup
         from moveit_msgs.srv import GetMotionPlan
-        from interfaces_py.action_client import ActionClient
 
         # kept until the node closes: destroying them while the executor spins stalled it
         actions = [ActionClient(self.node, ExecuteTrajectory, "/execute_trajectory"),

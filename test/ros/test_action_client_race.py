@@ -1,6 +1,8 @@
 """interfaces_py.action_client: a goal sent from one thread while another spins the client is
-never lost (ros2/rclpy#1123, seen in a CI run: the planning_server never learnt that the mock
-controller had accepted a FollowJointTrajectory goal and reported TIMED_OUT).
+never lost (ros2/rclpy#1123, seen in CI runs: the planning_server never learnt that the mock
+controller had accepted a FollowJointTrajectory goal and reported TIMED_OUT; pymoveit2 waited
+forever for a move_action goal the server had executed). The fix is made to rclpy's own class,
+so the clients pymoveit2 builds get it too.
 
 The race needs the response to be dispatched between "request sent" and "request recorded",
 which is rare on its own; here the client's handle is wrapped so that the sending thread pauses
@@ -15,7 +17,7 @@ from control_msgs.action import GripperCommand
 from rclpy.action import ActionClient as RclpyActionClient
 from rclpy.action import ActionServer
 
-from interfaces_py.action_client import ActionClient
+from interfaces_py.action_client import UNFIXED_METHODS, ActionClient
 from ros_testing import ProbeNode, use_session_domain, wait_until
 
 PAUSE_AFTER_SEND = 0.3  # s: long enough for the executor to take and dispatch the response
@@ -84,8 +86,26 @@ def _send_and_wait(client: Any) -> tuple[Any, Any]:
     return handle, (result.result().result if wait_until(result.done, 3.0) else None)
 
 
-def test_goal_and_result_responses_arrive_although_the_sender_is_slow_to_record_them(probe):
-    client = ActionClient(probe.node, GripperCommand, "/race_test/gripper_cmd")
+class UnfixedActionClient(RclpyActionClient):
+    """rclpy's ActionClient as the wheel installs it, without interfaces_py's fix."""
+
+    send_goal_async = UNFIXED_METHODS["send_goal_async"]
+    _cancel_goal_async = UNFIXED_METHODS["_cancel_goal_async"]
+    _get_result_async = UNFIXED_METHODS["_get_result_async"]
+    execute = UNFIXED_METHODS["execute"]
+
+
+def test_rclpy_own_class_is_the_fixed_one():
+    """pymoveit2 builds rclpy.action.ActionClient itself: the fix must be on that class."""
+    assert ActionClient is RclpyActionClient
+    for name, unfixed in UNFIXED_METHODS.items():
+        assert getattr(RclpyActionClient, name) is not unfixed, f"{name} is not fixed"
+        assert getattr(RclpyActionClient, name).__wrapped__ is unfixed
+
+
+@pytest.mark.parametrize("make", [ActionClient, RclpyActionClient], ids=["interfaces_py", "rclpy.action"])
+def test_goal_and_result_responses_arrive_although_the_sender_is_slow_to_record_them(probe, make):
+    client = make(probe.node, GripperCommand, "/race_test/gripper_cmd")
     assert client.wait_for_server(timeout_sec=10.0)
     handle, result = _send_and_wait(client)
     assert handle is not None and handle.accepted, "the goal response was lost"
@@ -93,10 +113,10 @@ def test_goal_and_result_responses_arrive_although_the_sender_is_slow_to_record_
         "the result response was lost"
 
 
-def test_rclpy_own_client_loses_the_goal_response_in_the_same_situation(probe):
-    """Why the wrapper exists: if this starts failing, the installed rclpy has the upstream fix
+def test_the_unfixed_client_loses_the_goal_response_in_the_same_situation(probe):
+    """Why the fix exists: if this starts failing, the installed rclpy has the upstream fix
     (ros2/rclpy#1308) and interfaces_py/action_client.py can go."""
-    client = RclpyActionClient(probe.node, GripperCommand, "/race_test/gripper_cmd")
+    client = UnfixedActionClient(probe.node, GripperCommand, "/race_test/gripper_cmd")
     assert client.wait_for_server(timeout_sec=10.0)
     handle, _ = _send_and_wait(client)
     assert handle is None, "rclpy's ActionClient no longer loses the response: drop the workaround"

@@ -37,7 +37,10 @@ class Client(ProbeNode):
         self.gripper = pymoveit2.GripperInterface(
             node=self.node, gripper_joint_names=["gripper_controller"], open_gripper_joint_positions=0.0,
             closed_gripper_joint_positions=-0.6, gripper_group_name="gripper", callback_group=group,
-            gripper_command_action_name="grip_action_controller/gripper_cmd")
+            gripper_command_action_name="grip_action_controller/gripper_cmd",
+            # it picks its backend once, at construction, from the action servers discovered by
+            # then: its 1 s default was once too short for this new node on a loaded machine
+            discovery_timeout_sec=10.0)
         self.spin_in_background()
 
     def joints(self, names: list[str]) -> np.ndarray:
