@@ -30,7 +30,13 @@ from ..core.errors import SceneError, StateError
 from ..core.kinematic_constraints.kinematic_constraints import ConstraintError, PathConstraints, path_constraints_from_json
 from ..core.planning_interface.planning_context import PlanningContext
 from ..core.planning_interface.planning_workers import PlanningWorkers
-from ..core.planning_interface.planning_interface import JointGoal, MotionPlanRequest, NamedGoal, PoseGoal
+from ..core.planning_interface.planning_interface import (
+    JointGoal,
+    MotionPlanRequest,
+    MotionPlanResponse,
+    NamedGoal,
+    PoseGoal,
+)
 from ..core.planning_scene.planning_scene import PlanningScene
 from ..core.planning_scene.planning_scene_monitor import PlanningSceneMonitor, RequestError
 from ..core.robot_model.robot_model import RobotModel
@@ -144,6 +150,7 @@ class MoveGroupContext(PlanningSceneMonitor):
         self.pipeline = pipeline
         self.workers = workers
         self.planning: set[PlanningContext] = set()  # the plans running now (stop terminates them)
+        self.shutting_down = False  # stop.shut_down(): every plan started from then on is terminated at once
         self.defaults = defaults or PlanningDefaults()
         #: (trajectory, group) of the last successful plan, what execute() without a trajectory runs
         self.last_plan: tuple[JointTrajectory, str] | None = None
@@ -263,10 +270,21 @@ class MoveGroupContext(PlanningSceneMonitor):
             raise RequestError(MoveItErrorCode.INVALID_MOTION_PLAN, f"invalid path constraint: {exc}") from None
         return constraints or None
 
+    def shut_down(self) -> None:
+        """From now on every plan that starts is terminated at once and every execution is
+        refused, both PREEMPTED (capabilities/stop.py's shut_down)."""
+        with self._lock:
+            self.shutting_down = True
+        self.executor.shut_down()
+
     def plan_in_context(self, scene: PlanningScene, request: MotionPlanRequest) -> Any:
         """Plan in a planning context of its own, terminated by stop()."""
         context = PlanningContext(self.workers or self.pipeline, scene, request)
         with self._lock:
+            if self.shutting_down:  # a plan that missed the shutdown's stop
+                return MotionPlanResponse(MoveItErrorCode(MoveItErrorCode.PREEMPTED,
+                                                          "planning refused: move_group is shutting down"),
+                                          group_name=request.group, planner_id=request.planner_id)
             self.planning.add(context)
         try:
             return context.solve()

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 from .move_group_context import MoveGroupContext
 
-__all__ = ["StopResult", "stop"]
+__all__ = ["StopResult", "shut_down", "stop"]
 
 
 @dataclass
@@ -26,3 +26,11 @@ def stop(ctx: MoveGroupContext) -> StopResult:
     message = " and ".join(parts) if parts else "nothing is executing or planning"
     ctx.log("info", f"stop requested: {message}")
     return StopResult(stopped or bool(cancels), message, len(cancels))
+
+
+def shut_down(ctx: MoveGroupContext) -> StopResult:
+    """The process is going down (SIGINT/SIGTERM): stop as stop() does, and terminate every plan
+    and refuse every execution that starts afterwards (PREEMPTED), so that a request that was
+    just arriving cannot keep the process, and its client, waiting."""
+    ctx.shut_down()
+    return stop(ctx)

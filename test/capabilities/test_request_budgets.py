@@ -13,9 +13,10 @@ import numpy as np
 import pytest
 
 from interfaces_py.json_rpc import BAD_REQUEST, MAX_REQUEST_BYTES, RpcError, decode_request, log_safe
-from interfaces_py.msgs import MoveItErrorCode
+from interfaces_py.msgs import JointTrajectory, JointTrajectoryPoint, MoveItErrorCode
 from mycobot_planning.core.trajectory_execution import ControllerInfo, ExecutionSettings
 from interfaces_py.msgs import WORKSPACE_BOUND
+from mycobot_planning.capabilities import stop
 from mycobot_planning.capabilities.cartesian_path import MAX_WAYPOINTS
 from mycobot_planning.capabilities.json_face import MoveGroupJsonFace
 from mycobot_planning.capabilities.plan import MAX_PLANNING_ATTEMPTS, MAX_PLANNING_TIME
@@ -154,6 +155,26 @@ def test_stop_cancels_a_running_plan_with_preempted(core):
     val, message = _error(out)
     assert val == MoveItErrorCode.PREEMPTED and "cancelled" in message
     assert core.stop()["message"] == "nothing is executing or planning"
+
+
+def test_after_shut_down_a_plan_that_was_just_arriving_and_any_execution_answer_preempted(core):
+    """SIGTERM's begin_shutdown (stop.shut_down) can come between a move_action goal's PLANNING
+    feedback and its plan's start: that plan must not run its whole planning time afterwards
+    (a CI run's client got no answer), nor may an execution start once the process goes down."""
+    thread, out = _start(core, _long_request())
+    _wait_running(core)
+    answer = stop.shut_down(core)
+    assert answer.cancelled_plans == 1
+    thread.join(30.0)
+    assert not thread.is_alive() and _error(out)[0] == MoveItErrorCode.PREEMPTED
+    late = core.plan({"group": "arm", "goal": {"named": "ready"}, "allowed_planning_time": 5.0})
+    assert _error(late) == (MoveItErrorCode.PREEMPTED, "planning refused: move_group is shutting down")
+    assert core.running_plans() == []
+    motion = JointTrajectory(joint_names=list(ARM), points=[
+        JointTrajectoryPoint(positions=[0.0] * 6, time_from_start=0.0),
+        JointTrajectoryPoint(positions=[0.1] * 6, time_from_start=1.0)])
+    refused = core.executor.execute(motion)
+    assert refused.error_code.val == MoveItErrorCode.PREEMPTED and "shutting down" in refused.error_code.message
 
 
 def test_a_short_plan_is_answered_while_another_clients_long_plan_runs(mycobot, pipeline):

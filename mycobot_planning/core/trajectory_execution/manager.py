@@ -97,6 +97,7 @@ class TrajectoryExecutionManager:
         self._state_lock = threading.Lock()
         self._monitor: ExecutionMonitor | None = None
         self._stop_requested = False
+        self._shut_down = False  # shut_down(): every execution refused from then on
         self._started_at: float | None = None
         self._description = ""
         self.last_result: dict[str, Any] | None = None
@@ -222,7 +223,17 @@ class TrajectoryExecutionManager:
             time.sleep(0.005)
         return self.executing
 
+    def shut_down(self) -> None:
+        """Refuse every execution from now on (PREEMPTED) and stop the running one: the process
+        is going down, and a motion started now would outlive its supervision."""
+        with self._state_lock:
+            self._shut_down = True
+        self.stop()
+
     def _begin(self, description: str) -> MoveItErrorCode | None:
+        with self._state_lock:
+            if self._shut_down:
+                return _code(MoveItErrorCode.PREEMPTED, f"refused: {description}: move_group is shutting down")
         if self.stopping():
             self.executing_after_stop()
         if not self._busy.acquire(blocking=False):

@@ -368,8 +368,8 @@ class PlanningServer(Node):
     def begin_shutdown(self) -> None:
         """SIGINT/SIGTERM (node_runtime.run_node, rclpy still up): cancel every running plan and
         stop the running execution; their goals end PREEMPTED and answer their clients."""
-        self.get_logger().info("shutting down: stopping running plans and executions")
-        stop.stop(self.core)
+        self.get_logger().info("shutting down: stopping running plans and executions, refusing new ones")
+        stop.shut_down(self.core)
 
     def busy(self) -> bool:
         """A plan, an execution or an action goal still running (its client not answered yet)."""
