@@ -121,3 +121,18 @@ def test_a_late_subscriber_to_planned_path_gets_the_last_plan(client: Client) ->
         np.testing.assert_allclose(end, goal, atol=2e-3)
     finally:
         client.node.destroy_subscription(subscription)
+
+
+def test_ctrl_c_stops_the_server_and_its_workers_without_a_traceback(client: Client) -> None:
+    """Last in the module: it ends the planning_server. Ctrl-C in a terminal signals the whole
+    process group, worker processes included; the server shuts them down, and none of them
+    prints a KeyboardInterrupt traceback (they did, from their idle queue wait)."""
+    import os
+    import signal
+
+    pid = client.server.proc.pid
+    os.killpg(os.getpgid(pid), signal.SIGINT)
+    assert client.server.proc.wait(timeout=20.0) == 0
+    output = client.server.output()
+    assert "Traceback" not in output and "KeyboardInterrupt" not in output, \
+        output[max(0, output.find("Traceback") - 500):]

@@ -21,6 +21,7 @@ import hashlib
 import math
 import multiprocessing
 import os
+import signal
 import threading
 import time
 from dataclasses import dataclass
@@ -99,6 +100,9 @@ def _exit_with_parent(parent: int) -> None:
 
 
 def _worker_init(loader: PlanningLoader, flags: Any, parent: int) -> None:
+    # Ctrl-C in a terminal reaches the whole process group: the parent shuts its workers down,
+    # so a worker ignores it instead of printing a KeyboardInterrupt traceback
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     threading.Thread(target=_exit_with_parent, args=(parent,), name="parent watch", daemon=True).start()
     model, pipeline = loader()
     _WORKER.update(model=model, pipeline=pipeline, flags=flags, scene_key=None, scene=None, changes=0)
