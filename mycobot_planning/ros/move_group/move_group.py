@@ -216,11 +216,11 @@ class MoveGroupFace(Node):
                                          **ACTION_SERVER_OPTIONS)
 
     def close(self) -> None:
+        """The services' threads stopped, then the action servers destroyed."""
         for service in self._dedicated_services:
             service.close()
-        self._move_action.destroy()
-        self._execute_action.destroy()
-        self._task_action.destroy()
+        for server in (self._move_action, self._execute_action, self._task_action):
+            server.destroy()
 
     # ------------------------------------------------------------------ plumbing
     def active_goals(self) -> int:
