@@ -150,7 +150,7 @@ class MoveGroupContext(PlanningSceneMonitor):
         self.pipeline = pipeline
         self.workers = workers
         self.planning: set[PlanningContext] = set()  # the plans running now (stop terminates them)
-        self.shutting_down = False  # stop.shut_down(): every plan started from then on is terminated at once
+        self.shutting_down = False  # stop.shut_down(): every plan started from then on is refused
         self.defaults = defaults or PlanningDefaults()
         #: (trajectory, group) of the last successful plan, what execute() without a trajectory runs
         self.last_plan: tuple[JointTrajectory, str] | None = None
@@ -271,8 +271,8 @@ class MoveGroupContext(PlanningSceneMonitor):
         return constraints or None
 
     def shut_down(self) -> None:
-        """From now on every plan that starts is terminated at once and every execution is
-        refused, both PREEMPTED (capabilities/stop.py's shut_down)."""
+        """From now on every plan and every execution that starts is refused, PREEMPTED
+        (capabilities/stop.py's shut_down)."""
         with self._lock:
             self.shutting_down = True
         self.executor.shut_down()

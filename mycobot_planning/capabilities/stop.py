@@ -29,8 +29,8 @@ def stop(ctx: MoveGroupContext) -> StopResult:
 
 
 def shut_down(ctx: MoveGroupContext) -> StopResult:
-    """The process is going down (SIGINT/SIGTERM): stop as stop() does, and terminate every plan
-    and refuse every execution that starts afterwards (PREEMPTED), so that a request that was
-    just arriving cannot keep the process, and its client, waiting."""
+    """The process is going down (SIGINT/SIGTERM): stop as stop() does, and refuse every plan and
+    every execution that starts afterwards (PREEMPTED), so that a request that was just arriving
+    cannot keep the process, and its client, waiting."""
     ctx.shut_down()
     return stop(ctx)
