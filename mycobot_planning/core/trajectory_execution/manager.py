@@ -224,11 +224,10 @@ class TrajectoryExecutionManager:
         return self.executing
 
     def shut_down(self) -> None:
-        """Refuse every execution from now on (PREEMPTED) and stop the running one: the process
-        is going down, and a motion started now would outlive its supervision."""
+        """Refuse every execution from now on (PREEMPTED): the process is going down, and a
+        motion started now would outlive its supervision (stop() ends the running one)."""
         with self._state_lock:
             self._shut_down = True
-        self.stop()
 
     def _begin(self, description: str) -> MoveItErrorCode | None:
         with self._state_lock:
