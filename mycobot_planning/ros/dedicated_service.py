@@ -3,9 +3,14 @@
 Why: rclpy's multi-threaded executor rebuilds the node's whole wait set in Python three times
 per request (move_group's: 44 entities, 200-250 µs each time), and those rebuilds compete with
 the handler for the interpreter: about 1 ms of each move_group call (docs/bench.md, moveit_api).
-A DedicatedService waits in a wait set of its own (the service and a guard condition that stops
-it) on ``threads`` threads; the thread that takes a request runs the handler and sends the
-response, so up to ``threads`` requests of the service run at once. The rest of the node (its
+A DedicatedService answers on ``threads`` threads as leader and followers: one thread (the
+leader) waits for requests in a wait set of its own (the service and two guard conditions); the
+one that takes a request hands the waiting to an idle follower, then runs the handler and sends the
+response, so up to ``threads`` requests of the service run at once. A thread that has answered
+takes the lead back from a leader still waiting, so one client's requests keep landing on the same
+thread (its caches warm). Letting all threads wait together instead woke every one of them on each
+request and spread one client's requests over all of them: about 0.25 ms of each move_group plan
+call (docs/bench.md, moveit_api). The rest of the node (its
 stop topic, its actions' cancels) stays on the executor and never waits behind these requests.
 The service is created through rclpy's own Service class, so it is on the ROS graph as any
 other (``ros2 service list``, clients' ``wait_for_service``).
@@ -23,11 +28,25 @@ from rclpy.qos import QoSProfile, qos_profile_services_default
 from rclpy.service import Service
 from rclpy.type_support import check_is_valid_srv_type
 
-__all__ = ["DedicatedService"]
+__all__ = ["DedicatedService", "after_response"]
 
 #: s: how often an idle thread looks whether its context is still up (rclpy's shutdown does not
 #: wake a wait set that holds none of the context's own guard conditions)
 _POLL_S = 0.25
+
+
+_HANDLING = threading.local()  # .pending: what runs once this thread's response is sent
+
+
+def after_response(work: Callable[[], None]) -> bool:
+    """Run ``work`` once the response of the request this thread is handling has been sent: for
+    what the client does not wait for (a log line, waking a publisher thread), so it does not add to
+    the call's time. False (``work`` not taken: run it yourself) outside a DedicatedService handler."""
+    pending = getattr(_HANDLING, "pending", None)
+    if pending is None:
+        return False
+    pending.append(work)
+    return True
 
 
 class DedicatedService:
@@ -48,7 +67,12 @@ class DedicatedService:
         # rclpy's Service for its response sending and destruction; never added to the node, so
         # no executor waits on it
         self._service = Service(impl, srv_type, name, handler, None, qos_profile)
-        self._wake = GuardCondition(None, None, context=self._context)
+        self._wake = GuardCondition(None, None, context=self._context)  # stop
+        self._yield = GuardCondition(None, None, context=self._context)  # give the lead back
+        self._turns = threading.Lock()  # guards the three below
+        self._leading = False  # a thread waits for the next request
+        self._followers: list[threading.Event] = []  # idle threads, the latest idle last
+        self._reclaimer: threading.Event | None = None  # a thread that answered, to lead next
         self._threads = [threading.Thread(target=self._serve, name=f"service {name}", daemon=True)
                          for _ in range(threads)]
         for thread in self._threads:
@@ -66,33 +90,114 @@ class DedicatedService:
             self._wake.trigger()
         except Exception:  # the context is gone already: the threads see it on their next poll
             pass
+        with self._turns:
+            for turn in [*self._followers, self._reclaimer]:
+                if turn is not None:
+                    turn.set()
         for thread in self._threads:
             if thread is not threading.current_thread():
                 thread.join(timeout)
         self._service.destroy()
         self._wake.destroy()
+        self._yield.destroy()
 
     def _serve(self) -> None:
+        turn = threading.Event()  # set when this thread is to lead (or to stop)
+        leading = False
         try:
             with self._context.handle:
-                wait_set = _rclpy.WaitSet(0, 1, 0, 0, 1, 0, self._context.handle)
-            while not self._stopping and self._context.ok():
-                with self._service.handle, self._wake.handle:
-                    wait_set.clear_entities()
-                    wait_set.add_service(self._service.handle)
-                    wait_set.add_guard_condition(self._wake.handle)
-                    wait_set.wait(int(_POLL_S * 1e9))
-                    if self._stopping or not wait_set.get_ready_entities("service"):
-                        continue
-                    taken = self._service.handle.service_take_request(self._service.srv_type.Request)
-                if taken is None or taken[1] is None:  # another thread took it first
-                    continue
-                self._answer(*taken)
+                wait_set = _rclpy.WaitSet(0, 2, 0, 0, 1, 0, self._context.handle)
+            answered = False
+            while self._lead(turn, answered):
+                leading = True
+                taken = self._take(wait_set)
+                leading = False
+                self._hand_over()
+                answered = taken is not None
+                if answered:
+                    self._answer(*taken)
         except Exception as exc:  # a handle destroyed or the context shut down under a wait
-            if self._context.ok() and not self._stopping:
+            if leading:
+                self._hand_over()
+            if self._running():
                 self._node.get_logger().error(f"{self.srv_name}: stopped answering: {type(exc).__name__}: {exc}")
 
+    def _running(self) -> bool:
+        return not self._stopping and self._context.ok()
+
+    def _lead(self, turn: threading.Event, answered: bool) -> bool:
+        """Become the thread that waits for requests: at once if none does; else, if this thread
+        has just ``answered``, take the lead back from the waiting leader; else wait for a turn.
+        False when the service stops (the lead then passes on, so every thread ends soon)."""
+        reclaim = False
+        with self._turns:
+            if not self._leading:
+                self._leading = True
+                turn.set()
+            else:
+                turn.clear()
+                if answered and self._reclaimer is None:
+                    self._reclaimer, reclaim = turn, True
+                else:
+                    self._followers.append(turn)
+        if reclaim:
+            self._yield.trigger()
+        while not turn.wait(_POLL_S):
+            if not self._running():
+                with self._turns:
+                    if turn in self._followers:
+                        self._followers.remove(turn)
+                        return False
+                    if self._reclaimer is turn:
+                        self._reclaimer = None
+                        return False
+        if self._running():
+            return True
+        self._hand_over()
+        return False
+
+    def _hand_over(self) -> None:
+        """Give the waiting to the thread that asked for it back, else to the follower idle the
+        shortest time."""
+        with self._turns:
+            if self._reclaimer is not None:
+                self._reclaimer.set()
+                self._reclaimer = None
+            elif self._followers:
+                self._followers.pop().set()
+            else:
+                self._leading = False
+
+    def _take(self, wait_set: Any) -> tuple[Any, Any] | None:
+        """Wait for a request and take it; None when the service stops or a thread that
+        answered wants the lead back."""
+        while self._running() and self._reclaimer is None:
+            with self._service.handle, self._wake.handle, self._yield.handle:
+                wait_set.clear_entities()
+                wait_set.add_service(self._service.handle)
+                wait_set.add_guard_condition(self._wake.handle)
+                wait_set.add_guard_condition(self._yield.handle)
+                wait_set.wait(int(_POLL_S * 1e9))
+                if self._stopping or not wait_set.get_ready_entities("service"):
+                    continue
+                taken = self._service.handle.service_take_request(self._service.srv_type.Request)
+            if taken is not None and taken[1] is not None:
+                return taken
+        return None
+
     def _answer(self, request: Any, header: Any) -> None:
+        _HANDLING.pending = pending = []
+        try:
+            self._respond(request, header)
+        finally:
+            _HANDLING.pending = None
+            for work in pending:
+                try:
+                    work()
+                except Exception as exc:
+                    self._node.get_logger().error(f"{self.srv_name}: after the response: {type(exc).__name__}: {exc}")
+
+    def _respond(self, request: Any, header: Any) -> None:
         try:
             response = self._handler(request, self._service.srv_type.Response())
         except Exception as exc:  # handlers answer their own failures; this is the last guard

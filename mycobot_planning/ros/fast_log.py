@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import sys
 import time
-from typing import Any, Hashable
+from typing import Any, Callable, Hashable
 
 from rclpy.impl.implementation_singleton import rclpy_implementation as rcutils_binding
 from rclpy.logging import LoggingSeverity
@@ -21,15 +21,19 @@ SEVERITIES = {"debug": LoggingSeverity.DEBUG, "info": LoggingSeverity.INFO, "war
               "warn": LoggingSeverity.WARN, "error": LoggingSeverity.ERROR, "fatal": LoggingSeverity.FATAL}
 
 
-def log(logger: Any, level: str, text: str, depth: int = 1) -> bool:
+def log(logger: Any, level: str, text: str, depth: int = 1,
+        defer: Callable[[Callable[[], None]], bool] | None = None) -> bool:
     """Log ``text`` at ``level`` ("debug", "info", "warning", "error", "fatal") on the rclpy
-    ``logger``, as coming from the caller ``depth`` frames up; False when the level is off."""
+    ``logger``, as coming from the caller ``depth`` frames up; False when the level is off. With
+    ``defer`` (dedicated_service.after_response), the line is written when ``defer`` runs it, if
+    it takes it (its time stamp is then that moment's)."""
     severity = SEVERITIES[level]
     if not logger.is_enabled_for(severity):
         return False
     frame = sys._getframe(depth)
-    rcutils_binding.rclpy_logging_rcutils_log(severity, logger.name, text, frame.f_code.co_name,
-                                              frame.f_code.co_filename, frame.f_lineno)
+    line = (severity, logger.name, text, frame.f_code.co_name, frame.f_code.co_filename, frame.f_lineno)
+    if defer is None or not defer(lambda: rcutils_binding.rclpy_logging_rcutils_log(*line)):
+        rcutils_binding.rclpy_logging_rcutils_log(*line)
     return True
 
 

@@ -1,16 +1,19 @@
 """mycobot_planning.ros.dedicated_service: a service answered on threads of its own (move_group's
-services are), on the ROS graph as any other, up to ``threads`` requests at once, never behind the
-node's executor, surviving a handler that raises, and gone after close()."""
+services are), on the ROS graph as any other, up to ``threads`` requests at once, one client's
+requests on one thread, never behind the node's executor, surviving a handler that raises, work
+left for after the response (after_response), and gone after close()."""
 from __future__ import annotations
 
 import threading
+import time
+from collections import Counter
 from typing import Any
 
 import pytest
 from std_msgs.msg import String
 from std_srvs.srv import SetBool
 
-from mycobot_planning.ros.dedicated_service import DedicatedService
+from mycobot_planning.ros.dedicated_service import DedicatedService, after_response
 from ros_testing import ProbeNode, use_session_domain, wait_until
 
 NAME = "/dedicated_test/set"
@@ -131,3 +134,56 @@ def test_a_service_needs_a_thread(pair):
     server, _ = pair
     with pytest.raises(ValueError, match="at least one thread"):
         DedicatedService(server.node, SetBool, NAME, lambda q, r: r, threads=0)
+
+
+def test_one_clients_requests_in_turn_land_on_one_thread(pair):
+    """The thread that answered takes the waiting back (leader and followers), so requests that
+    come one after another run on one thread, however many the service has."""
+    server, client = pair
+    idents: list[int] = []
+
+    def handler(request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
+        idents.append(threading.get_ident())
+        response.success = True
+        return response
+
+    service = DedicatedService(server.node, SetBool, NAME, handler, threads=4)
+    try:
+        for _ in range(10):
+            assert client.call(SetBool, NAME, SetBool.Request(data=True)).success
+            time.sleep(0.05)  # the answering thread takes the lead back meanwhile
+        _, most = Counter(idents).most_common(1)[0]
+        assert most >= 9, f"10 requests in turn ran on {len(set(idents))} threads: {Counter(idents)}"
+    finally:
+        service.close()
+    assert not any(thread.is_alive() for thread in service._threads)
+
+
+def test_work_after_the_response_runs_once_the_client_has_its_answer(pair):
+    """after_response: what the handler leaves for later runs after the response is sent (a
+    client never waits for it); outside a handler nothing is taken."""
+    server, client = pair
+    release, ran = threading.Event(), threading.Event()
+    taken: list[bool] = []
+
+    def later() -> None:
+        release.wait(20.0)  # had it run before the response, the client would wait for this
+        ran.set()
+
+    def handler(request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
+        taken.append(after_response(later))
+        response.success = True
+        return response
+
+    assert after_response(later) is False  # not in a handler: the caller runs it itself
+    service = DedicatedService(server.node, SetBool, NAME, handler, threads=1)
+    try:
+        future = _call_async(client, True)
+        assert wait_until(future.done, 10.0) and future.result().success
+        assert taken == [True] and not ran.is_set()
+        release.set()
+        assert ran.wait(10.0)
+        assert client.call(SetBool, NAME, SetBool.Request(data=True)).success  # the thread goes on
+    finally:
+        release.set()
+        service.close()

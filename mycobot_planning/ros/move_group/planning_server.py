@@ -40,6 +40,7 @@ from mycobot_planning.core.robot_model.robot_model import RobotModel
 from mycobot_planning.core.trajectory_cache import TrajectoryCacheError
 from mycobot_planning.core.trajectory_execution import ExecutionSettings, load_controllers
 from mycobot_planning.ros import fast_log
+from mycobot_planning.ros.dedicated_service import after_response
 from mycobot_planning.ros.move_group.controller_bus import ActionControllerBus
 from mycobot_planning.core.warehouse.robot_state_storage import RobotStateStorage
 from mycobot_planning.ros.move_group.move_group import MoveGroupFace
@@ -358,9 +359,10 @@ class PlanningServer(Node):
 
     def _log(self, level: str, text: str) -> None:
         # Texts may echo request strings: log_safe escapes what rclpy's logging cannot encode.
-        # fast_log: rclpy's own logger.info costs most of a millisecond a line (issue 26's overhead)
+        # fast_log: rclpy's own logger.info costs most of a millisecond a line (issue 26's overhead);
+        # in a service handler the line is written once the response is sent (after_response)
         fast_log.log(self.get_logger(), level if level in ("error", "warning") else "info",
-                     log_safe(text, limit=8000), depth=2)
+                     log_safe(text, limit=8000), depth=2, defer=after_response)
 
     def _on_feedback(self) -> None:
         self.core.executor.notify()
@@ -473,6 +475,11 @@ class PlanningServer(Node):
                 self._publish_markers_locked(None, attached, positions)  # world markers unchanged
 
     def _queue_display(self, trajectory: JointTrajectory) -> None:
+        # a service's plan: the display thread is woken once the response is sent
+        if not after_response(lambda: self._queue_display_now(trajectory)):
+            self._queue_display_now(trajectory)
+
+    def _queue_display_now(self, trajectory: JointTrajectory) -> None:
         with self._display_wake:
             self._display_next = trajectory
             self._display_wake.notify()
