@@ -72,7 +72,7 @@ class DedicatedService:
         self._turns = threading.Lock()  # guards the three below
         self._leading = False  # a thread waits for the next request
         self._followers: list[threading.Event] = []  # idle threads, the latest idle last
-        self._reclaimer: threading.Event | None = None  # a thread that answered, to lead next
+        self._reclaimer: threading.Event | None = None  # a thread that answered and waits again
         self._threads = [threading.Thread(target=self._serve, name=f"service {name}", daemon=True)
                          for _ in range(threads)]
         for thread in self._threads:
@@ -110,7 +110,7 @@ class DedicatedService:
             answered = False
             while self._lead(turn, answered):
                 leading = True
-                taken = self._take(wait_set)
+                taken = self._take(wait_set, turn)
                 leading = False
                 self._hand_over()
                 answered = taken is not None
@@ -126,21 +126,20 @@ class DedicatedService:
         return not self._stopping and self._context.ok()
 
     def _lead(self, turn: threading.Event, answered: bool) -> bool:
-        """Become the thread that waits for requests: at once if none does; else, if this thread
-        has just ``answered``, take the lead back from the waiting leader; else wait for a turn.
-        False when the service stops (the lead then passes on, so every thread ends soon)."""
-        reclaim = False
+        """Become a thread that waits for requests: at once if none does, or if this thread has
+        just ``answered`` (the waiting leader then steps down when it sees it); else wait for a
+        turn. False when the service stops (the lead then passes on, so every thread ends soon)."""
         with self._turns:
             if not self._leading:
                 self._leading = True
                 turn.set()
+            elif answered and self._reclaimer is None:
+                self._reclaimer = turn
+                turn.set()
             else:
                 turn.clear()
-                if answered and self._reclaimer is None:
-                    self._reclaimer, reclaim = turn, True
-                else:
-                    self._followers.append(turn)
-        if reclaim:
+                self._followers.append(turn)
+        if self._reclaimer is turn:
             self._yield.trigger()
         while not turn.wait(_POLL_S):
             if not self._running():
@@ -148,30 +147,26 @@ class DedicatedService:
                     if turn in self._followers:
                         self._followers.remove(turn)
                         return False
-                    if self._reclaimer is turn:
-                        self._reclaimer = None
-                        return False
         if self._running():
             return True
         self._hand_over()
         return False
 
     def _hand_over(self) -> None:
-        """Give the waiting to the thread that asked for it back, else to the follower idle the
-        shortest time."""
+        """Leave the waiting to another thread: to the one that took it back already if there is
+        one, else to the follower idle the shortest time."""
         with self._turns:
             if self._reclaimer is not None:
-                self._reclaimer.set()
-                self._reclaimer = None
+                self._reclaimer = None  # it waits already: the only leader from now on
             elif self._followers:
                 self._followers.pop().set()
             else:
                 self._leading = False
 
-    def _take(self, wait_set: Any) -> tuple[Any, Any] | None:
-        """Wait for a request and take it; None when the service stops or a thread that
-        answered wants the lead back."""
-        while self._running() and self._reclaimer is None:
+    def _take(self, wait_set: Any, turn: threading.Event) -> tuple[Any, Any] | None:
+        """Wait for a request and take it; None when the service stops or another thread that
+        answered has taken the waiting back."""
+        while self._running() and self._reclaimer in (None, turn):
             with self._service.handle, self._wake.handle, self._yield.handle:
                 wait_set.clear_entities()
                 wait_set.add_service(self._service.handle)
