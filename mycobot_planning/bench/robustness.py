@@ -19,7 +19,9 @@ For each case the runner checks what a user relies on:
   code other than SUCCESS with a message, a parameter refusal with a reason); an answer that
   leaks Python internals (``Traceback``, ``IndexError`` ...) counts as accepted_bad,
 * the planning scene and the robot are unchanged afterwards (else half_applied, unsafe_motion),
-  and every node is still alive.
+  and every node is still alive: looked at 0.3 s after the answer for what reaches the
+  controllers or goes without an answer (action goals, topics), at once after move_group's
+  services, which command no motion and answer once their scene change is in place.
 
 Inputs without an answer (topics) are refused when the node stays alive and nothing changed.
 """
@@ -272,7 +274,7 @@ class Runner:
         before = self.snapshot()
         started = time.monotonic()
         verdict, detail = self._send(case)
-        if verdict == "refused" and case.interface in ("controller", "topic", "moveit"):
+        if verdict == "refused" and self._may_act_later(case):
             time.sleep(0.3)  # let a wrongly accepted command show its effect
         dead = self._dead()
         if dead is not None:
@@ -286,6 +288,18 @@ class Runner:
         if changed is not None:
             return Outcome(case, changed[0], f"{changed[1]}; answer: {detail}")
         return Outcome(case, "refused", f"{detail} ({time.monotonic() - started:.2f} s)")
+
+    @staticmethod
+    def _may_act_later(case: Case) -> bool:
+        """Whether a refused input could still show its effect after its answer: what reaches the
+        controllers (their topics, move_group's and the controllers' action goals) or the scene
+        without an answer (topics). A move_group service (plan, IK, FK, validity, Cartesian path,
+        scene apply, planner parameters) commands no motion, and its scene change, if any, is in
+        place when it answers, so the check right after it is the whole check (saves 0.3 s on
+        each of ~160 cases)."""
+        if case.interface in ("controller", "topic"):
+            return True
+        return case.interface == "moveit" and case.payload.kind == "action"
 
     def _send(self, case: Case) -> tuple[str, str]:
         p = self.prober
