@@ -187,8 +187,12 @@ def move(client: Client, values) -> None:
 # ------------------------------------------------------------------------------- planning
 def test_plan_kinematic_path_plans_a_joint_goal_from_the_current_state(client: Client) -> None:
     move(client, READY)
+    logged = client.server.output().count("planned 'arm' with ompl/")
     response = client.call(GetMotionPlan, "/plan_kinematic_path", joint_goal(FAR)).motion_plan_response
     assert response.error_code.val == C.SUCCESS and response.error_code.source
+    # the plan's log line, written once the response is on its way (after_response), is written
+    assert wait_until(lambda: client.server.output().count("planned 'arm' with ompl/") > logged, 10.0), \
+        client.server.output()[-2000:]
     assert response.group_name == "arm"
     jt = response.trajectory.joint_trajectory
     assert list(jt.joint_names) == ARM

@@ -360,9 +360,11 @@ class PlanningServer(Node):
     def _log(self, level: str, text: str) -> None:
         # Texts may echo request strings: log_safe escapes what rclpy's logging cannot encode.
         # fast_log: rclpy's own logger.info costs most of a millisecond a line (issue 26's overhead);
-        # in a service handler the line is written once the response is sent (after_response)
-        fast_log.log(self.get_logger(), level if level in ("error", "warning") else "info",
-                     log_safe(text, limit=8000), depth=2, defer=after_response)
+        # in a service handler an info line is written once the response is sent (after_response),
+        # warnings and errors at once
+        severe = level in ("error", "warning")
+        fast_log.log(self.get_logger(), level if severe else "info", log_safe(text, limit=8000), depth=2,
+                     defer=None if severe else after_response)
 
     def _on_feedback(self) -> None:
         self.core.executor.notify()
