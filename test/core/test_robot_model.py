@@ -201,3 +201,52 @@ def test_a_link_named_like_a_joint_is_the_link():
     scene.add_object(CollisionObject.box("part", [0.01, 0.01, 0.01], pose))
     scene.attach_object("part", "gripperStator")
     assert scene.is_attached("part")
+
+
+_THREE_KINDS_URDF = """<robot name="three_kinds">
+  <link name="base"/><link name="a"/><link name="b"/><link name="c"/>
+  <joint name="j_rev" type="revolute"><parent link="base"/><child link="a"/><axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <joint name="j_cont" type="continuous"><parent link="a"/><child link="b"/><axis xyz="0 1 0"/>
+    <origin xyz="0 0 0.1"/><limit effort="1" velocity="1"/></joint>
+  <joint name="j_mimic" type="revolute"><parent link="b"/><child link="c"/><axis xyz="0 1 0"/>
+    <origin xyz="0 0 0.1"/><limit lower="-2" upper="2" effort="1" velocity="1"/>
+    <mimic joint="j_rev" multiplier="2" offset="0"/></joint>
+</robot>"""
+
+
+def _plain_q_slots(model: RobotModel, indices: np.ndarray) -> np.ndarray | None:
+    """q_slots' rule written out: slots only for variables that are neither continuous nor a
+    mimic source, by writing each alone through to_q."""
+    base = model.to_q(model.default_positions())
+    slots = []
+    for index in indices:
+        values = model.default_positions()
+        values[index] += 0.25
+        changed = np.flatnonzero(~np.isclose(model.to_q(values), base))
+        if changed.size != 1:
+            return None  # a mimic source (several slots) or a continuous joint (cos, sin)
+        slots.append(int(changed[0]))
+    return np.array(slots)
+
+
+def test_q_slots_memoised_match_the_plain_rule_and_stay_private(mycobot: RobotModel, panda: RobotModel):
+    """RobotModel.q_slots is memoised per index set: on robots with mimic followers (myCobot's
+    gripper), a continuous joint and plain chains, every subset answers as the plain rule, the
+    same on a second ask, and a caller writing into its answer changes no later one."""
+    three = RobotModel.from_strings(_THREE_KINDS_URDF, '<robot name="three_kinds"><group name="all"><chain base_link="base" tip_link="c"/></group></robot>')
+    rng = np.random.default_rng(7)
+    for model in (mycobot, panda, three):
+        n = len(model.variable_names)
+        subsets = [np.arange(n)] + [np.sort(rng.choice(n, size=int(rng.integers(1, n + 1)), replace=False))
+                                    for _ in range(12)]
+        for indices in subsets:
+            plain = _plain_q_slots(model, indices)
+            for _ in range(2):
+                slots = model.q_slots(indices)
+                if plain is None:
+                    assert slots is None, (model.name, indices)
+                else:
+                    assert slots is not None and np.array_equal(slots, plain), (model.name, indices, slots, plain)
+                    slots[:] = -1  # the caller's copy: the next answer is unaffected
+    assert three.q_slots(np.array([0])) is None and three.q_slots(np.array([1])) is None
