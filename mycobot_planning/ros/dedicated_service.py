@@ -1,19 +1,13 @@
 """A ROS service answered on threads of its own, outside its node's executor.
 
-Why: rclpy's multi-threaded executor rebuilds the node's whole wait set in Python three times
-per request (move_group's: 44 entities, 200-250 µs each time), and those rebuilds compete with
-the handler for the interpreter: about 1 ms of each move_group call (docs/bench.md, moveit_api).
-A DedicatedService answers on ``threads`` threads as leader and followers: one thread (the
-leader) waits for requests in a wait set of its own (the service and two guard conditions); the
-one that takes a request hands the waiting to an idle follower, then runs the handler and sends the
-response, so up to ``threads`` requests of the service run at once. A thread that has answered
-takes the lead back from a leader still waiting, so one client's requests keep landing on the same
-thread (its caches warm). Letting all threads wait together instead woke every one of them on each
-request and spread one client's requests over all of them: about 0.25 ms of each move_group plan
-call (docs/bench.md, moveit_api). The rest of the node (its
-stop topic, its actions' cancels) stays on the executor and never waits behind these requests.
-The service is created through rclpy's own Service class, so it is on the ROS graph as any
-other (``ros2 service list``, clients' ``wait_for_service``).
+Why: rclpy's multi-threaded executor rebuilds the node's whole wait set in Python three times per
+request (move_group's: 44 entities, 200-250 µs each), competing with the handler: about 1 ms of
+each move_group call. Here ``threads`` threads take turns (leader and followers): one waits in a
+wait set of its own; the one that takes a request wakes a follower to wait instead, answers, then
+takes the waiting back, so requests in turn stay on one warm thread and up to ``threads`` run at
+once (all waiting together woke every thread per request: 0.25 ms a plan; docs/bench.md,
+moveit_api). The node's executor (stop topic, cancels) never waits behind these requests. The
+service is rclpy's own Service, on the ROS graph as any other.
 """
 from __future__ import annotations
 
