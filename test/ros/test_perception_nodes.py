@@ -398,7 +398,9 @@ def test_perception_object_source_replaces_the_seed_objects(system):
         # perception_padding widens the perceived cylinder for planning (the scene and the task's dimensions)
         padded = PerceptionObjectSource(_TaskNodeLike(node, scene, RobotModel.mycobot(), perception_padding=0.005))
         wide = padded.setup_planning_scene(params)
-        assert wide.object_dimensions[1] == pytest.approx(out.object_dimensions[1] + 0.005, abs=2e-4)
+        # a fresh detection: its perceived radius varies by a few 0.1 mm from the first one's
+        # (0.0123 then 0.0125 m in one fresh-clone run), so it is held to the true radius + 5 mm
+        assert wide.object_dimensions[1] == pytest.approx(0.0125 + 0.005, abs=0.0015)
         assert scene.get_objects()["cylinder_0"].primitives[0].dimensions[1] == pytest.approx(
             wide.object_dimensions[1])
         # no perception_server answering: a clear ValueError
