@@ -19,13 +19,23 @@ while a response is dispatched, so a done callback that sends the next request (
 response asking for the result) cannot deadlock. Written by hand because the fixed rclpy is not
 installable here; test/ros/test_action_client_race.py shows the unfixed methods still lose the
 response, and says when this module can go.
+
+A second loss, in the middleware: Fast DDS drops a response the server sends before it has
+matched this client's response reader ("failed to send response (timeout): client will not
+receive response"; seen on a loaded machine, the goal accepted and run, the client waiting
+forever). The action's status topic lists every goal the server accepted, so a goal still waiting
+for its response when the status lists it is completed from there (accepted), and the response,
+should it come later, is dropped quietly. Without this a controller could run a trajectory whose
+sender has no handle to cancel it.
 """
 from __future__ import annotations
 
 import functools
 import threading
+import weakref
 from typing import Any, Callable
 
+from action_msgs.msg import GoalStatus
 from rclpy.action import client as _client
 
 __all__ = ["ActionClient", "UNFIXED_METHODS", "fix_rclpy_action_client"]
@@ -40,6 +50,10 @@ UNFIXED_METHODS: dict[str, Callable[..., Any]] = {
     for name in (*_SENDERS, "execute")}
 
 _LOCK_ATTRIBUTE = "_mycobot_request_lock"
+#: per client: sequence numbers of goal requests completed from the status topic (a late response
+#: to one of them is dropped)
+_FROM_STATUS_ATTRIBUTE = "_mycobot_goals_from_status"
+_FINAL = (GoalStatus.STATUS_SUCCEEDED, GoalStatus.STATUS_CANCELED, GoalStatus.STATUS_ABORTED)
 _creating = threading.Lock()
 
 
@@ -61,13 +75,40 @@ def _recorded_under_lock(send: Callable[..., Any]) -> Callable[..., Any]:
     return sender
 
 
+def _accepted_from_status(client: Any, status_list: Any) -> None:
+    """Complete the pending goal requests whose goals ``status_list`` lists: the server accepted
+    them (it lists no other), their responses are lost or late."""
+    pending = client._pending_goal_requests
+    if not pending:
+        return
+    listed = {bytes(s.goal_info.goal_id.uuid): s.status for s in status_list}
+    for sequence, future in list(pending.items()):
+        goal_id = client._goal_sequence_number_to_goal_id.get(sequence)
+        status = listed.get(bytes(goal_id.uuid)) if goal_id is not None else None
+        if status is None or future.done():
+            continue
+        handle = _client.ClientGoalHandle(client, goal_id, client._action_type.Impl.SendGoalService.Response(
+            accepted=True))
+        handle._status = status
+        if status not in _FINAL:  # rclpy keeps only running goals for later status updates
+            client._goal_handles[bytes(goal_id.uuid)] = weakref.ref(handle)
+        client.__dict__.setdefault(_FROM_STATUS_ATTRIBUTE, set()).add(sequence)
+        future.set_result(handle)
+
+
 def _dispatched_after_recording(execute: Callable[..., Any]) -> Callable[..., Any]:
     @functools.wraps(execute)
     async def dispatch(self: Any, taken_data: Any) -> None:
         # a response taken while its request is being recorded waits here until it is recorded
         with _request_lock(self):
             pass
+        answered = self.__dict__.get(_FROM_STATUS_ATTRIBUTE)
+        if answered and "goal" in taken_data and taken_data["goal"][0] in answered:
+            answered.discard(taken_data["goal"][0])  # the status topic answered it already
+            taken_data = {k: v for k, v in taken_data.items() if k != "goal"}
         await execute(self, taken_data)
+        if "status" in taken_data:
+            _accepted_from_status(self, taken_data["status"].status_list)
     dispatch._mycobot_fixed = True  # type: ignore[attr-defined]
     return dispatch
 

@@ -120,3 +120,35 @@ def test_the_unfixed_client_loses_the_goal_response_in_the_same_situation(probe)
     assert client.wait_for_server(timeout_sec=10.0)
     handle, _ = _send_and_wait(client)
     assert handle is None, "rclpy's ActionClient no longer loses the response: drop the workaround"
+
+
+@pytest.mark.parametrize("make", [ActionClient, RclpyActionClient], ids=["interfaces_py", "rclpy.action"])
+def test_a_goal_response_lost_in_the_middleware_is_answered_by_the_status_topic(probe, make):
+    """Fast DDS drops a response the server sends before it has matched the client's reader (seen
+    on a loaded machine). Here the client never sees a goal response: the goal still completes as
+    accepted from the action's status topic, its result arrives, and the response, delivered late,
+    is dropped without a warning or an error."""
+    client = make(probe.node, GripperCommand, "/race_test/gripper_cmd")
+    assert client.wait_for_server(timeout_sec=10.0)
+    held: list[Any] = []
+    execute = type(client).execute
+
+    async def lossy(taken_data: Any) -> None:
+        if "goal" in taken_data:
+            held.append(taken_data["goal"])
+        await execute(client, {k: v for k, v in taken_data.items() if k != "goal"})
+
+    client.execute = lossy
+    goal = GripperCommand.Goal()
+    goal.command.position = 0.25
+    future = client.send_goal_async(goal)
+    assert wait_until(future.done, 5.0), "the goal was never answered"
+    handle = future.result()
+    assert handle.accepted
+    result = handle.get_result_async()
+    assert wait_until(result.done, 5.0) and result.result().result.reached_goal
+    assert wait_until(lambda: bool(held), 5.0), "the server's response never reached the client at all"
+    late = execute(client, {"goal": held[0]})  # the response arriving after all
+    with pytest.raises(StopIteration):
+        late.send(None)
+    assert not client.__dict__.get("_mycobot_goals_from_status"), "the late response was not recognised"

@@ -1,11 +1,5 @@
 """A blocking client of the objective_server: send /do_objective, wait for the result, and read
-the final root blackboard from ~/tree_state (``run_objective --server`` and tests use it).
-
-A goal's response can be lost on a loaded machine: when the server has not yet matched this
-client's response reader, Fast DDS drops it ("failed to send response (timeout): client will not
-receive response") although the goal was accepted and runs. rclpy's future then never completes.
-So the client names its goal itself and also reads the action's status topic: a goal the status
-lists as accepted is followed to its result without the lost response."""
+the final root blackboard from ~/tree_state (``run_objective --server`` and tests use it)."""
 from __future__ import annotations
 
 import json
@@ -15,16 +9,13 @@ import uuid
 from typing import Any
 
 import rclpy
-from action_msgs.msg import GoalStatus, GoalStatusArray
+from action_msgs.msg import GoalStatus
 from mycobot_objective_msgs.action import DoObjectiveSequence
 from mycobot_objective_msgs.msg import BehaviorParameter, BehaviorParameterDescription
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
-from rclpy.action.client import ClientGoalHandle
 from rclpy.node import Node
-from rclpy.qos import qos_profile_action_status_default
 from std_msgs.msg import String
-from unique_identifier_msgs.msg import UUID
 
 from interfaces_py.action_client import ActionClient
 from interfaces_py.background_spin import BackgroundSpin
@@ -33,9 +24,6 @@ from mycobot_planning.paths import use_fast_discovery
 from .ros_context import LATCHED
 
 SERVER = "/objective_server"
-ACTION = "/do_objective"
-#: s: how long a goal's response is awaited before the status topic is asked whether it was accepted
-GOAL_RESPONSE_WAIT = 3.0
 
 
 def string_override(name: str, value: str) -> BehaviorParameter:
@@ -57,10 +45,7 @@ class ObjectiveClient:
         self._lock = threading.Lock()
         self._state: dict[str, Any] | None = None
         self.node.create_subscription(String, f"{server}/tree_state", self._on_state, LATCHED)
-        self._action = ActionClient(self.node, DoObjectiveSequence, ACTION)
-        self._listed: set[bytes] = set()  # goal ids the action's status topic has listed
-        self.node.create_subscription(GoalStatusArray, f"{ACTION}/_action/status", self._on_status,
-                                      qos_profile_action_status_default)
+        self._action = ActionClient(self.node, DoObjectiveSequence, "/do_objective")
         executor = SingleThreadedExecutor(context=self._context)
         executor.add_node(self.node)
         self._spin = BackgroundSpin(executor, name="objective client executor")
@@ -68,22 +53,6 @@ class ObjectiveClient:
     def _on_state(self, msg: String) -> None:
         with self._lock:
             self._state = json.loads(msg.data)
-
-    def _on_status(self, msg: GoalStatusArray) -> None:
-        with self._lock:
-            self._listed.update(bytes(s.goal_info.goal_id.uuid) for s in msg.status_list)
-
-    def _accepted_without_response(self, goal_id: UUID) -> ClientGoalHandle | None:
-        """A handle for a goal whose response was lost but that the status topic lists (the server
-        lists only goals it accepted); None while it does not."""
-        with self._lock:
-            listed = bytes(goal_id.uuid) in self._listed
-        if not listed:
-            return None
-        self.node.get_logger().warning(
-            f"{ACTION}: the goal's response never came, but the server lists the goal as accepted: "
-            "following it to its result")
-        return ClientGoalHandle(self._action, goal_id, DoObjectiveSequence.Impl.SendGoalService.Response(accepted=True))
 
     def tree_state(self) -> dict[str, Any] | None:
         with self._lock:
@@ -101,19 +70,13 @@ class ObjectiveClient:
         self.handle = None
         with self._lock:
             self._state = None
-        goal_id = UUID(uuid=list(uuid.uuid4().bytes))
-        sent = self._action.send_goal_async(goal, goal_uuid=goal_id)
-        started = time.monotonic()
-        deadline = started + timeout
-        handle = None
+        sent = self._action.send_goal_async(goal)
+        deadline = time.monotonic() + timeout
         while not sent.done():
-            now = time.monotonic()
-            if now > deadline:
+            if time.monotonic() > deadline:
                 return GoalStatus.STATUS_UNKNOWN, None
-            if now - started > GOAL_RESPONSE_WAIT and (handle := self._accepted_without_response(goal_id)):
-                break
             time.sleep(0.01)
-        self.handle = handle or sent.result()
+        self.handle = sent.result()
         if not self.handle.accepted:
             return GoalStatus.STATUS_UNKNOWN, None
         result = self.handle.get_result_async()
