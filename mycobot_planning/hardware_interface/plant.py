@@ -82,6 +82,12 @@ class Plant(ABC):
         """Begin driving the joints (threads, I/O); ``host`` is the manager."""
         self.host = host
 
+    def follower_time(self, now: float) -> float:
+        """The time the followers run on (their goals' timing, path tolerance and goal_time) when
+        the manager's clock reads ``now``: that clock itself, unless the plant keeps time of its
+        own (a simulation that can fall behind real time). Under the lock."""
+        return now
+
     def read(self, now: float) -> None:
         """Joints → followers (their measured state), before the controllers' update. Under the lock."""
 

@@ -63,6 +63,7 @@ class MujocoPlant(Plant):
         self.arm_controller = arm[0].name
         self.gripper_controller = gripper[0].name if gripper else None
         self._arm_was_active = False
+        self._clock_offset: float | None = None  # follower_time's anchor
         self._gripper_target: float | None = None
         self._index = {name: i for i, name in enumerate(self.variable_names)}
 
@@ -87,22 +88,27 @@ class MujocoPlant(Plant):
         self._host = host
         self.sim.start()
 
-    def _sim_now(self, now: float) -> float:
-        """The controllers' clock reading that the simulation's present corresponds to: ``now``
-        less the time the physics is behind real time. A physics thread that falls behind (a
-        loaded machine) then delays the whole motion, as a simulation with use_sim_time would,
-        instead of leaving the arm behind its trajectory (the servos get the trajectory where
-        the simulation is, and the path tolerance compares the joints with it there)."""
-        return now - self.sim.status().lag
+    def follower_time(self, now: float) -> float:
+        """While a goal runs, the simulation's clock (over the speed factor, which cannot change
+        then), anchored to the manager's clock whenever no goal runs. A physics thread that falls
+        behind real time (a loaded machine), stalls, or drops its debt (simulator.MAX_LAG) then
+        delays the whole motion, its path tolerance and goal_time included, as use_sim_time
+        would: the arm is never judged against a trajectory the physics has not had time to
+        follow. (Before, the manager's clock less the simulator's latest lag: a stalled physics
+        thread left it stale, a dropped debt made it jump ahead, and the arm failed its path
+        tolerance.)"""
+        scaled = self.sim.time / self.sim.speed_factor
+        if self._clock_offset is None or not any(f.active for f, _ in self.followers.values()):
+            self._clock_offset = now - scaled
+        return scaled + self._clock_offset
 
     def read(self, now: float) -> None:
         state = self.sim.joint_states()
         position = dict(zip(state.names, state.positions))
         velocity = dict(zip(state.names, state.velocities))
-        at = self._sim_now(now)
         for follower, _ in self.followers.values():
             follower.measure([position[j] for j in follower.joint_names],
-                             [velocity[j] for j in follower.joint_names], at)
+                             [velocity[j] for j in follower.joint_names], now)
         if self.hand_link:
             sim = self.sim
             ended = self.grasp.sample(sim.time, sim.gripper_state(), sim.link_pose(self.hand_link), sim.object_poses(),
@@ -123,7 +129,7 @@ class MujocoPlant(Plant):
     def write(self, now: float) -> None:
         arm = self.followers[self.arm_controller][0]
         if arm.active:
-            desired = arm.desired_state_at(self._sim_now(now))
+            desired = arm.desired_state_at(now)
             if desired is None:
                 state = arm.state()
                 desired = state.desired_positions, state.desired_velocities

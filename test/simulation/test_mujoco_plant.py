@@ -96,3 +96,53 @@ def test_controllers_that_do_not_match_the_model_are_refused(sim, mycobot):
     with pytest.raises(ValueError, match="one controller of the arm joints"):
         MujocoPlant(mycobot.variable_names, mycobot.default_positions(), sim,
                     [c for c in config.controllers if c.name != "arm_controller"])
+
+
+def run_behind(plant, sim, until, seconds: float, behind) -> None:
+    """The manager's loop on its own clock while the physics does not keep up: ``behind(t)`` is
+    how much of each period the simulation advances at manager time t (0: stalled, 0.5: at half
+    speed), as a physics thread on a loaded machine does."""
+    now = 100.0  # the manager's clock: unrelated to the simulation's
+    end = now + seconds
+    while now < end and not until():
+        t = plant.follower_time(now)
+        plant.read(t)
+        for follower, _ in plant.followers.values():
+            follower.update(t)
+        plant.write(t)
+        share = behind(now - 100.0)
+        if share > 0:
+            sim.advance(PERIOD * share)
+        now += PERIOD
+
+
+def test_a_physics_that_stalls_and_falls_behind_delays_the_motion_instead_of_failing_it(plant, sim):
+    """The followers run on the simulation's clock while a goal runs (as use_sim_time would): a
+    0.6 s stall in the middle of the motion and a phase at half speed leave the arm on its
+    trajectory and the goal succeeds. On the manager's clock (Plant.follower_time, the base rule)
+    the same run fails its path tolerance: the failure a fresh-clone run showed on a loaded
+    machine (0.32 rad from the desired position, tolerance 0.2)."""
+    arm = plant.followers["arm_controller"][0]
+    target = [0.8, -0.3, 0.4, 0.1, 0.2, 0.0]
+
+    def behind(t: float) -> float:
+        return 0.0 if 0.5 <= t < 1.1 else 0.5 if 1.1 <= t < 1.6 else 1.0
+
+    assert arm.submit(move(arm, target, 2.0), plant.follower_time(100.0)).accepted
+    run_behind(plant, sim, lambda: arm.status in ControllerStatus.TERMINAL, 8.0, behind)
+    assert arm.status == ControllerStatus.SUCCEEDED, arm.state().message
+    reached = np.array([sim.joint_states().as_dict()[j] for j in arm.joint_names])
+    assert np.abs(reached - target).max() <= arm.goal_tolerance
+    # between goals the followers' clock is the manager's again
+    assert plant.follower_time(250.0) == 250.0
+
+
+def test_on_the_managers_clock_the_same_stall_fails_the_path_tolerance(plant, sim, monkeypatch):
+    from mycobot_planning.hardware_interface.plant import Plant
+
+    monkeypatch.setattr(type(plant), "follower_time", Plant.follower_time)
+    arm = plant.followers["arm_controller"][0]
+    assert arm.submit(move(arm, [0.8, -0.3, 0.4, 0.1, 0.2, 0.0], 2.0), 100.0).accepted
+    run_behind(plant, sim, lambda: arm.status in ControllerStatus.TERMINAL, 8.0,
+               lambda t: 0.0 if 0.5 <= t < 1.1 else 1.0)
+    assert arm.status == ControllerStatus.FAILED and "path tolerance violated" in arm.state().message

@@ -290,7 +290,7 @@ class ControllerManager(Node):
     def _make_endpoints(self, config: ControllerConfig, follower: JointTrajectoryFollower,
                         indices: np.ndarray) -> Controller:
         name = config.name
-        c = Controller(config, follower, indices, self._lock, self.now, self.get_logger(),
+        c = Controller(config, follower, indices, self._lock, self._follower_now, self.get_logger(),
                        self.create_publisher(String, f"/{name}/state", STATE_QOS), self.plant.commanded)
         # read by the control loop at the start of each cycle, as ros2_control's JTC reads its
         # topic's realtime buffer in update(): a command stream (servo: 100 Hz) would otherwise wake
@@ -356,6 +356,11 @@ class ControllerManager(Node):
     def now(self) -> float:
         """The manager's clock in seconds (the node's clock: ROS time)."""
         return self.now_ns() * 1e-9
+
+    def _follower_now(self) -> float:
+        """The followers' clock: the manager's as the plant runs on it (Plant.follower_time).
+        Called under the lock, as the plant's methods are."""
+        return self.plant.follower_time(self.now())
 
     def now_ns(self) -> int:
         """The node's clock in nanoseconds: ROS time, which is the system's clock unless simulated
@@ -435,7 +440,7 @@ class ControllerManager(Node):
             # command submitted (with its own, later reading) while this cycle waited for the lock
             # would otherwise move the joints past the time their /joint_states is stamped with.
             ns = self.now_ns()
-            now = ns * 1e-9
+            now = self.plant.follower_time(ns * 1e-9)
             self.plant.read(now)
             for c in due:
                 changed, state = c.update_locked(now, report_idle)
