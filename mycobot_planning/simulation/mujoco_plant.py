@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -64,6 +64,7 @@ class MujocoPlant(Plant):
         self.gripper_controller = gripper[0].name if gripper else None
         self._arm_was_active = False
         self._clock_offset: float | None = None  # follower_time's anchor
+        self._order: np.ndarray | None = None  # simulator arm joint -> arm follower column
         self._gripper_target: float | None = None
         self._index = {name: i for i, name in enumerate(self.variable_names)}
 
@@ -102,6 +103,27 @@ class MujocoPlant(Plant):
             self._clock_offset = now - scaled
         return scaled + self._clock_offset
 
+    def _ahead(self, arm: MeasuredTrajectoryFollower,
+               now: float) -> Callable[[float], tuple[np.ndarray, np.ndarray] | None]:
+        """The arm's trajectory as the physics samples it between two controller cycles:
+        simulation time -> arm-order desired (positions, velocities), the followers' clock
+        (``now``, as follower_time gives it) advancing with the simulation's. The follower's own
+        spline, read at each call: a stop or a new goal takes effect at the next physics step."""
+        order = self._arm_order(arm)
+        speed = self.sim.speed_factor
+        offset = now - self.sim.time / speed
+
+        def ahead(sim_time: float) -> tuple[np.ndarray, np.ndarray] | None:
+            desired = arm.desired_state_at(sim_time / speed + offset)
+            return None if desired is None else (desired[0][order], desired[1][order])
+        return ahead
+
+    def _arm_order(self, arm: MeasuredTrajectoryFollower) -> np.ndarray:
+        if self._order is None:
+            names = list(arm.joint_names)
+            self._order = np.array([names.index(j) for j in self.sim.arm_joints], dtype=int)
+        return self._order
+
     def read(self, now: float) -> None:
         state = self.sim.joint_states()
         position = dict(zip(state.names, state.positions))
@@ -133,7 +155,8 @@ class MujocoPlant(Plant):
             if desired is None:
                 state = arm.state()
                 desired = state.desired_positions, state.desired_velocities
-            self.sim.set_arm_command(dict(zip(arm.joint_names, desired[0])), dict(zip(arm.joint_names, desired[1])))
+            self.sim.set_arm_command(dict(zip(arm.joint_names, desired[0])), dict(zip(arm.joint_names, desired[1])),
+                                     ahead=self._ahead(arm, now))
         elif self._arm_was_active:
             self.sim.stop_arm()  # the goal ended (succeeded, stopped, aborted): hold where the arm is
         self._arm_was_active = arm.active

@@ -39,6 +39,10 @@ _LOG = logging.getLogger(__name__)
 #: s: a velocity command is extrapolated at most this long after it arrived, then held (a
 #: controller that stopped sending must not drag the joints on).
 COMMAND_HOLD = 0.05
+#: s: how long after it arrived a command's own reference (set_arm_command's ``ahead``) is followed
+#: before the servos hold its last point: the controller loop may be starved that long on a loaded
+#: machine while the physics goes on
+REFERENCE_HOLD = 0.5
 #: s: behind real time by more than this is reported (log and status)
 BEHIND_THRESHOLD = 0.05
 #: s: behind by more than this, the real-time clock gives up catching up (the debt is dropped)
@@ -88,6 +92,8 @@ class _ArmCommand:
     positions: np.ndarray
     velocities: np.ndarray
     stamp: float
+    #: the commanded motion ahead: simulation time -> arm-order (positions, velocities)
+    ahead: Callable[[float], tuple[np.ndarray, np.ndarray] | None] | None = None
 
 
 class MujocoSimulator:
@@ -218,17 +224,22 @@ class MujocoSimulator:
 
     # ------------------------------------------------------------------ commands
     def set_arm_command(self, positions: Mapping[str, float] | Sequence[float],
-                        velocities: Mapping[str, float] | Sequence[float] | None = None) -> None:
+                        velocities: Mapping[str, float] | Sequence[float] | None = None,
+                        ahead: Callable[[float], tuple[np.ndarray, np.ndarray] | None] | None = None) -> None:
         """Position targets for the arm joints (ros2_control's position command interface), with
         optional velocities (its velocity interface): the servos track ``positions`` extrapolated
         by ``velocities`` until the next command (for at most COMMAND_HOLD, then they hold), with
-        the velocity as feed-forward. Cancels a trajectory being followed. Refuses unknown
-        joints, NaN and positions outside the limits (CommandError), changing nothing."""
+        the velocity as feed-forward. ``ahead`` (simulation time -> arm-order positions and
+        velocities, None when there is no motion ahead): the motion the controller commands next,
+        followed every physics step until the next command (for at most REFERENCE_HOLD, then the
+        servos hold), so a controller loop that runs late leaves the arm on its trajectory.
+        Cancels a trajectory being followed. Refuses unknown joints, NaN and positions outside
+        the limits (CommandError), changing nothing."""
         q = self._arm_vector(positions, "positions")
         qd = np.zeros_like(q) if velocities is None else self._arm_vector(velocities, "velocities", limits=False)
         with self._lock:
             self._trajectory = None
-            self._command = _ArmCommand(q, qd, self.time)
+            self._command = _ArmCommand(q, qd, self.time, ahead)
 
     def follow_trajectory(self, trajectory: TimedTrajectory) -> None:
         """Follow a timed trajectory of the arm joints from now on, sampled every physics step
@@ -479,6 +490,14 @@ class MujocoSimulator:
             return ref_q, ref_qd
         cmd = self._command
         elapsed = now - cmd.stamp
+        if cmd.ahead is not None:
+            held = elapsed >= REFERENCE_HOLD
+            reference = cmd.ahead(cmd.stamp + REFERENCE_HOLD if held else now)
+            if reference is not None:
+                low, high = self._arm_limits[:, 0], self._arm_limits[:, 1]
+                q = np.minimum(np.maximum(reference[0], low), high)
+                return q, np.zeros_like(q) if held else reference[1]
+            return cmd.positions, np.zeros_like(cmd.velocities)
         if elapsed >= COMMAND_HOLD:
             return cmd.positions + cmd.velocities * COMMAND_HOLD, np.zeros_like(cmd.velocities)
         return cmd.positions + cmd.velocities * max(elapsed, 0.0), cmd.velocities

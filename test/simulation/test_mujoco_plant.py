@@ -146,3 +146,37 @@ def test_on_the_managers_clock_the_same_stall_fails_the_path_tolerance(plant, si
     run_behind(plant, sim, lambda: arm.status in ControllerStatus.TERMINAL, 8.0,
                lambda t: 0.0 if 0.5 <= t < 1.1 else 1.0)
     assert arm.status == ControllerStatus.FAILED and "path tolerance violated" in arm.state().message
+
+
+def run_starved(plant, sim, until, seconds: float, starved) -> None:
+    """The manager's loop on the simulation's clock, skipping its cycles while ``starved(t)``
+    (a controller thread that gets no CPU for a while) as the physics goes on."""
+    end = sim.time + seconds
+    start = sim.time
+    while sim.time < end and not until():
+        now = sim.time
+        if not starved(now - start):
+            t = plant.follower_time(now)
+            plant.read(t)
+            for follower, _ in plant.followers.values():
+                follower.update(t)
+            plant.write(t)
+        sim.advance(PERIOD)
+
+
+@pytest.mark.parametrize("lookahead", [True, False], ids=["trajectory_ahead", "last_point_only"])
+def test_a_starved_controller_loop_leaves_the_arm_on_its_trajectory(plant, sim, monkeypatch, lookahead):
+    """The controller loop gets no CPU for 0.45 s in mid-motion while the physics runs on. The
+    physics samples the goal's trajectory itself between two cycles (set_arm_command's
+    ``ahead``), so the arm stays on it and the goal succeeds. With the last commanded point only
+    (held after COMMAND_HOLD) the arm stops while the trajectory goes on, and the goal fails its
+    path tolerance: what a loaded machine did to the twin's pick and place."""
+    if not lookahead:
+        monkeypatch.setattr(type(plant), "_ahead", lambda self, arm, now: None)
+    arm = plant.followers["arm_controller"][0]
+    assert arm.submit(move(arm, [0.8, -0.3, 0.4, 0.1, 0.2, 0.0], 2.0), plant.follower_time(sim.time)).accepted
+    run_starved(plant, sim, lambda: arm.status in ControllerStatus.TERMINAL, 6.0, lambda t: 0.6 <= t < 1.05)
+    if lookahead:
+        assert arm.status == ControllerStatus.SUCCEEDED, arm.state().message
+    else:
+        assert arm.status == ControllerStatus.FAILED and "path tolerance violated" in arm.state().message
