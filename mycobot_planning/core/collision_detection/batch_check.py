@@ -34,8 +34,8 @@ try:  # a pinned dependency; without it the batch path is off and every state is
 except ImportError:  # pragma: no cover - exercised only on an install without numba
     njit = None
 
-__all__ = ["BATCH_MARGIN", "BATCH_RULE_SAMPLES", "MIN_FREE_SHARE", "BatchCheck", "build_batch_check", "joint_tables", "numba_available",
-           "one_state_free"]
+__all__ = ["BATCH_MARGIN", "BATCH_RULE_SAMPLES", "MIN_FREE_SHARE", "BatchCheck", "build_batch_check", "joint_kind",
+           "joint_kinematics", "joint_tables", "numba_available", "one_state_free"]
 
 _LOG = logging.getLogger(__name__)
 
@@ -64,10 +64,29 @@ def numba_available() -> bool:
     return njit is not None
 
 
+def joint_kind(joint: pin.JointModel) -> tuple[int, tuple[float, float, float]] | None:
+    """(kind, axis) of one Pinocchio joint as the compiled forward kinematics sees it; None
+    when it is neither revolute, prismatic nor unbounded revolute about one axis (free flyers,
+    planar, spherical, mimic...)."""
+    name = joint.shortname()
+    if name in ("JointModelRX", "JointModelRY", "JointModelRZ"):
+        return _REVOLUTE, _AXES[name[-1]]
+    if name in ("JointModelPX", "JointModelPY", "JointModelPZ"):
+        return _PRISMATIC, _AXES[name[-1]]
+    if name in ("JointModelRUBX", "JointModelRUBY", "JointModelRUBZ"):
+        return _UNBOUNDED, _AXES[name[-1]]
+    if name == "JointModelRevoluteUnaligned":
+        return _REVOLUTE, tuple(joint.extract().axis)
+    if name == "JointModelPrismaticUnaligned":
+        return _PRISMATIC, tuple(joint.extract().axis)
+    if name == "JointModelRevoluteUnboundedUnaligned":
+        return _UNBOUNDED, tuple(joint.extract().axis)
+    return None
+
+
 def joint_tables(pin_model: pin.Model) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
     """(parents, kinds, configuration index, axes (nj, 3), placements (nj, 4, 4)) of every joint,
-    read from the Pinocchio model; None when a joint is neither revolute, prismatic nor
-    unbounded revolute about one axis (free flyers, planar, spherical, mimic...)."""
+    read from the Pinocchio model; None when a joint is one joint_kind does not know."""
     nj = pin_model.njoints
     parents = np.zeros(nj, dtype=np.int64)
     kinds = np.zeros(nj, dtype=np.int64)
@@ -76,24 +95,13 @@ def joint_tables(pin_model: pin.Model) -> tuple[np.ndarray, np.ndarray, np.ndarr
     placements = np.tile(np.eye(4), (nj, 1, 1))
     for j in range(1, nj):
         joint = pin_model.joints[j]
-        name = joint.shortname()
+        kind = joint_kind(joint)
+        if kind is None:
+            return None
         parents[j] = pin_model.parents[j]
         index[j] = joint.idx_q
         placements[j] = pin_model.jointPlacements[j].homogeneous
-        if name in ("JointModelRX", "JointModelRY", "JointModelRZ"):
-            kinds[j], axes[j] = _REVOLUTE, _AXES[name[-1]]
-        elif name in ("JointModelPX", "JointModelPY", "JointModelPZ"):
-            kinds[j], axes[j] = _PRISMATIC, _AXES[name[-1]]
-        elif name in ("JointModelRUBX", "JointModelRUBY", "JointModelRUBZ"):
-            kinds[j], axes[j] = _UNBOUNDED, _AXES[name[-1]]
-        elif name == "JointModelRevoluteUnaligned":
-            kinds[j], axes[j] = _REVOLUTE, joint.extract().axis
-        elif name == "JointModelPrismaticUnaligned":
-            kinds[j], axes[j] = _PRISMATIC, joint.extract().axis
-        elif name == "JointModelRevoluteUnboundedUnaligned":
-            kinds[j], axes[j] = _UNBOUNDED, joint.extract().axis
-        else:
-            return None
+        kinds[j], axes[j] = kind
     return parents, kinds, index, axes, placements
 
 
@@ -315,8 +323,9 @@ def _place(rot, trans, j, local, out):  # pragma: no cover - compiled
 
 
 @_compiled
-def _kinematics(q, parents, kinds, index, axes, rot0, trans0, rot, trans, base, local_rot):  # pragma: no cover
-    """Every joint's world rotation and translation at configuration q."""
+def joint_kinematics(q, parents, kinds, index, axes, rot0, trans0, rot, trans, base, local_rot):  # pragma: no cover
+    """Every joint's world rotation and translation at configuration q, joints in tree order
+    (a parent before its children; row 0 is the root, set by the caller)."""
     for j in range(1, parents.shape[0]):
         p = parents[j]
         for i in range(3):  # base = rot[p] @ rot0[j]; trans[j] = rot[p] @ trans0[j] + trans[p]
@@ -404,7 +413,7 @@ def _free_states(values, q_ref, slots, ints, floats, out):  # pragma: no cover -
         if not finite:  # NaN would slip through every comparison below: undecided
             out[s] = False
             continue
-        _kinematics(q, parents, kinds, index, axes, rot0, trans0, rot, trans, base, local_rot)
+        joint_kinematics(q, parents, kinds, index, axes, rot0, trans0, rot, trans, base, local_rot)
         for b in range(nb):
             _place(rot, trans, body_joint[b], outer[b, :3], outer_centre[b])
             placed[b] = False

@@ -10,20 +10,19 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
 
 import numpy as np
-import pinocchio as pin
-from scipy.linalg import get_lapack_funcs
 from scipy.spatial.transform import Rotation
 
 from interfaces_py.msgs import MoveItErrorCode
 
 from .cartesian_precision import CartesianPrecision, PrecisionCheck
+from .step_solver import ORIENTATION_TOLERANCE, POSITION_TOLERANCE, step_solver
 from ...errors import PlanningError
 from ...kinematic_constraints.kinematic_constraints import CONSTRAINT_CHECK_STEP
 from ...kinematics.ik_solver import IKSolver
 from ...planning_interface.planning_interface import (MotionPlanResponse, PlanningFailure, check_group, check_start_state,
                                                        failure, time_group_path)
 from ...planning_scene.planning_scene import PlanningScene
-from ...robot_model.robot_model import JointModelGroup, RobotModel, group_configuration
+from ...robot_model.robot_model import JointModelGroup, RobotModel
 from ...robot_state.robot_state import RobotState
 from ...robot_trajectory.robot_trajectory import TimedTrajectory
 from ...transforms import check_pose
@@ -63,11 +62,6 @@ MAX_STEPS = 1_000_000
 #: equal to the trajectory validator's default so both look at the motion equally finely.
 DEFAULT_COLLISION_CHECK_RESOLUTION = 0.005
 
-_POSITION_TOLERANCE = 1e-6  # m, per-step IK accuracy (the line is followed to this)
-_ORIENTATION_TOLERANCE = 1e-5  # rad
-_CORRECTOR_ITERATIONS = 6  # Newton iterations from the previous step before falling back
-_CORRECTOR_MAX_STEP = 0.5  # rad per joint per Newton iteration: larger means leaving the branch
-_DAMPING = 1e-10
 #: Steps whose IK is solved before their checks run (vectorised): the IK done past a refused
 #: step is at most this many steps of wasted work.
 _CHUNK = 32
@@ -265,101 +259,6 @@ def _interpolate_segments(
             np.array(steps_of, dtype=int))
 
 
-# ---------------------------------------------------------------------------- step solver
-class _StepSolver:
-    """Newton corrector for consecutive IK targets of one link, without RobotState objects.
-
-    Holds the frame pose and the group Jacobian at the current solution, so the next step's
-    first Newton iteration (the first-order predictor q + J^+ dx) needs no extra kinematics.
-    Written for the per-step budget (tens of microseconds): LAPACK's gesv directly instead of
-    numpy.linalg.solve, no np.clip/np.max wrappers. Owns its Pinocchio data (one per path).
-    """
-
-    def __init__(self, model: RobotModel, jmg: JointModelGroup, link: str, full: np.ndarray) -> None:
-        self.model = model
-        self.pmodel = model.pin_model
-        self.pdata = self.pmodel.createData()
-        self.fid = model.frame_id(link)
-        self.idx = jmg.variable_indices
-        jmap = np.ascontiguousarray(model.jacobian_map(self.idx))
-        self.columns = model.jacobian_columns(self.idx)
-        self.slots = model.q_slots(self.idx)
-        self.q = np.array(model.to_q(full), dtype=float)
-        self.jmap = jmap
-        self.lower = model.lower_limits[self.idx]
-        self.upper = model.upper_limits[self.idx]
-        self.full = full  # the start's positions; its group entries are rewritten only to build q
-        self.nan = np.full(len(self.idx), np.nan)
-        self.damping = _DAMPING * np.eye(6)
-        self.frame = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
-        self.gesv = get_lapack_funcs(("gesv",), (np.zeros((6, 6)),))[0]
-        self.err = np.empty(6)
-        self.update(full[self.idx].copy())
-
-    def update(self, x: np.ndarray) -> None:
-        self.x = x
-        pmodel, pdata, fid = self.pmodel, self.pdata, self.fid
-        q = group_configuration(self.model, x, self.slots, self.q, self.full, self.idx)
-        pin.computeJointJacobians(pmodel, pdata, q)
-        placement = pin.updateFramePlacement(pmodel, pdata, fid)
-        self.position = placement.translation
-        self.rotation = placement.rotation
-        jacobian = pin.getFrameJacobian(pmodel, pdata, fid, self.frame)
-        self.jacobian = jacobian[:, self.columns] if self.columns is not None else jacobian @ self.jmap
-
-    def _solve(self, err: np.ndarray) -> np.ndarray:
-        """Damped least squares J^T (J J^T + lambda I)^-1 e: the plain Newton step for a regular
-        Jacobian, and (close to) the minimum-norm step at a singular one, where a plain solve
-        would send the null-space joints flying although the target is reachable."""
-        jac = self.jacobian
-        _, _, y, info = self.gesv(jac @ jac.T + self.damping, err)
-        return jac.T @ y if info == 0 else self.nan
-
-    def correct(self, p_target: np.ndarray, r_target: np.ndarray, iterations: int = _CORRECTOR_ITERATIONS) -> bool:
-        """Newton from the current solution to the target; True (and state moved) on convergence.
-
-        On failure the solver is left at the last iterate; the caller restores what it needs.
-        """
-        pos_tol2 = _POSITION_TOLERANCE**2
-        rot_tol2 = _ORIENTATION_TOLERANCE**2
-        err = self.err
-        lower, upper = self.lower, self.upper
-        log3 = pin.log3
-        for _ in range(iterations + 1):
-            lin = p_target - self.position
-            ang = log3(r_target @ self.rotation.T)
-            if lin @ lin <= pos_tol2 and ang @ ang <= rot_tol2:
-                return True
-            err[:3] = lin
-            err[3:] = ang
-            step = self._solve(err)
-            if not abs(step).max() <= _CORRECTOR_MAX_STEP:  # also catches NaN
-                return False
-            self.update(np.minimum(np.maximum(self.x + step, lower), upper))
-        return False
-
-    def follow(self, p_link: np.ndarray, r_link: np.ndarray, start: int, end: int, path: np.ndarray,
-               fallback: Callable[[np.ndarray, int], np.ndarray | None]) -> int:
-        """Solve steps ``start``..``end - 1`` in turn (step s into ``path[s + 1]``), each from the
-        previous solution, with ``fallback(previous, s)`` (a candidate to correct from) when the
-        corrector fails. Returns the first step not solved (``end`` when all were); the solver
-        is then left at the last solution."""
-        correct = self.correct
-        for s in range(start, end):
-            previous = self.x
-            if not correct(p_link[s], r_link[s]):
-                candidate = fallback(previous, s)
-                ok = False
-                if candidate is not None:
-                    self.update(candidate)
-                    ok = correct(p_link[s], r_link[s])
-                if not ok:
-                    self.update(previous)
-                    return s
-            path[s + 1] = self.x
-        return end
-
-
 # ---------------------------------------------------------------------------- main entry
 def compute_cartesian_path(
     scene: PlanningScene,
@@ -497,7 +396,7 @@ def _compute(
 
     idx = jmg.variable_indices
     full = start.positions.copy()
-    solver = _StepSolver(model, jmg, link, full)
+    solver = step_solver(model, jmg, link, full)
     path = np.empty((n_steps + 1, len(idx)))
     path[0] = full[idx]
     revolute = np.array([model.joint(j).type in ("revolute", "continuous") for j in jmg.joint_names])
@@ -530,7 +429,7 @@ def _compute(
         return x
     straightness = None if precision is None else PrecisionCheck(
         model, idx, link, offset, full, precision, revolute_only=bool(np.all(revolute)),
-        tolerances=(_POSITION_TOLERANCE, _ORIENTATION_TOLERANCE))
+        tolerances=(POSITION_TOLERANCE, ORIENTATION_TOLERANCE))
 
     if path_constraints:
         problem = path_constraints.violation(start)
