@@ -1,7 +1,9 @@
 """The Cartesian path's chunked steps (the IK of up to ``_CHUNK`` steps, then their checks in
 order) give exactly the path of one step at a time: the same fraction, stop reason and states,
 on the myCobot and the Panda, from random valid starts toward random targets that run through a
-box, out of reach or clear, with and without MoveIt's relative jump test."""
+box, out of reach or clear, with and without MoveIt's relative jump test; and the chunk's
+collision checks through the batch sphere test stop where the plain exact check of every state
+stops."""
 from __future__ import annotations
 
 import numpy as np
@@ -40,15 +42,20 @@ def test_chunked_steps_give_the_one_step_at_a_time_path(robot, group, reach, myc
         target[:3, 3] += rng.normal(size=3) * 0.15 * reach
         for jump in (0.0, 2.0):
             results = []
-            for chunk in (CHUNK, 1):
+            for chunk, batch in ((CHUNK, True), (1, True), (1, False)):
                 monkeypatch.setattr(cartesian_path, "_CHUNK", chunk)
-                results.append(cartesian_path.compute_cartesian_path(
-                    scene, group, start, [target], eef_step=0.004 * reach, jump_threshold=jump))
-            chunked, single = results
-            assert chunked.fraction == single.fraction
-            assert chunked.stop_reason == single.stop_reason
-            assert chunked.path.shape == single.path.shape
-            np.testing.assert_allclose(chunked.path, single.path, rtol=0.0, atol=1e-12)
+                with monkeypatch.context() as patch:
+                    if not batch:  # the plain exact check on every state, no sphere test at all
+                        patch.setattr(scene, "batch_free_checker", lambda *args, **kwargs: None)
+                    results.append(cartesian_path.compute_cartesian_path(
+                        scene, group, start, [target], eef_step=0.004 * reach, jump_threshold=jump))
+            single = results[1]
+            for other in (results[0], results[2]):
+                assert other.fraction == single.fraction
+                assert other.stop_reason == single.stop_reason
+                assert other.path.shape == single.path.shape
+                np.testing.assert_allclose(other.path, single.path, rtol=0.0, atol=1e-12)
+                assert other.error_code.message == single.error_code.message
             reasons.add(single.stop_reason)
     # the cases reached every way a path ends
     assert reasons == {"complete", "collision", "no_ik_solution", "joint_space_jump"}, reasons

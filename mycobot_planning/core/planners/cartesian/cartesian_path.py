@@ -405,7 +405,9 @@ def _compute(
     jump_limits = ((revolute, revolute_jump_threshold, "revolute", "rad"),
                    (prismatic, prismatic_jump_threshold, "prismatic", "m"))
     # States are within the limits by construction (every IK step is clipped to them).
-    is_valid = scene.validity_checker(jmg.name, start, check_bounds=False)
+    # The batch sphere test first for a whole chunk of states, the exact check for the rest.
+    batch_free = scene.batch_free_checker(jmg.name, start) if avoid_collisions else None
+    is_valid = scene.validity_checker(jmg.name, start, check_bounds=False, sphere_pretest=batch_free is None)
     check_buffer = full.copy()
     jump_checked = revolute_jump_threshold > 0 or prismatic_jump_threshold > 0
     fallback: list[IKSolver] = []
@@ -475,7 +477,7 @@ def _compute(
                               f"{turned:.4f} rad with steps at the finest resolution ({precision})")
                     break
         if avoid_collisions and limit > done:
-            hit = _first_invalid_motion(is_valid, path, done, limit, largest[:limit - done], resolution)
+            hit = _first_invalid_motion(is_valid, batch_free, path, done, limit, largest[:limit - done], resolution)
             if hit is not None:
                 s, values, at_state = hit
                 limit, refine = s, False
@@ -549,25 +551,37 @@ def _compute(
     )
 
 
-def _first_invalid_motion(is_valid: Callable[[np.ndarray], bool], path: np.ndarray, start: int, end: int,
-                          largest: np.ndarray, resolution: float) -> tuple[int, np.ndarray, bool] | None:
+def _first_invalid_motion(is_valid: Callable[[np.ndarray], bool], batch_free: Callable[[np.ndarray], np.ndarray] | None,
+                          path: np.ndarray, start: int, end: int, largest: np.ndarray,
+                          resolution: float) -> tuple[int, np.ndarray, bool] | None:
     """The first invalid state of the motions from ``path[s]`` to ``path[s + 1]`` for steps
     ``start``..``end - 1``, each checked every ``resolution`` (max-norm; ``largest`` holds each
     step's largest joint motion) and at its end: (step, the invalid values, whether they are
-    the step's state itself), or None when all are valid."""
+    the step's state itself), or None when all are valid.
+
+    All the states go through ``batch_free`` (the scene's batch sphere test, when it has one)
+    in one call; ``is_valid`` (the exact check) then sees, in order, only those it left
+    undecided. The verdicts are the exact check's: the sphere test never calls a colliding
+    state free (test/core/test_batch_check.py)."""
     between = np.where(largest > resolution, np.ceil(largest / resolution), 1.0).astype(int)
+    steps = np.arange(start, end)
     if np.all(between == 1):  # steps shorter than the resolution: the states alone
-        for s in range(start, end):
-            if not is_valid(path[s + 1]):
-                return s, path[s + 1], True
-        return None
-    for s, count in zip(range(start, end), between.tolist()):
-        previous, x = path[s], path[s + 1]
-        delta = x - previous
-        for j in range(1, count + 1):
-            values = x if j == count else previous + (j / count) * delta
-            if not is_valid(values):
-                return s, values, j == count
+        values = path[start + 1:end + 1]
+        step_of, at_state = steps, np.ones(len(steps), dtype=bool)
+    else:
+        step_of = np.repeat(steps, between)
+        first = np.repeat(np.cumsum(between) - between, between)
+        count = np.repeat(between, between)
+        j = np.arange(len(step_of)) - first + 1  # 1..count within each step
+        previous = path[step_of]
+        values = previous + (j / count)[:, None] * (path[step_of + 1] - previous)
+        at_state = j == count
+        values[at_state] = path[step_of[at_state] + 1]
+    free = batch_free(values) if batch_free is not None else np.zeros(len(values), dtype=bool)
+    for i in np.flatnonzero(~free).tolist():
+        state = values[i]
+        if not is_valid(state):
+            return int(step_of[i]), state.copy(), bool(at_state[i])
     return None
 
 
