@@ -21,6 +21,8 @@ from scipy.linalg import get_lapack_funcs
 from scipy.spatial import cKDTree
 
 from ..errors import KinematicsError
+from .chain_kinematics import chain_tables
+from .compiled_descent import CompiledDescent
 from ..robot_model.robot_model import RobotModel
 from ..robot_state.robot_state import RobotState
 from ..transforms import check_pose, inverse
@@ -160,6 +162,11 @@ class IKSolver:
         self._gesv = get_lapack_funcs(("gesv",), (np.zeros((6, 6)),))[0]
         self._seed_features: tuple = (None, None)  # (key of the last seed, its pose features)
         self._data = model.pin_model.createData()
+        # The descents as compiled kernels when the chain allows (compiled_descent.py), else Pinocchio.
+        tables = chain_tables(model, self._indices, self.link)
+        self._kernels = None if tables is None else CompiledDescent(
+            tables, self._lower, self._upper, options.position_tolerance, options.orientation_tolerance,
+            options.max_step, options.damping, ABORT_ERROR)
 
     # ------------------------------------------------------------------ one descent
     def _seed_table(self, position_only: bool) -> tuple[cKDTree, np.ndarray]:
@@ -279,6 +286,14 @@ class IKSolver:
         solved again for the others (one active-set pass); otherwise the step is clamped, as in
         _descend_batch and refine.
         """
+        if self._kernels is not None:
+            x = full[self._indices].copy()
+            converged = self._kernels.descend(
+                x, self.model.to_q(full).copy(), np.ascontiguousarray(target.rotation),
+                np.ascontiguousarray(target.translation), position_only, max_iterations,
+                ABORT_ITERATION if abort else -1, limit_pass)
+            full[self._indices] = x
+            return converged
         model, opts = self.model, self.options
         pmodel, pdata = model.pin_model, self._data
         idx, fid = self._indices, self.frame_id
@@ -387,6 +402,12 @@ class IKSolver:
         the final group vectors and which of them met the tolerance; start k takes at most
         budgets[k] steps, as in its own descent.
         """
+        if self._kernels is not None:
+            xs = np.array(starts, dtype=float)
+            converged = self._kernels.descend_batch(
+                xs, budgets, self.model.to_q(base).copy(), np.ascontiguousarray(target.rotation),
+                np.ascontiguousarray(target.translation), position_only, ABORT_ITERATION)
+            return xs, converged
         model, opts = self.model, self.options
         pmodel, pdata, fid = model.pin_model, self._data, self.frame_id
         idx, columns, jmap, slots = self._indices, self._columns, self._jmap, self._q_slots
