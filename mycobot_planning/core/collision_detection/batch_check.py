@@ -28,11 +28,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 
-
-try:  # a pinned dependency; without it the batch path is off and every state is checked exactly
-    from numba import njit
-except ImportError:  # pragma: no cover - exercised only on an install without numba
-    njit = None
+from ..jit import compiled, numba_available
 
 __all__ = ["BATCH_MARGIN", "BATCH_RULE_SAMPLES", "MIN_FREE_SHARE", "BatchCheck", "build_batch_check", "joint_kind",
            "joint_kinematics", "joint_tables", "numba_available", "one_state_free"]
@@ -58,10 +54,6 @@ _AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
 # the int table's header: joint, body, sphere, world test, self test and obstacle counts, the
 # int tables' offsets (6-15), and last where the float tables' offsets are
 _HEADER = 17
-
-
-def numba_available() -> bool:
-    return njit is not None
 
 
 def joint_kind(joint: pin.JointModel) -> tuple[int, tuple[float, float, float]] | None:
@@ -181,7 +173,7 @@ def build_batch_check(
     states of the group, BATCH_RULE_SAMPLES of them).
     ``robot_geometries[g]``: geometry g moves with the robot (link or attached object), and
     ``covers[g]`` is then its enclosing spheres in its own shape frame."""
-    if njit is None or not len(slots):
+    if not numba_available() or not len(slots):
         return None
     tables = joint_tables(pin_model)
     if tables is None:
@@ -293,11 +285,7 @@ def _one_state_tables(ints: np.ndarray, floats: np.ndarray, slots: np.ndarray,
     return np.ascontiguousarray(one_ints), np.ascontiguousarray(one_floats)
 
 
-def _compiled(function):
-    return njit(cache=True, nogil=True)(function) if njit is not None else function
-
-
-@_compiled
+@compiled
 def _obstacle_distance(kind, dims, px, py, pz):  # pragma: no cover - compiled
     """Distance from a point (in the obstacle's frame) to a box, sphere, cylinder or capsule
     (0 inside a box or cylinder, negative inside a sphere or capsule)."""
@@ -316,13 +304,13 @@ def _obstacle_distance(kind, dims, px, py, pz):  # pragma: no cover - compiled
     return math.sqrt(px * px + py * py + (pz - zc) * (pz - zc)) - dims[0]
 
 
-@_compiled
+@compiled
 def _place(rot, trans, j, local, out):  # pragma: no cover - compiled
     for i in range(3):
         out[i] = rot[j, i, 0] * local[0] + rot[j, i, 1] * local[1] + rot[j, i, 2] * local[2] + trans[j, i]
 
 
-@_compiled
+@compiled
 def joint_kinematics(q, parents, kinds, index, axes, rot0, trans0, rot, trans, base, local_rot):  # pragma: no cover
     """Every joint's world rotation and translation at configuration q, joints in tree order
     (a parent before its children; row 0 is the root, set by the caller)."""
@@ -367,7 +355,7 @@ def joint_kinematics(q, parents, kinds, index, axes, rot0, trans0, rot, trans, b
                     trans[j, i] += d * (base[i, 0] * axes[j, 0] + base[i, 1] * axes[j, 1] + base[i, 2] * axes[j, 2])
 
 
-@_compiled
+@compiled
 def _free_states(values, q_ref, slots, ints, floats, out):  # pragma: no cover - compiled
     """out[s]: state s (q_ref with ``slots`` set to values[s]) is clear of everything."""
     nj, nb, ns, nw, npairs, no = ints[0], ints[1], ints[2], ints[3], ints[4], ints[5]
@@ -486,7 +474,7 @@ def _free_states(values, q_ref, slots, ints, floats, out):  # pragma: no cover -
         out[s] = free
 
 
-@_compiled
+@compiled
 def one_state_free(values, one_ints, one_floats):  # pragma: no cover - compiled
     """``free`` of one state, a float64 vector (callers check that: PlanningScene.
     batch_free_checker's one-state form), on a BatchCheck's ``one_ints`` and ``one_floats``: one

@@ -18,14 +18,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..collision_detection.batch_check import joint_kind, joint_kinematics
+from ..jit import compiled, numba_available
 from ..robot_model.robot_model import RobotModel
 
-try:  # a pinned dependency; without it callers keep their Pinocchio paths
-    from numba import njit
-except ImportError:  # pragma: no cover - exercised only on an install without numba
-    njit = None
-
-__all__ = ["ChainScratch", "ChainTables", "chain_tables", "compiled", "damped_step", "frame_kinematics", "jlog6", "log3",
+__all__ = ["ChainScratch", "ChainTables", "chain_tables", "damped_step", "frame_kinematics", "jlog6", "log3",
            "log3_into", "log6", "log6_into", "jlog6_into"]
 
 _REVOLUTE, _PRISMATIC = 1, 2  # batch_check's joint kinds
@@ -33,11 +29,6 @@ _EPS = float(np.finfo(float).eps)
 #: Pinocchio's Taylor thresholds (TaylorSeriesExpansion::precision<2> and <3>)
 _PRECISION2 = _EPS ** (1.0 / 3.0)
 _PRECISION3 = _EPS ** (1.0 / 4.0)
-
-
-def compiled(function):
-    """numba's njit (cached on disk, releasing the GIL), or the function itself without numba."""
-    return njit(cache=True, nogil=True)(function) if njit is not None else function
 
 
 @dataclass(frozen=True)
@@ -86,7 +77,7 @@ def chain_tables(model: RobotModel, indices: np.ndarray, link: str) -> ChainTabl
     or the compiled kernels do not cover the case: a variable that is not a plain
     configuration slot (continuous joint, mimic source) or a chain joint other than a one-axis
     revolute or prismatic joint (those keep Pinocchio)."""
-    if njit is None:
+    if not numba_available():
         return None
     indices = np.asarray(indices, dtype=int)
     slots = model.q_slots(indices)

@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .chain_kinematics import ChainTables, compiled, damped_step, frame_kinematics, jlog6_into, log6_into
+from ..jit import compiled
+from .chain_kinematics import ChainTables, damped_step, frame_kinematics, jlog6_into, log6_into
 
 __all__ = ["CompiledDescent"]
 

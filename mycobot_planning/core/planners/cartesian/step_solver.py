@@ -16,7 +16,8 @@ import numpy as np
 import pinocchio as pin
 from scipy.linalg import get_lapack_funcs
 
-from ...kinematics.chain_kinematics import ChainTables, log3_into, chain_tables, compiled, damped_step, frame_kinematics
+from ...jit import compiled
+from ...kinematics.chain_kinematics import ChainTables, chain_tables, damped_step, frame_kinematics, log3_into
 from ...robot_model.robot_model import JointModelGroup, RobotModel, group_configuration
 
 __all__ = ["CORRECTOR_ITERATIONS", "CORRECTOR_MAX_STEP", "CompiledStepSolver", "ORIENTATION_TOLERANCE",
