@@ -14,6 +14,7 @@ import numpy as np
 from interfaces_py.msgs import JointTrajectory, JointTrajectoryPoint
 
 from ..errors import TimeParameterizationError
+from ..jit import compiled, numba_available
 
 __all__ = [
     "DEFAULT_MAX_WAYPOINT_DISTANCE",
@@ -144,6 +145,19 @@ class TimedTrajectory:
                     np.repeat(self.accelerations, m, axis=0))
         # Interval k covers [times[k], times[k+1]]; stored points are reproduced exactly.
         k = np.clip(np.searchsorted(self.times, ts, side="right") - 1, 0, n - 2)
+        if _EVALUATE_COMPILED:
+            m, d = ts.shape[0], self.positions.shape[1]
+            q, qd, qdd = np.empty((m, d)), np.empty((m, d)), np.empty((m, d))
+            _evaluate_kernel(np.ascontiguousarray(self.times, dtype=float),
+                             np.ascontiguousarray(self.positions, dtype=float),
+                             np.ascontiguousarray(self.velocities, dtype=float),
+                             np.ascontiguousarray(self.accelerations, dtype=float),
+                             self.interpolation == "cubic", np.ascontiguousarray(ts, dtype=float), k, q, qd, qdd)
+            return q, qd, qdd
+        return self._evaluate_numpy(ts, k)
+
+    def _evaluate_numpy(self, ts: np.ndarray, k: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """_evaluate in NumPy: without numba, and the reference the compiled kernel is held to."""
         h = (self.times[k + 1] - self.times[k])[:, None]
         x = ((ts - self.times[k])[:, None]) / h
         p0, p1 = self.positions[k], self.positions[k + 1]
@@ -402,3 +416,42 @@ def densify_joint_trajectory(trajectory: JointTrajectory, max_distance: float = 
         )
         for k in range(len(timed))
     ])
+
+
+#: TimedTrajectory.sample evaluates with the compiled kernel (the validator samples every plan
+#: hundreds of times over: NumPy's per-operation cost dominated); tests switch it off to compare.
+_EVALUATE_COMPILED = numba_available()
+
+
+@compiled
+def _evaluate_kernel(times, positions, velocities, accelerations, cubic, ts, k, q, qd, qdd):  # pragma: no cover
+    """TimedTrajectory._evaluate_numpy, element by element with the same operations in the same
+    order (so the same roundings)."""
+    for m in range(ts.shape[0]):
+        i = k[m]
+        h = times[i + 1] - times[i]
+        x = (ts[m] - times[i]) / h
+        for j in range(positions.shape[1]):
+            p0 = positions[i, j]
+            if cubic:
+                tau = x * h
+                a0 = accelerations[i, j]
+                vel0 = velocities[i, j]
+                jerk = 2.0 * (velocities[i + 1, j] - vel0 - a0 * h) / (h * h)
+                q[m, j] = p0 + tau * (vel0 + tau * (0.5 * a0 + tau * jerk / 6.0))
+                qd[m, j] = vel0 + tau * (a0 + 0.5 * tau * jerk)
+                qdd[m, j] = a0 + tau * jerk
+                continue
+            p1 = positions[i + 1, j]
+            v0 = velocities[i, j] * h
+            v1 = velocities[i + 1, j] * h
+            a0 = accelerations[i, j] * h * h
+            a1 = accelerations[i + 1, j] * h * h
+            c0, c1, c2 = p0, v0, 0.5 * a0
+            dp = p1 - p0
+            c3 = 10 * dp - 6 * v0 - 4 * v1 - 1.5 * a0 + 0.5 * a1
+            c4 = -15 * dp + 8 * v0 + 7 * v1 + 1.5 * a0 - a1
+            c5 = 6 * dp - 3 * v0 - 3 * v1 - 0.5 * a0 + 0.5 * a1
+            q[m, j] = c0 + x * (c1 + x * (c2 + x * (c3 + x * (c4 + x * c5))))
+            qd[m, j] = (c1 + x * (2 * c2 + x * (3 * c3 + x * (4 * c4 + x * 5 * c5)))) / h
+            qdd[m, j] = (2 * c2 + x * (6 * c3 + x * (12 * c4 + x * 20 * c5))) / (h * h)
