@@ -205,9 +205,10 @@ def test_a_scene_change_is_followed(panda):
     free_of = scene.batch_free_checker("arm", RobotState(panda))
     values = np.array([[0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]])  # the SRDF's "ready"
     one = scene.batch_free_checker("arm", RobotState(panda), one_state=True)
-    assert free_of(values)[0] and one(values[0])
+    valid = scene.validity_checker("arm", RobotState(panda), check_bounds=False)  # sphere test, then exact
+    assert free_of(values)[0] and one(values[0]) and valid(values[0])
     scene.add_object(CollisionObject.box("everywhere", [4.0, 4.0, 4.0], make_pose([0.0, 0.0, 0.0])))
-    assert not free_of(values)[0] and not one(values[0])
+    assert not free_of(values)[0] and not one(values[0]) and not valid(values[0])
 
 
 def test_nan_and_malformed_states_are_never_free(panda):
