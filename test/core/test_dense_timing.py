@@ -342,3 +342,23 @@ def test_path_deviation_of_exact_and_unknown_paths():
 def test_bad_inputs_raise(kwargs, match):
     with pytest.raises(TimeParameterizationError, match=match):
         time_parameterize([[0.0, 0.0], [1.0, 0.1], [2.0, 0.3]], 1.0, 1.0, **kwargs)
+
+
+def test_compiled_topp_passes_give_the_python_loops_results(monkeypatch):
+    """The TOPP's two scalar passes run compiled (dense_path_topp._topp_passes); the same code
+    run as plain Python (numba's py_func) gives the same trajectories bit for bit."""
+    from mycobot_planning.core.jit import numba_available
+    from mycobot_planning.core.trajectory_processing import dense_path_topp
+
+    if not numba_available():
+        pytest.skip("numba is not installed (scripts/requirements.txt): nothing compiled to compare")
+    rng = np.random.default_rng(5)
+    t = np.linspace(0.0, 1.0, 300)[:, None]
+    for _ in range(8):
+        path = np.hstack([0.5 * (1.0 + 0.3 * rng.normal()) * np.sin(3.0 * t + i) for i in range(6)])
+        compiled = time_parameterize(path, 1.5, 3.0, method="smooth")
+        with monkeypatch.context() as patch:
+            patch.setattr(dense_path_topp, "_topp_passes", dense_path_topp._topp_passes.py_func)
+            plain = time_parameterize(path, 1.5, 3.0, method="smooth")
+        for name in ("times", "positions", "velocities", "accelerations"):
+            assert np.array_equal(getattr(compiled, name), getattr(plain, name)), name

@@ -12,6 +12,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from ..errors import TimeParameterizationError
+from ..jit import compiled
 from ..robot_trajectory.robot_trajectory import TimedTrajectory
 from .path_geometry import turning_angles
 
@@ -226,29 +227,39 @@ def _topp(ds: np.ndarray, t0: np.ndarray, k0: np.ndarray, t1: np.ndarray, k1: np
     # rows with 1 + 2 ds b_k <= 0 never bind for x >= 0.
     q_back = 1.0 + two_ds[:, None] * b
     rows, cols = np.nonzero(lo_keep & (q_back > 0.0))
-    bp = (two_ds[rows] * a[rows, cols]).tolist()
-    bq = q_back[rows, cols].tolist()
-    bnd = np.searchsorted(rows, np.arange(m + 1)).tolist()
-    caps = cap.tolist()
+    bp = two_ds[rows] * a[rows, cols]
+    bq = q_back[rows, cols]
+    b_bnd = np.searchsorted(rows, np.arange(m + 1))
+    # Forward: x[i+1] = x[i] + 2 ds min_k(a_k + b_k x[i]), within the controllable set.
+    rows, cols = np.nonzero(up_keep)
+    fp = two_ds[rows] * a[rows, cols]
+    fq = 1.0 + two_ds[rows] * b[rows, cols]
+    f_bnd = np.searchsorted(rows, np.arange(m + 1))
+    caps = np.array(cap, dtype=float)
+    x = np.zeros(m + 1)
+    _topp_passes(caps, b_bnd, bp, bq, f_bnd, fp, fq, x)
+    return x
+
+
+@compiled
+def _topp_passes(caps, b_bnd, bp, bq, f_bnd, fp, fq, x):  # pragma: no cover - compiled
+    """_topp's two scalar passes over the grid (compiled; scalar IEEE arithmetic in the order
+    the Python loops had, so the same results): backward, the largest x[i] from which the rest
+    can be reached, written into ``caps``; forward, the path speeds squared into ``x``."""
+    m = caps.shape[0] - 1
     c = caps[m]
     for i in range(m - 1, -1, -1):
         best = caps[i]
-        for j in range(bnd[i], bnd[i + 1]):
+        for j in range(b_bnd[i], b_bnd[i + 1]):
             v = (c + bp[j]) / bq[j]
             if v < best:
                 best = v
         c = best
         caps[i] = c
-    # Forward: x[i+1] = x[i] + 2 ds min_k(a_k + b_k x[i]), within the controllable set.
-    rows, cols = np.nonzero(up_keep)
-    fp = (two_ds[rows] * a[rows, cols]).tolist()
-    fq = (1.0 + two_ds[rows] * b[rows, cols]).tolist()
-    bnd = np.searchsorted(rows, np.arange(m + 1)).tolist()
-    x = [0.0] * (m + 1)
     xi = 0.0
     for i in range(m):
         xn = caps[i + 1]
-        for j in range(bnd[i], bnd[i + 1]):
+        for j in range(f_bnd[i], f_bnd[i + 1]):
             v = fp[j] + fq[j] * xi
             if v < xn:
                 xn = v
@@ -256,7 +267,6 @@ def _topp(ds: np.ndarray, t0: np.ndarray, k0: np.ndarray, t1: np.ndarray, k1: np
             xn = 0.0
         x[i + 1] = xn
         xi = xn
-    return np.array(x)
 
 
 def _hermite(times: np.ndarray, q: np.ndarray, v: np.ndarray):
