@@ -72,5 +72,8 @@ fi
 "$ROOT/scripts/build_interfaces.sh" "$VENV"
 # Prove the stack loads together before declaring success.
 "$VENV/bin/python" -c "import rclpy, pinocchio, coal, ompl, ruckig, numpy, scipy, yaml, viser, matplotlib, mujoco, mycobot_planning, interfaces_py, moveit_msgs.action, control_msgs.action, pymoveit2"
+# numba compiles the core's kernels on first use and caches them beside the sources: do it now,
+# not in the first plan of a node or of two test workers at once (mycobot_planning/core/jit_warm_up.py)
+"$VENV/bin/python" -m mycobot_planning.core.jit_warm_up
 echo "$want" > "$STAMP"
 echo "[setup] done: activate with 'source .venv/bin/activate'"

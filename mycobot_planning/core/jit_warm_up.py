@@ -1,0 +1,57 @@
+"""Compile the core's numba kernels once, ahead of the first plan (``python -m
+mycobot_planning.core.jit_warm_up``; scripts/setup.sh runs it after installing).
+
+numba compiles a kernel at its first call and caches the machine code next to the sources
+(``cache=True``); on a fresh install the first IK, Cartesian path and validation would each wait
+seconds for it (about 16 s in all, measured on the 2-core machine), in whichever process came
+first: a node answering its first request, or both test workers at once. This runs each kernel
+once on the myCobot instead. Without numba it does nothing.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from .jit import numba_available
+from .kinematics.ik_solver import IKSolver
+from .planners.cartesian.cartesian_path import compute_cartesian_path
+from .planners.cartesian.step_solver import step_solver
+from .planning_scene.planning_scene import PlanningScene
+from .robot_model.robot_model import RobotModel
+from .robot_state.robot_state import RobotState
+from .trajectory_processing.time_parameterization import time_parameterize
+
+__all__ = ["warm_up"]
+
+
+def warm_up() -> float:
+    """Run every compiled kernel once (loading it from the cache, or compiling and caching it);
+    the seconds it took."""
+    started = time.perf_counter()
+    if not numba_available():
+        return 0.0
+    model = RobotModel.mycobot()
+    state = RobotState(model)
+    state.set_named("ready")
+    scene = PlanningScene(model, state)
+    solver = IKSolver(model, "arm")
+    pose = state.frame_pose(solver.link)
+    solver.solve(pose, seed=state, rng=0)  # one-by-one descents
+    solver.solve(pose, seed=state, rng=0, max_solutions=4, attempts=40)  # batched descents
+    target = pose.copy()
+    target[:3, 3] += (0.0, 0.02, 0.01)
+    # the step solver, the batch sphere test, the validity checker's one-state test
+    compute_cartesian_path(scene, "arm", state, [target], eef_step=0.001)
+    steps = step_solver(model, model.group("arm"), solver.link, state.positions.copy())
+    steps.correct(target[:3, 3].copy(), target[:3, :3].copy())  # as the fallback calls it, from Python
+    scene.validity_checker("arm", state, check_bounds=False)(state.group_positions("arm"))
+    t = np.linspace(0.0, 1.0, 200)[:, None]
+    dense = 0.3 * np.sin(2.0 * t + np.arange(6)[None, :])
+    trajectory = time_parameterize(dense, 1.0, 2.0, method="smooth")  # the TOPP passes
+    trajectory.sample(np.linspace(trajectory.times[0], trajectory.times[-1], 50))  # the evaluation
+    return time.perf_counter() - started
+
+
+if __name__ == "__main__":
+    print(f"[setup] numba kernels ready in {warm_up():.1f} s")
