@@ -8,7 +8,8 @@ read once from the Pinocchio model: forward kinematics is the batch sphere test'
 a x (p - o) over its world axis a and origin o (the axis itself for a prismatic joint); log3,
 log6 and Jlog6 follow Pinocchio's formulas (series below its thresholds, the axis from the
 symmetric part near pi); the damped least-squares step is solved by Gaussian elimination with
-partial pivoting. test/core/test_chain_kinematics.py holds them to Pinocchio on several robots.
+partial pivoting. Held to Pinocchio by test/core/test_chain_kinematics.py (log6, Jlog6) and
+test_step_solver.py (log3; poses and Jacobians on six robots).
 """
 from __future__ import annotations
 
