@@ -355,6 +355,41 @@ def joint_kinematics(q, parents, kinds, index, axes, rot0, trans0, rot, trans, b
                     trans[j, i] += d * (base[i, 0] * axes[j, 0] + base[i, 1] * axes[j, 1] + base[i, 2] * axes[j, 2])
 
 
+#: states per call from which _free_states first folds the joints no slot drives into their
+#: parents' placements (one kinematics pass at q_ref): below it the pass costs what it saves
+HOLD_MIN_STATES = 3
+
+
+@compiled
+def _held_joints(q, slots, parents, kinds, index, axes, rot0, trans0, rot, trans, base, local_rot):  # pragma: no cover
+    """(kinds, rot0, trans0) with every joint that no slot drives made fixed at its place in
+    ``q`` (its placement and motion folded into one: the transform from its parent's frame at
+    ``q``), so the kinematics of each state skip their trigonometry and one product; the
+    joints the slots drive are unchanged."""
+    joint_kinematics(q, parents, kinds, index, axes, rot0, trans0, rot, trans, base, local_rot)
+    held_kinds = kinds.copy()
+    held_rot = rot0.copy()
+    held_trans = trans0.copy()
+    for j in range(1, parents.shape[0]):
+        kind = kinds[j]
+        if kind == 0:
+            continue
+        driven = False
+        for k in range(slots.shape[0]):
+            if slots[k] == index[j] or (kind == 3 and slots[k] == index[j] + 1):
+                driven = True
+        if driven:
+            continue
+        p = parents[j]
+        held_kinds[j] = 0
+        for i in range(3):  # rot[p]^T rot[j] and rot[p]^T (trans[j] - trans[p])
+            held_trans[j, i] = rot[p, 0, i] * (trans[j, 0] - trans[p, 0]) + rot[p, 1, i] * (trans[j, 1] - trans[p, 1]) \
+                + rot[p, 2, i] * (trans[j, 2] - trans[p, 2])
+            for k in range(3):
+                held_rot[j, i, k] = rot[p, 0, i] * rot[j, 0, k] + rot[p, 1, i] * rot[j, 1, k] + rot[p, 2, i] * rot[j, 2, k]
+    return held_kinds, held_rot, held_trans
+
+
 @compiled
 def _free_states(values, q_ref, slots, ints, floats, out):  # pragma: no cover - compiled
     """out[s]: state s (q_ref with ``slots`` set to values[s]) is clear of everything."""
@@ -392,6 +427,9 @@ def _free_states(values, q_ref, slots, ints, floats, out):  # pragma: no cover -
             rot[0, i, k] = 1.0 if i == k else 0.0
     base = np.empty((3, 3))
     local_rot = np.empty((3, 3))
+    if values.shape[0] >= HOLD_MIN_STATES:
+        kinds, rot0, trans0 = _held_joints(q, slots, parents, kinds, index, axes, rot0, trans0, rot, trans, base,
+                                           local_rot)
     for s in range(values.shape[0]):
         finite = True
         for k in range(slots.shape[0]):
