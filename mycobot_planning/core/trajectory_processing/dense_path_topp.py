@@ -165,24 +165,6 @@ def _smooth_grid(knots: np.ndarray, s: np.ndarray, stop: np.ndarray, pieces, cou
     return q, sg, t0, k0, t1, k1, knot_grid, gstop
 
 
-def _pareto(w0: np.ndarray, w1: np.ndarray) -> np.ndarray:
-    """Per row, the lines (values w0 at x = 0 and w1 at the row's largest x; smaller is
-    tighter) that may bind somewhere in between: a line is dropped when another is at least as
-    tight at both ends, hence everywhere between. Vectorised: sorted by w0, a line survives
-    only if it is strictly tighter at the far end than every line before it. Infinite lines
-    never survive."""
-    order = np.argsort(w0, axis=1, kind="stable")
-    w1s = np.take_along_axis(w1, order, axis=1)
-    before = np.minimum.accumulate(w1s, axis=1)
-    survive = np.empty_like(w1s, dtype=bool)
-    survive[:, 0] = True
-    survive[:, 1:] = w1s[:, 1:] < before[:, :-1]
-    survive &= np.isfinite(w1s) & np.isfinite(np.take_along_axis(w0, order, axis=1))
-    keep = np.zeros_like(survive)
-    np.put_along_axis(keep, order, survive, axis=1)
-    return keep
-
-
 def _topp(ds: np.ndarray, t0: np.ndarray, k0: np.ndarray, t1: np.ndarray, k1: np.ndarray,
           amax: np.ndarray, xcap: np.ndarray, scale: np.ndarray) -> np.ndarray:
     """Time-optimal squared path speeds x = s_dot**2 on a grid (TOPP-RA's discretisation).
@@ -195,74 +177,95 @@ def _topp(ds: np.ndarray, t0: np.ndarray, k0: np.ndarray, t1: np.ndarray, k1: np
     which the end (and every rest) can still be reached (the controllable set), a forward pass
     then accelerates as hard as allowed without leaving it. ``xcap`` (velocity limits, rests
     = 0) caps x pointwise; ``scale`` (per interval, <= 1) tightens the acceleration limits.
-    The passes are scalar loops over the grid, so rows that never bind are pruned first
-    (vectorised)."""
-    m = ds.shape[0]
-    two_ds = 2.0 * ds
-    tau = np.concatenate((t0, t1 + two_ds[:, None] * k1), axis=1)  # (m, 2d)
-    kap = np.concatenate((k0, k1), axis=1)
-    lim = np.concatenate((amax, amax))[None, :] * scale[:, None]
-    at = np.abs(tau)
-    tiny = at < 1e-12
-    safe = np.where(tiny, 1.0, at)
-    finite = ~tiny
-    a = np.where(tiny, np.inf, lim / safe)
-    b = np.where(tiny, 0.0, -np.sign(tau) * kap / safe)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        # A joint the path does not move here: only its curvature term, a cap on x.
-        x_tiny = np.min(np.where(tiny & (kap != 0.0), lim / np.abs(kap), np.inf), axis=1)
-        # Some u must fit: -a_k + b_k x <= a_l + b_l x, i.e. x (b_k - b_l) / (a_k + a_l) <= 1,
-        # for every pair of rows (k, l); rows of unmoved joints (a = inf) give 0.
-        worst = np.max((b[:, :, None] - b[:, None, :]) / (a[:, :, None] + a[:, None, :]),
-                       axis=(1, 2))
-        x_pair = np.where(worst > 0.0, 1.0 / worst, np.inf)
-    a = np.where(finite, a, 0.0)
-    cap = xcap.copy()
-    cap[:-1] = np.minimum(cap[:-1], np.minimum(x_tiny, x_pair))
-    xh = np.minimum(cap[:-1], 1e300)[:, None]  # finite, so 0 * xh is 0
-    inf = np.where(finite, 0.0, np.inf)
-    up_keep = _pareto(a + inf, a + b * xh + inf)
-    lo_keep = _pareto(a + inf, a - b * xh + inf)
-    # Backward: x + 2 ds (-a_k + b_k x) <= cap[i+1]  <=>  x (1 + 2 ds b_k) <= cap[i+1] + 2 ds a_k;
-    # rows with 1 + 2 ds b_k <= 0 never bind for x >= 0.
-    q_back = 1.0 + two_ds[:, None] * b
-    rows, cols = np.nonzero(lo_keep & (q_back > 0.0))
-    bp = two_ds[rows] * a[rows, cols]
-    bq = q_back[rows, cols]
-    b_bnd = np.searchsorted(rows, np.arange(m + 1))
-    # Forward: x[i+1] = x[i] + 2 ds min_k(a_k + b_k x[i]), within the controllable set.
-    rows, cols = np.nonzero(up_keep)
-    fp = two_ds[rows] * a[rows, cols]
-    fq = 1.0 + two_ds[rows] * b[rows, cols]
-    f_bnd = np.searchsorted(rows, np.arange(m + 1))
-    caps = np.array(cap, dtype=float)
-    x = np.zeros(m + 1)
-    _topp_passes(caps, b_bnd, bp, bq, f_bnd, fp, fq, x)
+    One compiled call (_topp_kernel): the rows, the caps and both passes."""
+    x = np.zeros(ds.shape[0] + 1)
+    _topp_kernel(np.ascontiguousarray(ds, dtype=float), np.ascontiguousarray(t0, dtype=float),
+                 np.ascontiguousarray(k0, dtype=float), np.ascontiguousarray(t1, dtype=float),
+                 np.ascontiguousarray(k1, dtype=float), np.ascontiguousarray(amax, dtype=float),
+                 np.array(xcap, dtype=float), np.ascontiguousarray(scale, dtype=float), x)
     return x
 
 
 @compiled
-def _topp_passes(caps, b_bnd, bp, bq, f_bnd, fp, fq, x):  # pragma: no cover - compiled
-    """_topp's two scalar passes over the grid (compiled; scalar IEEE arithmetic in the order
-    the Python loops had, so the same results): backward, the largest x[i] from which the rest
-    can be reached, written into ``caps``; forward, the path speeds squared into ``x``."""
-    m = caps.shape[0] - 1
+def _topp_kernel(ds, t0, k0, t1, k1, amax, caps, scale, x):  # pragma: no cover - compiled
+    """_topp's work, written into ``caps`` (then the controllable set) and ``x``. Per interval
+    i and row k: tau (the joint's path tangent, at the far end plus 2 ds q''), kappa (q''),
+    A = amax scale; a row whose |tau| < 1e-12 (the path does not move that joint there) only
+    caps x at A / |kappa|. u fits at all only while x (b_k - b_l) <= a_k + a_l for every pair
+    of rows (a = A / |tau|, b = -sign(tau) kappa / |tau|): a cap too. The passes then take, per
+    interval, the tightest row (the rows NumPy's version pruned as never binding are taken too:
+    they are looser wherever x can be, so the minima are the same up to rounding)."""
+    m, d = t0.shape
+    rows = 2 * d
+    a = np.empty(rows)
+    b = np.empty(rows)
+    finite = np.empty(rows, dtype=np.bool_)
+    ra = np.empty((m, rows))  # a, b per interval and row; only finite rows are used
+    rb = np.empty((m, rows))
+    rf = np.empty((m, rows), dtype=np.bool_)
+    for i in range(m):
+        two_ds = 2.0 * ds[i]
+        x_tiny = np.inf
+        for k in range(rows):
+            j = k if k < d else k - d
+            if k < d:
+                tau = t0[i, j]
+                kap = k0[i, j]
+            else:
+                tau = t1[i, j] + two_ds * k1[i, j]
+                kap = k1[i, j]
+            lim = amax[j] * scale[i]
+            at = abs(tau)
+            if at < 1e-12:
+                finite[k] = False
+                a[k] = np.inf
+                b[k] = 0.0
+                if kap != 0.0:
+                    x_tiny = min(x_tiny, lim / abs(kap))
+            else:
+                finite[k] = True
+                a[k] = lim / at
+                b[k] = -(1.0 if tau > 0.0 else -1.0) * kap / at
+        worst = 0.0  # the diagonal pairs give 0
+        undefined = False
+        for k in range(rows):
+            for n in range(rows):
+                v = (b[k] - b[n]) / (a[k] + a[n])
+                if v != v:
+                    undefined = True  # as NumPy's max: a NaN pair leaves no pair cap
+                elif v > worst:
+                    worst = v
+        x_pair = 1.0 / worst if worst > 0.0 and not undefined else np.inf
+        caps[i] = min(caps[i], min(x_tiny, x_pair))
+        for k in range(rows):
+            ra[i, k] = a[k]
+            rb[i, k] = b[k]
+            rf[i, k] = finite[k]
+    # Backward: x + 2 ds (-a_k + b_k x) <= caps[i+1]  <=>  x (1 + 2 ds b_k) <= caps[i+1] + 2 ds a_k;
+    # rows with 1 + 2 ds b_k <= 0 never bind for x >= 0.
     c = caps[m]
     for i in range(m - 1, -1, -1):
+        two_ds = 2.0 * ds[i]
         best = caps[i]
-        for j in range(b_bnd[i], b_bnd[i + 1]):
-            v = (c + bp[j]) / bq[j]
-            if v < best:
-                best = v
+        for k in range(rows):
+            if rf[i, k]:
+                q = 1.0 + two_ds * rb[i, k]
+                if q > 0.0:
+                    v = (c + two_ds * ra[i, k]) / q
+                    if v < best:
+                        best = v
         c = best
         caps[i] = c
+    # Forward: x[i+1] = x[i] + 2 ds min_k(a_k + b_k x[i]), within the controllable set.
     xi = 0.0
     for i in range(m):
+        two_ds = 2.0 * ds[i]
         xn = caps[i + 1]
-        for j in range(f_bnd[i], f_bnd[i + 1]):
-            v = fp[j] + fq[j] * xi
-            if v < xn:
-                xn = v
+        for k in range(rows):
+            if rf[i, k]:
+                v = two_ds * ra[i, k] + (1.0 + two_ds * rb[i, k]) * xi
+                if v < xn:
+                    xn = v
         if xn < 0.0:
             xn = 0.0
         x[i + 1] = xn
