@@ -87,7 +87,7 @@ def test_one_state_answers_are_the_batch_answers(robot, reach, mycobot, panda):
     """The one-state call (what validity_checker runs before the exact check) reads the same
     tables as the batch call: the same verdict on every state, both kinds represented. The batch
     call folds the joints no slot drives (the myCobot's gripper, the Panda's fingers) into their
-    parents (batch_check._held_joints, from HOLD_MIN_STATES states), the one-state call does not:
+    parents (batch_check._held_joints, from HOLD_MIN_STATES states a call), the one-state call does not:
     the two kinematics give the same verdicts."""
     model = {"mycobot": mycobot, "panda": panda}[robot]
     scene = PlanningScene(model)

@@ -357,7 +357,7 @@ def joint_kinematics(q, parents, kinds, index, axes, rot0, trans0, rot, trans, b
 
 #: states per call from which _free_states first folds the joints no slot drives into their
 #: parents' placements (one kinematics pass at q_ref): below it the pass costs what it saves
-HOLD_MIN_STATES = 3
+HOLD_MIN_STATES = 16
 
 
 @compiled
