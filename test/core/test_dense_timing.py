@@ -366,19 +366,9 @@ def _reference_pareto(w0: np.ndarray, w1: np.ndarray) -> np.ndarray:
 
 
 def _reference_topp(ds: np.ndarray, t0: np.ndarray, k0: np.ndarray, t1: np.ndarray, k1: np.ndarray,
-          amax: np.ndarray, xcap: np.ndarray, scale: np.ndarray) -> np.ndarray:
-    """Time-optimal squared path speeds x = s_dot**2 on a grid (TOPP-RA's discretisation).
-
-    The path acceleration u = s_ddot is constant on each grid interval, so
-    x[i+1] = x[i] + 2 ds[i] u[i]. Joint accelerations q' u + q'' x must respect ``amax`` at
-    both ends of every interval; with x[i+1] substituted, both are linear in (x[i], u):
-    ``|tau u + kappa x[i]| <= A``, i.e. u in [max_k(-a_k + b_k x), min_k(a_k + b_k x)] over
-    the 2 d rows k (each joint, at both ends). A backward pass computes the largest x[i] from
-    which the end (and every rest) can still be reached (the controllable set), a forward pass
-    then accelerates as hard as allowed without leaving it. ``xcap`` (velocity limits, rests
-    = 0) caps x pointwise; ``scale`` (per interval, <= 1) tightens the acceleration limits.
-    The passes are scalar loops over the grid, so rows that never bind are pruned first
-    (vectorised)."""
+                    amax: np.ndarray, xcap: np.ndarray, scale: np.ndarray) -> np.ndarray:
+    """dense_path_topp._topp as NumPy computed it (its docstring says what): the rows that never
+    bind pruned first (vectorised), then the two passes as plain loops."""
     m = ds.shape[0]
     two_ds = 2.0 * ds
     tau = np.concatenate((t0, t1 + two_ds[:, None] * k1), axis=1)  # (m, 2d)
@@ -424,30 +414,14 @@ def _reference_topp(ds: np.ndarray, t0: np.ndarray, k0: np.ndarray, t1: np.ndarr
 
 
 def _reference_passes(caps, b_bnd, bp, bq, f_bnd, fp, fq, x):
-    """_topp's two scalar passes over the grid (compiled; scalar IEEE arithmetic in the order
-    the Python loops had, so the same results): backward, the largest x[i] from which the rest
-    can be reached, written into ``caps``; forward, the path speeds squared into ``x``."""
+    """The two passes over the grid as plain Python: backward, the largest x[i] from which the
+    rest can be reached (into ``caps``); forward, the path speeds squared (into ``x``)."""
     m = caps.shape[0] - 1
-    c = caps[m]
-    for i in range(m - 1, -1, -1):
-        best = caps[i]
-        for j in range(b_bnd[i], b_bnd[i + 1]):
-            v = (c + bp[j]) / bq[j]
-            if v < best:
-                best = v
-        c = best
-        caps[i] = c
-    xi = 0.0
+    for i in reversed(range(m)):  # min keeps the first of equal values, as a strict-less loop
+        caps[i] = min([caps[i]] + [(caps[i + 1] + bp[j]) / bq[j] for j in range(b_bnd[i], b_bnd[i + 1])])
     for i in range(m):
-        xn = caps[i + 1]
-        for j in range(f_bnd[i], f_bnd[i + 1]):
-            v = fp[j] + fq[j] * xi
-            if v < xn:
-                xn = v
-        if xn < 0.0:
-            xn = 0.0
-        x[i + 1] = xn
-        xi = xn
+        xn = min([caps[i + 1]] + [fp[j] + fq[j] * x[i] for j in range(f_bnd[i], f_bnd[i + 1])])
+        x[i + 1] = xn if xn >= 0.0 else 0.0
 
 
 def _topp_calls(monkeypatch) -> list:
