@@ -34,11 +34,10 @@ ROS_NAMES = ("rclpy", "NodeProcess", "ros_env", "use_session_domain", "session_d
 ROS_TEST_DIR = Path(__file__).resolve().parent / "ros"
 #: ROS test modules whose verdicts depend on timing a loaded machine can upset (a motion stopped
 #: short in time, jogging and servoing rates, physics stepped in real time, a driver's serial I/O):
-#: marked ``realtime``, so ./scripts/test.sh runs them one at a time with nothing beside them,
-#: and the other ROS modules on two workers. A parallel run of all of them failed three of these
-#: (execution monitoring stopping short, a MuJoCo grasp that slipped while the simulator lagged);
-#: a fresh-clone run of the split failed test_planning_server's stop during an execution (the
-#: arm reached its goal first), so it and the workers' cancel test run alone too.
+#: marked ``realtime`` (``-m "ros and not realtime"`` leaves them out). Run on two workers, all
+#: ROS tests failed three of these; with these alone one at a time and the rest on two workers,
+#: fresh-clone runs still failed others (a planning_server stop that came late, a 60 s
+#: `ros2 param get`), so ./scripts/test.sh runs every ROS test one at a time.
 REALTIME_MODULES = frozenset({
     "test_move_group_api.py", "test_mujoco_sim_twin.py", "test_servo_node.py", "test_hybrid_planning_ros.py",
     "test_react_tools.py", "test_teleop_viewer.py", "test_mycobot_driver.py", "test_mycobot_driver_demo.py",
@@ -53,7 +52,7 @@ def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line("markers", "slow: a long cross-check (minutes in all), e.g. collision verdicts on "
                                        "every example-robot-data robot (`-m 'not ros and not slow'` leaves them out)")
     config.addinivalue_line("markers", "realtime: a ROS test whose verdict depends on timing (REALTIME_MODULES in "
-                                       "test/conftest.py); ./scripts/test.sh runs these alone, one at a time")
+                                       "test/conftest.py): known to fail with other tests running beside them")
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
