@@ -229,3 +229,41 @@ def test_nan_and_malformed_states_are_never_free(panda):
     assert check(ready)
     with pytest.raises(ValueError):
         check(ready[:5])
+
+
+def _axes_urdf() -> str:
+    """A chain whose joints turn about +-X, +-Y, +-Z, a tilted axis, slide, and turn without
+    limits (continuous), with rotated joint frames."""
+    joints = [("revolute", "1 0 0"), ("revolute", "0 -1 0"), ("revolute", "0 0 1"), ("revolute", "-1 0 0"),
+              ("revolute", "0 1 0"), ("revolute", "0 0 -1"), ("revolute", "0.6 0 0.8"), ("prismatic", "0 1 0"),
+              ("continuous", "0 0 1"), ("continuous", "1 0 0")]
+    links = "".join(f'<link name="l{k}"/>' for k in range(len(joints) + 1))
+    chain = "".join(
+        f'<joint name="j{k}" type="{kind}"><parent link="l{k}"/><child link="l{k + 1}"/>'
+        f'<origin xyz="0.1 {0.02 * k} 0.05" rpy="{0.3 * k} {0.7 - 0.1 * k} {0.2 * k}"/><axis xyz="{axis}"/>'
+        + ('' if kind == "continuous" else '<limit lower="-3" upper="3" effort="1" velocity="1"/>') + '</joint>'
+        for k, (kind, axis) in enumerate(joints))
+    return f'<robot name="axes">{links}{chain}</robot>'
+
+
+def test_joint_kinematics_are_pinocchios_for_every_axis():
+    """The compiled forward kinematics (its shortcuts for joints about one coordinate axis, either
+    sign, and the general formula) give Pinocchio's joint placements on 200 random states."""
+    from mycobot_planning.core.collision_detection.batch_check import joint_kinematics
+
+    model = pin.buildModelFromXML(_axes_urdf())
+    data = model.createData()
+    parents, kinds, index, axes, placements = joint_tables(model)
+    assert {int(k) for k in kinds[1:]} == {1, 2, 3}  # revolute, prismatic, unbounded
+    nj = model.njoints
+    rot, trans = np.zeros((nj, 3, 3)), np.zeros((nj, 3))
+    rot[0] = np.eye(3)
+    rot0, trans0 = np.ascontiguousarray(placements[:, :3, :3]), np.ascontiguousarray(placements[:, :3, 3])
+    pin.seed(3)
+    for _ in range(200):
+        q = pin.randomConfiguration(model, -3.0 * np.ones(model.nq), 3.0 * np.ones(model.nq))
+        pin.forwardKinematics(model, data, q)
+        joint_kinematics(q, parents, kinds, index, axes, rot0, trans0, rot, trans, np.empty((3, 3)), np.empty((3, 3)))
+        for j in range(1, nj):
+            assert np.allclose(rot[j], data.oMi[j].rotation, atol=1e-12), model.names[j]
+            assert np.allclose(trans[j], data.oMi[j].translation, atol=1e-12), model.names[j]

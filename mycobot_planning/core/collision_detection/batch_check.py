@@ -331,6 +331,33 @@ def joint_kinematics(q, parents, kinds, index, axes, rot0, trans0, rot, trans, b
                 c = q[index[j]]
                 sn = q[index[j] + 1]
             x, y, z = axes[j, 0], axes[j, 1], axes[j, 2]
+            if x == 0.0 and y == 0.0:  # about +-Z (most URDF joints): two columns mix, the third stays
+                sn *= z
+                for i in range(3):
+                    b0 = base[i, 0]
+                    b1 = base[i, 1]
+                    rot[j, i, 0] = c * b0 + sn * b1
+                    rot[j, i, 1] = c * b1 - sn * b0
+                    rot[j, i, 2] = base[i, 2]
+                continue
+            if y == 0.0 and z == 0.0:  # about +-X
+                sn *= x
+                for i in range(3):
+                    b1 = base[i, 1]
+                    b2 = base[i, 2]
+                    rot[j, i, 0] = base[i, 0]
+                    rot[j, i, 1] = c * b1 + sn * b2
+                    rot[j, i, 2] = c * b2 - sn * b1
+                continue
+            if x == 0.0 and z == 0.0:  # about +-Y
+                sn *= y
+                for i in range(3):
+                    b0 = base[i, 0]
+                    b2 = base[i, 2]
+                    rot[j, i, 0] = c * b0 - sn * b2
+                    rot[j, i, 1] = base[i, 1]
+                    rot[j, i, 2] = c * b2 + sn * b0
+                continue
             v = 1.0 - c
             local_rot[0, 0] = c + x * x * v
             local_rot[0, 1] = x * y * v - z * sn
