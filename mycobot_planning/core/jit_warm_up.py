@@ -20,6 +20,7 @@ from .planners.cartesian.step_solver import step_solver
 from .planning_scene.planning_scene import PlanningScene
 from .robot_model.robot_model import RobotModel
 from .robot_state.robot_state import RobotState
+from .robot_trajectory.robot_trajectory import max_steps
 from .trajectory_processing.time_parameterization import time_parameterize
 
 __all__ = ["warm_up"]
@@ -49,7 +50,8 @@ def warm_up() -> float:
     t = np.linspace(0.0, 1.0, 200)[:, None]
     dense = 0.3 * np.sin(2.0 * t + np.arange(6)[None, :])
     trajectory = time_parameterize(dense, 1.0, 2.0, method="smooth")  # the TOPP passes
-    trajectory.sample(np.linspace(trajectory.times[0], trajectory.times[-1], 50))  # the evaluation
+    samples = trajectory.sample(np.linspace(trajectory.times[0], trajectory.times[-1], 50))[0]  # the evaluation
+    max_steps(samples)  # the validator's step sizes
     return time.perf_counter() - started
 
 

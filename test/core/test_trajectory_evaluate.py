@@ -51,3 +51,32 @@ def test_timed_paths_evaluate_bit_for_bit(method, monkeypatch):
         for ours, theirs in zip(compiled, reference):
             assert np.array_equal(ours, theirs)
         assert not np.array_equal(compiled[0][0], compiled[0][-1])  # the motion moves
+
+
+def test_max_steps_are_numpys():
+    """The compiled step sizes are NumPy's max(|diff|, axis=1), NaN rows included."""
+    from mycobot_planning.core.robot_trajectory.robot_trajectory import max_steps
+
+    rng = np.random.default_rng(5)
+    for _ in range(100):
+        n, d = int(rng.integers(2, 60)), int(rng.integers(1, 8))
+        positions = rng.normal(size=(n, d))
+        if rng.random() < 0.3:
+            positions[rng.integers(n), rng.integers(d)] = np.nan
+        expected = np.max(np.abs(np.diff(positions, axis=0)), axis=1)
+        assert np.array_equal(max_steps(positions), expected, equal_nan=True)
+    assert max_steps(np.zeros((1, 3))).shape == (0,)
+
+
+def test_nan_times_are_refused_and_one_point_trajectories_sample(monkeypatch):
+    from mycobot_planning.core.errors import TimeParameterizationError
+
+    trajectory = time_parameterize(np.array([[0.0, 0.0], [0.5, -0.2]]), 1.0, 1.0)
+    for compiled_evaluation in (True, False):
+        monkeypatch.setattr(robot_trajectory, "_EVALUATE_COMPILED", compiled_evaluation)
+        with pytest.raises(TimeParameterizationError, match="NaN"):
+            trajectory.sample(np.array([0.1, np.nan]))
+        with pytest.raises(TimeParameterizationError, match="NaN"):
+            trajectory.sample(float("nan"))
+        still = TimedTrajectory(["a"], np.array([0.0]), np.array([[0.3]]), np.zeros((1, 1)), np.zeros((1, 1)))
+        assert np.array_equal(still.sample(np.array([-1.0, 0.0, 2.0]))[0], np.full((3, 1), 0.3))

@@ -24,6 +24,7 @@ __all__ = [
     "densify_joint_trajectory",
     "joint_trajectory_to_timed",
     "limit_waypoint_distance",
+    "max_steps",
     "timed_to_joint_trajectory",
 ]
 
@@ -119,15 +120,35 @@ class TimedTrajectory:
         reported as stored there, which is zero for anything :func:`time_parameterize` made).
         """
         scalar = np.ndim(t) == 0
-        ts = np.clip(np.atleast_1d(np.asarray(t, dtype=float)), self.times[0], self.times[-1])
-        if np.any(np.isnan(ts)):
-            raise TimeParameterizationError("sample time is NaN")
-        q, qd, qdd = self._interpolate(ts)
+        if _EVALUATE_COMPILED and len(self) > 1:
+            # clipping, the intervals, the polynomials and the stored points in one compiled call
+            # (the validator samples several times a plan: each NumPy step cost microseconds)
+            q, qd, qdd = self._sampled(np.atleast_1d(np.asarray(t, dtype=float)), True)
+        else:
+            ts = np.clip(np.atleast_1d(np.asarray(t, dtype=float)), self.times[0], self.times[-1])
+            if np.any(np.isnan(ts)):
+                raise TimeParameterizationError("sample time is NaN")
+            q, qd, qdd = self._interpolate(ts)
         if scalar:
             return q[0], qd[0], qdd[0]
         return q, qd, qdd
 
+    def _sampled(self, ts: np.ndarray, clip: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """_interpolate (after sample's clipping, with ``clip``) by _sample_kernel: at least two
+        stored points and numba."""
+        m, d = ts.shape[0], self.positions.shape[1]
+        q, qd, qdd = np.empty((m, d)), np.empty((m, d)), np.empty((m, d))
+        if not _sample_kernel(np.ascontiguousarray(self.times, dtype=float),
+                              np.ascontiguousarray(self.positions, dtype=float),
+                              np.ascontiguousarray(self.velocities, dtype=float),
+                              np.ascontiguousarray(self.accelerations, dtype=float),
+                              self.interpolation == "cubic", np.ascontiguousarray(ts, dtype=float), clip, q, qd, qdd):
+            raise TimeParameterizationError("sample time is NaN")
+        return q, qd, qdd
+
     def _interpolate(self, ts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        if _EVALUATE_COMPILED and len(self) > 1 and not np.isnan(ts).any():
+            return self._sampled(ts, False)
         q, qd, qdd = self._evaluate(ts)
         # Stored points are returned verbatim (no rounding from evaluating a polynomial).
         idx = np.minimum(np.searchsorted(self.times, ts), len(self) - 1)
@@ -145,15 +166,6 @@ class TimedTrajectory:
                     np.repeat(self.accelerations, m, axis=0))
         # Interval k covers [times[k], times[k+1]]; stored points are reproduced exactly.
         k = np.clip(np.searchsorted(self.times, ts, side="right") - 1, 0, n - 2)
-        if _EVALUATE_COMPILED:
-            m, d = ts.shape[0], self.positions.shape[1]
-            q, qd, qdd = np.empty((m, d)), np.empty((m, d)), np.empty((m, d))
-            _evaluate_kernel(np.ascontiguousarray(self.times, dtype=float),
-                             np.ascontiguousarray(self.positions, dtype=float),
-                             np.ascontiguousarray(self.velocities, dtype=float),
-                             np.ascontiguousarray(self.accelerations, dtype=float),
-                             self.interpolation == "cubic", np.ascontiguousarray(ts, dtype=float), k, q, qd, qdd)
-            return q, qd, qdd
         return self._evaluate_numpy(ts, k)
 
     def _evaluate_numpy(self, ts: np.ndarray, k: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -420,17 +432,59 @@ def densify_joint_trajectory(trajectory: JointTrajectory, max_distance: float = 
 
 #: TimedTrajectory.sample evaluates with the compiled kernel (the validator samples every plan
 #: hundreds of times over: NumPy's per-operation cost dominated); tests switch it off to compare.
+#: Without it (or with one stored point) sample runs the NumPy steps.
 _EVALUATE_COMPILED = numba_available()
 
 
+def max_steps(positions: np.ndarray) -> np.ndarray:
+    """Each step's largest joint change, ``max(|diff(positions)|, axis=1)``, NaN where a row
+    holds one: compiled, since NumPy's reduction over a row of a few joints costs ~40 µs for
+    the 700 states of a validated motion."""
+    positions = np.ascontiguousarray(positions, dtype=float)
+    if not _EVALUATE_COMPILED or positions.ndim != 2 or positions.shape[0] < 2 or positions.shape[1] == 0:
+        return np.max(np.abs(np.diff(positions, axis=0)), axis=1)
+    out = np.empty(positions.shape[0] - 1)
+    _max_steps_kernel(positions, out)
+    return out
+
+
 @compiled
-def _evaluate_kernel(times, positions, velocities, accelerations, cubic, ts, k, q, qd, qdd):  # pragma: no cover
-    """TimedTrajectory._evaluate_numpy, element by element with the same operations in the same
-    order (so the same roundings)."""
+def _max_steps_kernel(positions, out):  # pragma: no cover - compiled
+    for m in range(out.shape[0]):
+        largest = 0.0
+        nan = False
+        for j in range(positions.shape[1]):
+            d = abs(positions[m + 1, j] - positions[m, j])
+            if d != d:
+                nan = True
+            elif d > largest:
+                largest = d
+        out[m] = math.nan if nan else largest
+
+
+@compiled
+def _sample_kernel(times, positions, velocities, accelerations, cubic, ts, clip, q, qd, qdd):  # pragma: no cover
+    """TimedTrajectory.sample (``clip``: times clamped to the stored span) or _interpolate, per
+    time: its interval (searchsorted 'right' minus one, within 0..n-2), the interval's polynomial
+    with _evaluate_numpy's operations in the same order (so the same roundings), and at a stored
+    time the stored point verbatim. False when a time is NaN (nothing else is then reliable)."""
+    n = times.shape[0]
     for m in range(ts.shape[0]):
-        i = k[m]
+        t = ts[m]
+        if t != t:
+            return False
+        if clip:
+            t = min(max(t, times[0]), times[n - 1])
+        i = min(max(np.searchsorted(times, t, side="right") - 1, 0), n - 2)
+        stored = min(np.searchsorted(times, t), n - 1)
+        if times[stored] == t:
+            for j in range(positions.shape[1]):
+                q[m, j] = positions[stored, j]
+                qd[m, j] = velocities[stored, j]
+                qdd[m, j] = accelerations[stored, j]
+            continue
         h = times[i + 1] - times[i]
-        x = (ts[m] - times[i]) / h
+        x = (t - times[i]) / h
         for j in range(positions.shape[1]):
             p0 = positions[i, j]
             if cubic:
@@ -455,3 +509,4 @@ def _evaluate_kernel(times, positions, velocities, accelerations, cubic, ts, k, 
             q[m, j] = c0 + x * (c1 + x * (c2 + x * (c3 + x * (c4 + x * c5))))
             qd[m, j] = (c1 + x * (2 * c2 + x * (3 * c3 + x * (4 * c4 + x * 5 * c5)))) / h
             qdd[m, j] = (2 * c2 + x * (6 * c3 + x * (12 * c4 + x * 20 * c5))) / (h * h)
+    return True

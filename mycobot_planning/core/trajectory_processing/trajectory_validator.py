@@ -14,7 +14,7 @@ import numpy as np
 from ..errors import PlanningError
 from ..planning_scene.planning_scene import PlanningScene
 from ..robot_state.robot_state import RobotState
-from ..robot_trajectory.robot_trajectory import TimedTrajectory
+from ..robot_trajectory.robot_trajectory import TimedTrajectory, max_steps
 
 __all__ = [
     "DEFAULT_RESOLUTION",
@@ -152,7 +152,7 @@ def _initial_times(traj: TimedTrajectory, resolution: float) -> np.ndarray:
     even split in time. Either way the refinement rounds check every gap."""
     times, pos = traj.times, traj.positions
     h = np.diff(times)
-    chord = np.max(np.abs(np.diff(pos, axis=0)), axis=1)
+    chord = max_steps(pos)
     counts = np.clip(np.ceil(chord / resolution), 1, _MAX_SPLIT).astype(int)
     long = np.flatnonzero(counts >= _EVEN_MOTION_MIN_COUNT)
     if not long.size or times.shape[0] > _EVEN_MOTION_MAX_POINTS:
@@ -209,7 +209,7 @@ def dense_samples(
     exhausted = False
     for _ in range(_MAX_ROUNDS):
         q, qd, qdd = traj.sample(ts)
-        step = np.max(np.abs(np.diff(q, axis=0)), axis=1)
+        step = max_steps(q)
         dt = np.diff(ts)
         coarse = (step > resolution) & (dt > _MIN_GAP)
         if not np.any(coarse):
