@@ -22,6 +22,7 @@ from .robot_model.robot_model import RobotModel
 from .robot_state.robot_state import RobotState
 from .robot_trajectory.robot_trajectory import max_steps
 from .trajectory_processing.time_parameterization import time_parameterize
+from .trajectory_processing.trajectory_validator import dense_samples
 
 __all__ = ["warm_up"]
 
@@ -52,6 +53,7 @@ def warm_up() -> float:
     trajectory = time_parameterize(dense, 1.0, 2.0, method="smooth")  # the TOPP passes
     samples = trajectory.sample(np.linspace(trajectory.times[0], trajectory.times[-1], 50))[0]  # the evaluation
     max_steps(samples)  # the validator's step sizes
+    dense_samples(trajectory, 0.005)  # the validator's first sampling
     return time.perf_counter() - started
 
 

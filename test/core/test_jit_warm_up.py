@@ -10,7 +10,7 @@ from mycobot_planning.core.jit_warm_up import warm_up
 from mycobot_planning.core.kinematics import chain_kinematics, compiled_descent
 from mycobot_planning.core.planners.cartesian import step_solver
 from mycobot_planning.core.robot_trajectory import robot_trajectory
-from mycobot_planning.core.trajectory_processing import dense_path_topp
+from mycobot_planning.core.trajectory_processing import dense_path_topp, trajectory_validator
 
 pytestmark = pytest.mark.skipif(not numba_available(), reason="numba is not installed (scripts/requirements.txt)")
 
@@ -20,6 +20,7 @@ KERNELS = [
     (compiled_descent, "_descend"), (compiled_descent, "_descend_batch"),
     (step_solver, "_correct"), (step_solver, "_follow"),
     (robot_trajectory, "_sample_kernel"), (robot_trajectory, "_max_steps_kernel"), (dense_path_topp, "_topp_kernel"),
+    (trajectory_validator, "_initial_times_kernel"),
 ]
 
 def test_warm_up_compiles_every_kernel():

@@ -108,6 +108,33 @@ def test_a_straight_motion_is_sampled_evenly_along_the_way(mycobot):
     assert np.all(np.diff(ts) > 0) and ts[0] == traj.times[0] and ts[-1] == traj.times[-1]
 
 
+
+def test_compiled_sample_times_are_numpys(mycobot):
+    """The compiled first sampling gives NumPy's interval counts (so as many states) and its
+    times within rounding: straight motions (the even-along-the-motion placement), multi-point
+    paths, a non-monotonic drive, and paths of more stored points than that placement takes."""
+    from mycobot_planning.core.jit import numba_available
+    from mycobot_planning.core.trajectory_processing.trajectory_validator import (
+        _initial_times, _initial_times_numpy)
+
+    if not numba_available():
+        pytest.skip("numba is not installed (scripts/requirements.txt): only the NumPy version runs")
+    rng = np.random.default_rng(11)
+    start = ready(mycobot).group_positions("arm")
+    trajectories = [timed(mycobot, [start, start + rng.uniform(-1.5, 1.5, 6)]) for _ in range(20)]
+    trajectories += [timed(mycobot, start + np.cumsum(rng.uniform(-0.4, 0.4, (k, 6)), axis=0)) for k in (3, 5, 12, 40)]
+    trajectories += [quintic_rest_to_rest([f"j{i}" for i in range(6)], start, start + 0.8, 1.5)]
+    back_and_forth = TimedTrajectory([f"j{i}" for i in range(2)], np.array([0.0, 1.0]), np.array([[0.0, 0.0], [0.2, 0.1]]),
+                                     np.array([[3.0, 0.0], [3.0, 0.0]]), np.zeros((2, 2)), interpolation="quintic")
+    trajectories.append(back_and_forth)  # joint 0 overshoots and comes back: evenly in time
+    for traj in trajectories:
+        for resolution in (0.005, 0.002):
+            ours, reference = _initial_times(traj, resolution), _initial_times_numpy(traj, resolution)
+            assert ours.shape == reference.shape
+            assert np.allclose(ours, reference, rtol=0.0, atol=1e-9 * traj.duration)
+            assert ours[0] == traj.times[0] and ours[-1] == traj.times[-1] and np.all(np.diff(ours) > 0)
+
+
 # ------------------------------------------------------------------------------- collisions
 def test_catches_collision_between_free_waypoints(mycobot):
     a = np.array([-0.8, 0.0, 1.5708, 1.5708, 0.0, 0.0])

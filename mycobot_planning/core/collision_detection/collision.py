@@ -434,6 +434,8 @@ class CompiledScene:
         # fixed_pairs per set of moving joints: a fact of this compiled scene (every plan of a
         # group asks it again; 0.4 ms for the Panda's 60 pairs)
         self._fixed_pairs: dict[frozenset[int], tuple[int, ...]] = {}
+        # the configuration entries each set of moving joints writes (batch_check's cache key)
+        self._moved_q: dict[frozenset[int], np.ndarray] = {}
 
     def _geometry_data_of(self, gm: pin.GeometryModel, margin: float = SECURITY_MARGIN) -> pin.GeometryData:
         """Fresh geometry data for this scene's geometry (or its hulls', with the pre-test's wider
@@ -541,22 +543,27 @@ class CompiledScene:
         return cached
 
     def batch_check(self, moving_joints: frozenset[int], q_ref: np.ndarray, slots: np.ndarray,
-                    sample: np.ndarray) -> BatchCheck | None:
+                    sample: Callable[[], np.ndarray]) -> BatchCheck | None:
         """The sphere test (batch_check.py) for states that differ from ``q_ref`` only in the
         configuration ``slots`` (a group's joints: ``moving_joints``, as group_collides), judged
-        on ``sample`` (rows of slot values) whether it pays; None when there is none for this scene (a shape or joint it does not
+        on ``sample()`` (rows of slot values, asked only to build) whether it pays; None when there is none for this scene (a shape or joint it does not
         model, a fixed pair that collides, or it would not pay: batch_check.MIN_FREE_SHARE).
         Built once per key (q_ref counts only at the joints that do not move: the others are
         overwritten by every state) and shared by every thread (it holds no buffers)."""
         # the test depends on q_ref only where no moving joint is: plans from other starts share it
-        held = np.array(q_ref, dtype=float)
-        for j in moving_joints:
-            held[self.pin_model.idx_qs[j]:self.pin_model.idx_qs[j] + self.pin_model.nqs[j]] = 0.0
+        moved = self._moved_q.get(moving_joints)
+        if moved is None:  # (Pinocchio's index vectors are copied on every read from Python: once)
+            idx_qs, nqs = self.pin_model.idx_qs, self.pin_model.nqs
+            moved = np.zeros(self.pin_model.nq, dtype=bool)
+            for j in moving_joints:
+                moved[idx_qs[j]:idx_qs[j] + nqs[j]] = True
+            self._moved_q[moving_joints] = moved
+        held = np.where(moved, 0.0, np.asarray(q_ref, dtype=float))
         key = (moving_joints, held.tobytes(), np.asarray(slots).tobytes())
         with self._batch_lock:
             if key in self._batch_checks:
                 return self._batch_checks[key]
-        check = self._build_batch_check(moving_joints, np.array(q_ref, dtype=float), slots, sample)
+        check = self._build_batch_check(moving_joints, np.array(q_ref, dtype=float), slots, sample())
         with self._batch_lock:
             if len(self._batch_checks) >= 8:
                 self._batch_checks.pop(next(iter(self._batch_checks)))

@@ -726,8 +726,6 @@ class PlanningScene:
         q_matrix = self._robot.q_matrix
         if slots is None and q_matrix is None:
             return None  # continuous joints: no affine map to the configuration
-        low = np.where(np.isfinite(self._model.lower_limits[indices]), self._model.lower_limits[indices], -np.pi)
-        high = np.where(np.isfinite(self._model.upper_limits[indices]), self._model.upper_limits[indices], np.pi)
         moving = self.moving_joints(indices)
         q_ref = np.array(self._robot.to_q(full), dtype=float)
         if slots is None:  # mimic followers: the rows become whole configurations through the affine map
@@ -736,13 +734,20 @@ class PlanningScene:
             group_columns = np.ascontiguousarray(q_matrix[:, indices].T)
         else:
             rows = group_columns = None
-        # the rule that decides whether the test pays is judged on random states of the group
-        # (the same ones for every scene of the model: drawn once per variable set)
-        sample = np.array(self._model.cached(("batch_rule_sample", np.asarray(indices, dtype=int).tobytes()),
-                                             lambda: read_only(np.random.default_rng(7).uniform(
-                                                 low, high, (BATCH_RULE_SAMPLES, len(indices))))))
-        if group_columns is not None:
-            sample = sample @ group_columns + rows
+        model = self._model
+
+        def rule_sample() -> np.ndarray:
+            """The random states of the group the rule that decides whether the test pays is
+            judged on (the same ones for every scene of the model: drawn once per variable set;
+            asked only when a test is built)."""
+            def draw() -> np.ndarray:
+                low = np.where(np.isfinite(model.lower_limits[indices]), model.lower_limits[indices], -np.pi)
+                high = np.where(np.isfinite(model.upper_limits[indices]), model.upper_limits[indices], np.pi)
+                return read_only(np.random.default_rng(7).uniform(low, high, (BATCH_RULE_SAMPLES, len(indices))))
+
+            sample = np.array(model.cached(("batch_rule_sample", np.asarray(indices, dtype=int).tobytes()), draw))
+            return sample if group_columns is None else sample @ group_columns + rows
+
         scene = self
         # (compiled scene, its batch test, the test's one-state tables), replaced as one
         last: list[Any] = [(None, None, None, None)]
@@ -754,7 +759,7 @@ class PlanningScene:
                 compiled = scene._compiled()
             entry = last[0]
             if entry[0] is not compiled:
-                check = compiled.batch_check(moving, q_ref, slots, sample)
+                check = compiled.batch_check(moving, q_ref, slots, rule_sample)
                 entry = last[0] = (compiled, check, None if check is None else check.one_ints,
                                    None if check is None else check.one_floats)
             return entry[1]

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import PlanningError
+from ..jit import compiled, numba_available
 from ..planning_scene.planning_scene import PlanningScene
 from ..robot_state.robot_state import RobotState
 from ..robot_trajectory.robot_trajectory import TimedTrajectory, max_steps
@@ -139,7 +140,88 @@ _EVEN_MOTION_SPACING = 0.98
 _EVEN_MOTION_MAX_POINTS = 32
 
 
+_GRID = np.linspace(0.0, 1.0, _EVEN_MOTION_GRID + 1)
+
+
 def _initial_times(traj: TimedTrajectory, resolution: float) -> np.ndarray:
+    """_initial_times_numpy's sample times, in one compiled call after one evaluation of the
+    trajectory (each of its NumPy steps cost microseconds: ~120 us a straight motion). Its
+    interval counts are the same; its times within rounding of NumPy's interpolation."""
+    times = np.ascontiguousarray(traj.times, dtype=float)
+    positions = np.ascontiguousarray(traj.positions, dtype=float)
+    if not numba_available() or times.shape[0] < 2:
+        return _initial_times_numpy(traj, resolution)
+    if times.shape[0] <= _EVEN_MOTION_MAX_POINTS:  # every interval read at the grid's points
+        sub = times[:-1, None] + np.diff(times)[:, None] * _GRID
+        grid_q = traj.sample(sub.reshape(-1))[0].reshape(sub.shape[0], sub.shape[1], -1)
+    else:
+        sub, grid_q = np.zeros((0, 0)), np.zeros((0, 0, 0))
+    return _initial_times_kernel(times, positions, float(resolution), sub, grid_q, times.shape[0] <= _EVEN_MOTION_MAX_POINTS)
+
+
+@compiled
+def _initial_times_kernel(times, positions, resolution, sub, grid_q, even):  # pragma: no cover - compiled
+    """_initial_times_numpy step by step: each interval's count from its chord (NaN: one), the
+    long ones' recounted and placed evenly along their driving joint where it moves
+    monotonically (``sub``, ``grid_q``: the interval's grid times and states), else evenly in
+    time, then the last stored time."""
+    n, d = positions.shape
+    counts = np.empty(n - 1, dtype=np.int64)
+    chords = np.empty(n - 1)
+    any_long = False
+    for k in range(n - 1):
+        chord = 0.0
+        for j in range(d):
+            c = abs(positions[k + 1, j] - positions[k, j])
+            if c > chord or c != c:
+                chord = c
+        chords[k] = chord
+        counts[k] = 1 if chord != chord else int(min(max(np.ceil(chord / resolution), 1.0), float(_MAX_SPLIT)))
+        if counts[k] >= _EVEN_MOTION_MIN_COUNT:
+            any_long = True
+    even = even and any_long
+    long = np.zeros(n - 1, dtype=np.bool_)
+    if even:
+        for k in range(n - 1):
+            if counts[k] >= _EVEN_MOTION_MIN_COUNT:
+                long[k] = True
+                counts[k] = int(min(max(np.ceil(chords[k] / (resolution * _EVEN_MOTION_SPACING)), 1.0),
+                                    float(_MAX_SPLIT)))
+    ts = np.empty(int(counts.sum()) + 1)
+    first = 0
+    g_last = sub.shape[1] - 1 if even else 0
+    progress = np.empty(g_last + 1)
+    for k in range(n - 1):
+        count = counts[k]
+        h = times[k + 1] - times[k]
+        for i in range(count):
+            ts[first + i] = times[k] + h * (i / count)
+        if long[k]:
+            drive = 0
+            for j in range(d):  # np.argmax: the first of the largest
+                if abs(positions[k + 1, j] - positions[k, j]) > abs(positions[k + 1, drive] - positions[k, drive]):
+                    drive = j
+            span = grid_q[k, g_last, drive] - grid_q[k, 0, drive]
+            monotonic = True
+            for g in range(g_last + 1):
+                progress[g] = (grid_q[k, g, drive] - grid_q[k, 0, drive]) / span
+                if not math.isfinite(progress[g]) or (g > 0 and not progress[g] > progress[g - 1]):
+                    monotonic = False
+                    break
+            if monotonic:
+                g = 0
+                for i in range(1, count):
+                    x = i / count
+                    while g < g_last - 1 and progress[g + 1] <= x:
+                        g += 1
+                    ts[first + i] = sub[k, g] + (sub[k, g + 1] - sub[k, g]) * (
+                        (x - progress[g]) / (progress[g + 1] - progress[g]))
+        first += count
+    ts[first] = times[n - 1]
+    return ts
+
+
+def _initial_times_numpy(traj: TimedTrajectory, resolution: float) -> np.ndarray:
     """Stored times plus a subdivision of each interval sized by its chord; refinement fixes
     gaps that still move more than the resolution.
 
