@@ -236,10 +236,11 @@ class _SceneData:
     __slots__ = ("data", "geometry_data", "manager", "hull_data", "hull_geometry_data", "hull_manager", "check",
                  "all_pairs", "distance_data", "group_checkers")
 
-    def __init__(self, scene: "CompiledScene", data: pin.Data | None = None) -> None:
+    def __init__(self, scene: "CompiledScene", data: pin.Data | None = None,
+                 geometry_data: pin.GeometryData | None = None) -> None:
         pin_model, gm = scene.pin_model, scene.geometry_model
         self.data = data if data is not None else pin_model.createData()
-        self.geometry_data = scene._geometry_data_of(gm)
+        self.geometry_data = geometry_data if geometry_data is not None else scene._geometry_data_of(gm)
         self.manager = self.hull_manager = self.hull_data = self.hull_geometry_data = None
         if scene._manager_type is not None:
             self.manager = scene._manager_type(pin_model, gm, self.geometry_data)
@@ -414,6 +415,8 @@ class CompiledScene:
                     self._inactive_pairs.append(k)
         inactive = set(self._inactive_pairs)
         self.active_pairs = [k for k in range(len(pairs)) if k not in inactive]
+        for k in self._inactive_pairs:  # gd is now what _geometry_data_of makes: the thread's below
+            gd.deactivateCollisionPair(k)
 
         # Broad phase when every geometry has a proper AABB (the manager silently ignores
         # degenerate ones, e.g. a flat mesh); otherwise the plain all-pairs loop.
@@ -427,7 +430,7 @@ class CompiledScene:
             )
         self._hull_model = self._hull_geometry(robot, gm) if self._manager_type is not None else None
         # the constructing thread's buffers: the ones made above
-        self._local.scene_data = _SceneData(self, data)
+        self._local.scene_data = _SceneData(self, data, gd)
         #: batch_check's tests by (moving joints, reference configuration, slots); None: no batch path
         self._batch_checks: dict[tuple, BatchCheck | None] = {}
         self._batch_lock = threading.Lock()
@@ -575,7 +578,9 @@ class CompiledScene:
         fixed = self.fixed_pairs(moving_joints)
         pin_model, gm = self.pin_model, self.geometry_model
         if fixed:  # decided once, as group_collides does: if one collides every state does
-            gd = self._geometry_data_of(gm)
+            # on the calling thread's buffers (its checks set their own placements first; making
+            # geometry data for every pair costs ~0.3 ms, and a pick and place builds many tests)
+            gd = self._thread_data().geometry_data
             pin.updateGeometryPlacements(pin_model, pin_model.createData(), gm, gd, q_ref)
             if any(pin.computeCollision(gm, gd, k) for k in fixed):
                 return None
