@@ -184,6 +184,60 @@ def test_edge_answers_are_the_validity_functions():
     assert [x for x in asked_plain if x >= 0.3] == asked and len(asked) < len(asked_plain)
 
 
+
+def test_staged_edges_answer_as_one_batch_and_spare_the_rest():
+    """_edge_valid's stages (a few states first, then more): on 2,000 random edges of 1 to 300
+    states, each with random blocked intervals and a batch test that calls a random part of the
+    free states free, the answer and the states asked of the validity function are those of the
+    states in order (free by the batch test or valid, up to the first invalid one), and an edge
+    whose first invalid state comes early has the batch test run on fewer than all its states."""
+    from mycobot_planning.core.planners.ompl.solve import EDGE_FIRST_STAGE
+
+    rng = np.random.default_rng(21)
+    spared = 0
+    for _ in range(2000):
+        blocked = np.sort(rng.uniform(0.0, 1.0, (int(rng.integers(0, 3)), 2)), axis=1)
+        salt = rng.integers(1 << 30)
+
+        def exact(x: float) -> bool:
+            return not any(lo < x < hi for lo, hi in blocked)
+
+        def sure(x: float) -> bool:  # a batch test: free only if valid, and not always then
+            return exact(x) and (hash((round(x, 12), int(salt))) % 3 != 0)
+
+        asked: list[float] = []
+        tested: list[int] = []
+
+        def valid(q: np.ndarray) -> bool:
+            asked.append(float(q[0]))
+            return exact(float(q[0]))
+
+        def batch(states: np.ndarray) -> np.ndarray:
+            tested.append(len(states))
+            return np.array([sure(float(x)) for x in states[:, 0]], dtype=bool)
+
+        segments = int(rng.integers(1, 300))
+        a, b = np.array([rng.uniform(0.0, 0.5)]), np.array([rng.uniform(0.5, 1.0)])
+        end_known = bool(rng.random() < 0.3) and exact(float(b[0]))
+        fractions = _edge_fractions(segments)
+        answer = _edge_valid(a, b, fractions, valid, batch, end_known)
+        xs = (a + fractions[:, None] * (b - a))[:, 0]
+        xs[0] = b[0]
+        expected, expected_asked = 2, []
+        for k in range(1 if end_known else 0, len(xs)):
+            if not sure(float(xs[k])):
+                expected_asked.append(float(xs[k]))
+                if not exact(float(xs[k])):
+                    expected = 1 if k else 0
+                    break
+        assert answer == expected
+        assert asked == expected_asked
+        if expected != 2 and len(xs) > 4 * EDGE_FIRST_STAGE and len(expected_asked) and \
+                np.flatnonzero(xs == expected_asked[-1])[0] < EDGE_FIRST_STAGE:
+            assert sum(tested) == EDGE_FIRST_STAGE
+            spared += 1
+    assert spared > 50
+
 def test_every_peers_plan_passes_the_exact_validator():
     parts = panda_parts_problems(0, ik_count=1, check_count=1)
     ours = OursParts(parts)
