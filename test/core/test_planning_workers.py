@@ -108,6 +108,14 @@ def test_a_changed_scene_reaches_the_workers(workers: PlanningWorkers):
     remote = workers.plan(scene.copy(), request)
     assert not local.success
     assert remote.error_code.val == local.error_code.val, (remote.error_code, local.error_code)
+    # the caller keeps the last world's message while the world stays (a copy shares it); a
+    # change of the world (here back to the empty one) is sent again
+    token = scene.content_token
+    assert scene.copy().content_token is token
+    assert not workers.plan(scene.copy(), request).success
+    scene.remove_object("in_the_way")
+    assert scene.content_token is not token
+    assert workers.plan(scene.copy(), request).success
 
 
 def test_planner_parameter_changes_reach_the_workers(workers: PlanningWorkers):

@@ -237,6 +237,13 @@ class PlanningScene:
     def _changed(self) -> None:
         self._slot = _Slot()
 
+    @property
+    def content_token(self) -> object:
+        """An object that stays the same while the scene's world objects, attached objects and
+        allowed collisions do (every change of them replaces it; copies share it until then): the
+        key of a cache of anything built from them. The robot's positions are not part of it."""
+        return self._slot
+
     # ------------------------------------------------------------------ copies
     def copy(self) -> "PlanningScene":
         """Independent scene sharing the (immutable) objects and the compiled collision model."""
