@@ -20,6 +20,12 @@ from .base import (
     _require_len,
 )
 
+# Pose.from_matrix's tolerances (np.allclose's, entry by entry)
+_BOTTOM_ROW = np.array([0.0, 0.0, 0.0, 1.0])
+_BOTTOM_ROW_TOLERANCE = 1e-9 + 1e-5 * _BOTTOM_ROW
+_EYE3 = np.eye(3)
+_ORTHONORMAL_TOLERANCE = 1e-6 + 1e-5 * _EYE3
+
 
 def _quat_mul(a: Sequence[float], b: Sequence[float]) -> list[float]:
     """Hamilton product a*b of (x, y, z, w) quaternions."""
@@ -106,9 +112,11 @@ class Pose(_Message):
         if not np.all(np.isfinite(T)):
             raise MessageError(path, "must be finite")
         R = T[:3, :3]
-        if not np.allclose(T[3], [0, 0, 0, 1], atol=1e-9):
+        # np.allclose's tests (atol 1e-9 and 1e-6, rtol 1e-5) entry by entry: without its
+        # wrappers (~20 us each; a plan converts many poses)
+        if not np.all(np.abs(T[3] - _BOTTOM_ROW) <= _BOTTOM_ROW_TOLERANCE):
             raise MessageError(path, f"bottom row must be [0, 0, 0, 1], got {T[3].tolist()}")
-        if not np.allclose(R.T @ R, np.eye(3), atol=1e-6) or np.linalg.det(R) <= 0:
+        if not np.all(np.abs(R.T @ R - _EYE3) <= _ORTHONORMAL_TOLERANCE) or np.linalg.det(R) <= 0:
             raise MessageError(path, "rotation block is not a proper rotation matrix")
         # Shepperd's method: pick the largest diagonal term for numerical stability.
         tr = R[0, 0] + R[1, 1] + R[2, 2]

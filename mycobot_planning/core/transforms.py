@@ -12,6 +12,11 @@ from typing import Sequence
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+_EYE3 = np.eye(3)
+_ORTHONORMAL_TOLERANCE = 1e-6 + 1e-5 * _EYE3
+_BOTTOM_ROW = np.array([0.0, 0.0, 0.0, 1.0])
+_BOTTOM_ROW_TOLERANCE = 1e-8 + 1e-5 * _BOTTOM_ROW
+
 ArrayLike = Sequence[float] | np.ndarray
 
 
@@ -72,10 +77,12 @@ def is_pose(pose: object) -> bool:
     if arr.shape != (4, 4) or not np.all(np.isfinite(arr)):
         return False
     rot = arr[:3, :3]
+    # np.allclose's tests (atol 1e-6 and its default 1e-8, rtol 1e-5) entry by entry, without its
+    # wrappers (~20 us each: every pose goal, IK target and Cartesian waypoint passes here)
     return bool(
-        np.allclose(rot @ rot.T, np.eye(3), atol=1e-6)
+        np.all(np.abs(rot @ rot.T - _EYE3) <= _ORTHONORMAL_TOLERANCE)
         and np.linalg.det(rot) > 0
-        and np.allclose(arr[3], [0.0, 0.0, 0.0, 1.0])
+        and np.all(np.abs(arr[3] - _BOTTOM_ROW) <= _BOTTOM_ROW_TOLERANCE)
     )
 
 

@@ -29,6 +29,9 @@ from .properties import PropertyMap
 from .solution_export import solution_joint_trajectory, solution_to_msg
 from .solvers import default_pipeline
 
+_EYE4 = np.eye(4)
+#: np.allclose(offset, eye(4), atol=1e-12)'s tolerance, entry by entry
+_IDENTITY_TOLERANCE = 1e-12 + 1e-5 * _EYE4
 
 _LOG = logging.getLogger("mycobot_planning.task")
 
@@ -96,7 +99,9 @@ class TaskContext:
         return default_pipeline()
 
     def ik_solver(self, group: str, link: str, offset: np.ndarray) -> IKSolver:
-        identity = np.allclose(offset, np.eye(4), atol=1e-12)
+        # np.allclose's test (atol 1e-12, rtol 1e-5) without its wrappers (~25 us a call, and
+        # every IK stage asks for its solver on every computation)
+        identity = bool(np.all(np.abs(np.asarray(offset, dtype=float) - _EYE4) <= _IDENTITY_TOLERANCE))
         key = (group, link, None if identity else np.round(offset, 12).tobytes())
         solver = self._ik.get(key)
         if solver is None:
