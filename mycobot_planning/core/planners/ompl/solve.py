@@ -6,6 +6,7 @@ docs/ompl.md.
 from __future__ import annotations
 
 import math
+import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -86,25 +87,29 @@ def _guarded_validity(
     to stop, every further state is reported invalid, and plan_joint_space re-raises it.
     ``cancel`` (anything with ``is_set()``) is polled here too: a Python termination condition
     is not an option (PRM evaluates it from its own thread), and every planner checks states
-    continuously, so this is where a cancel request is seen soonest.
+    continuously, so this is where a cancel request is seen soonest. The test and the call are
+    made under a lock: PRM calls from two threads, and without it one thread could pass the test
+    while the other's call is raising, so the user function would be called after its failure.
     """
+    lock = threading.Lock()
 
     def valid(q: np.ndarray) -> bool:
-        counter[0] += 1
-        if ctx.error is not None or ctx.cancelled:
-            return False
-        if cancel is not None and cancel.is_set():
-            ctx.cancelled = True
-            if ctx.ptc is not None:
-                ctx.ptc.terminate()
-            return False
-        try:
-            return bool(fn(q))
-        except BaseException as e:  # noqa: BLE001 - re-raised by plan_joint_space
-            ctx.error = e
-            if ctx.ptc is not None:
-                ctx.ptc.terminate()
-            return False
+        with lock:
+            counter[0] += 1
+            if ctx.error is not None or ctx.cancelled:
+                return False
+            if cancel is not None and cancel.is_set():
+                ctx.cancelled = True
+                if ctx.ptc is not None:
+                    ctx.ptc.terminate()
+                return False
+            try:
+                return bool(fn(q))
+            except BaseException as e:  # noqa: BLE001 - re-raised by plan_joint_space
+                ctx.error = e
+                if ctx.ptc is not None:
+                    ctx.ptc.terminate()
+                return False
 
     return valid
 
