@@ -331,32 +331,19 @@ def joint_kinematics(q, parents, kinds, index, axes, rot0, trans0, rot, trans, b
                 c = q[index[j]]
                 sn = q[index[j] + 1]
             x, y, z = axes[j, 0], axes[j, 1], axes[j, 2]
-            if x == 0.0 and y == 0.0:  # about +-Z (most URDF joints): two columns mix, the third stays
-                sn *= z
+            # about a coordinate axis k (either sign: most URDF joints), the next two columns of
+            # the parent's rotation (cyclically) mix and column k stays
+            k = 2 if x == 0.0 and y == 0.0 else (0 if y == 0.0 and z == 0.0 else (1 if x == 0.0 and z == 0.0 else -1))
+            if k >= 0:
+                sn *= axes[j, k]
+                u = (k + 1) % 3
+                w = (k + 2) % 3
                 for i in range(3):
-                    b0 = base[i, 0]
-                    b1 = base[i, 1]
-                    rot[j, i, 0] = c * b0 + sn * b1
-                    rot[j, i, 1] = c * b1 - sn * b0
-                    rot[j, i, 2] = base[i, 2]
-                continue
-            if y == 0.0 and z == 0.0:  # about +-X
-                sn *= x
-                for i in range(3):
-                    b1 = base[i, 1]
-                    b2 = base[i, 2]
-                    rot[j, i, 0] = base[i, 0]
-                    rot[j, i, 1] = c * b1 + sn * b2
-                    rot[j, i, 2] = c * b2 - sn * b1
-                continue
-            if x == 0.0 and z == 0.0:  # about +-Y
-                sn *= y
-                for i in range(3):
-                    b0 = base[i, 0]
-                    b2 = base[i, 2]
-                    rot[j, i, 0] = c * b0 - sn * b2
-                    rot[j, i, 1] = base[i, 1]
-                    rot[j, i, 2] = c * b2 + sn * b0
+                    bu = base[i, u]
+                    bw = base[i, w]
+                    rot[j, i, u] = c * bu + sn * bw
+                    rot[j, i, w] = c * bw - sn * bu
+                    rot[j, i, k] = base[i, k]
                 continue
             v = 1.0 - c
             local_rot[0, 0] = c + x * x * v
