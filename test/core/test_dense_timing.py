@@ -480,3 +480,24 @@ def test_compiled_topp_gives_the_python_loops_results(monkeypatch):
             plain = time_parameterize(path, 1.5, 3.0, method="smooth")
         for name in ("times", "positions", "velocities", "accelerations"):
             assert np.array_equal(getattr(compiled, name), getattr(plain, name)), name
+
+
+def test_compiled_bezier_deviation_is_numpys():
+    """The compiled deviation bound gives the NumPy version's values (within rounding: the sums
+    run in another order) on random curves of 1 to 7 joints, degenerate segments and NaN."""
+    from mycobot_planning.core.jit import numba_available
+    from mycobot_planning.core.trajectory_processing import dense_path_topp
+
+    if not numba_available():
+        pytest.skip("numba is not installed (scripts/requirements.txt): only the NumPy version runs")
+    rng = np.random.default_rng(8)
+    for _ in range(200):
+        n, d = int(rng.integers(1, 50)), int(rng.integers(1, 8))
+        p0, c1, c2, p3 = (rng.normal(size=(n, d)) for _ in range(4))
+        a, b = p0 + 0.1 * rng.normal(size=(n, d)), p3 + 0.1 * rng.normal(size=(n, d))
+        b[0] = a[0]  # a segment of zero length
+        if rng.random() < 0.2:
+            c1[rng.integers(n), rng.integers(d)] = np.nan
+        ours = dense_path_topp.bezier_deviation(p0, c1, c2, p3, a, b)
+        reference = dense_path_topp._bezier_deviation_numpy(p0, c1, c2, p3, a, b)
+        assert np.allclose(ours, reference, rtol=1e-12, atol=1e-14, equal_nan=True)

@@ -19,7 +19,7 @@ KERNELS = [
     (batch_check, "_free_states"), (batch_check, "one_state_free"), (chain_kinematics, "frame_kinematics"),
     (compiled_descent, "_descend"), (compiled_descent, "_descend_batch"),
     (step_solver, "_correct"), (step_solver, "_follow"),
-    (robot_trajectory, "_sample_kernel"), (robot_trajectory, "_max_steps_kernel"), (dense_path_topp, "_topp_kernel"),
+    (robot_trajectory, "_sample_kernel"), (robot_trajectory, "_max_steps_kernel"), (dense_path_topp, "_topp_kernel"), (dense_path_topp, "_bezier_deviation_kernel"),
     (trajectory_validator, "_initial_times_kernel"),
 ]
 
