@@ -151,35 +151,29 @@ def _initial_times(traj: TimedTrajectory, resolution: float) -> np.ndarray:
     positions = np.ascontiguousarray(traj.positions, dtype=float)
     if not numba_available() or times.shape[0] < 2:
         return _initial_times_numpy(traj, resolution)
-    if times.shape[0] <= _EVEN_MOTION_MAX_POINTS:  # every interval read at the grid's points
+    chords = max_steps(positions)
+    # an interval is long when ceil(chord / resolution) >= _EVEN_MOTION_MIN_COUNT; only then is
+    # every interval read at the grid's points
+    even = times.shape[0] <= _EVEN_MOTION_MAX_POINTS and bool(np.any(chords / resolution > _EVEN_MOTION_MIN_COUNT - 1))
+    if even:
         sub = times[:-1, None] + np.diff(times)[:, None] * _GRID
         grid_q = traj.sample(sub.reshape(-1))[0].reshape(sub.shape[0], sub.shape[1], -1)
     else:
         sub, grid_q = np.zeros((0, 0)), np.zeros((0, 0, 0))
-    return _initial_times_kernel(times, positions, float(resolution), sub, grid_q, times.shape[0] <= _EVEN_MOTION_MAX_POINTS)
+    return _initial_times_kernel(times, positions, chords, float(resolution), sub, grid_q, even)
 
 
 @compiled
-def _initial_times_kernel(times, positions, resolution, sub, grid_q, even):  # pragma: no cover - compiled
-    """_initial_times_numpy step by step: each interval's count from its chord (NaN: one), the
-    long ones' recounted and placed evenly along their driving joint where it moves
-    monotonically (``sub``, ``grid_q``: the interval's grid times and states), else evenly in
-    time, then the last stored time."""
+def _initial_times_kernel(times, positions, chords, resolution, sub, grid_q, even):  # pragma: no cover - compiled
+    """_initial_times_numpy step by step: each interval's count from its chord (max_steps; NaN:
+    one), with ``even`` the long ones recounted and placed evenly along their driving joint
+    where it moves monotonically (``sub``, ``grid_q``: the intervals' grid times and states),
+    else evenly in time, then the last stored time."""
     n, d = positions.shape
     counts = np.empty(n - 1, dtype=np.int64)
-    chords = np.empty(n - 1)
-    any_long = False
     for k in range(n - 1):
-        chord = 0.0
-        for j in range(d):
-            c = abs(positions[k + 1, j] - positions[k, j])
-            if c > chord or c != c:
-                chord = c
-        chords[k] = chord
+        chord = chords[k]
         counts[k] = 1 if chord != chord else int(min(max(np.ceil(chord / resolution), 1.0), float(_MAX_SPLIT)))
-        if counts[k] >= _EVEN_MOTION_MIN_COUNT:
-            any_long = True
-    even = even and any_long
     long = np.zeros(n - 1, dtype=np.bool_)
     if even:
         for k in range(n - 1):
