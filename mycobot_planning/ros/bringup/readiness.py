@@ -3,6 +3,8 @@ actions and topics it offers (what a client needs before its first request), not
 says so. Files (the emulated arm's port) count for processes that are no ROS node."""
 from __future__ import annotations
 
+import os
+import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,13 +31,36 @@ class Readiness:
 
 class GraphProbe:
     """A node on a private context that reads the ROS graph (nothing to spin: the graph cache
-    fills from discovery in the middleware's own threads)."""
+    fills from discovery in the middleware's own threads). ``GraphProbe.shared()`` is the one a
+    process keeps for its ROS domain (see there)."""
+
+    _shared: dict[tuple[str | None, ...], "GraphProbe"] = {}
+    _shared_lock = threading.Lock()
 
     def __init__(self, name: str = "bringup_probe") -> None:
         use_fast_discovery()
         self.context = Context()
         rclpy.init(context=self.context)
         self.node = Node(f"{name}", context=self.context, start_parameter_services=False)
+        self._keep = False
+
+    @classmethod
+    def shared(cls) -> "GraphProbe":
+        """The process's probe for the ROS domain and discovery settings of its environment,
+        made on first use and kept until the process ends (its ``close`` does nothing). Why:
+        a probe made and destroyed per bring-up once hung a test run for good: rclpy's
+        destroy_node waited in native code, holding the GIL, so no timeout could end it; one
+        probe a process also spares a DDS participant's discovery per wait."""
+        key = tuple(os.environ.get(k) for k in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE",
+                                                 "ROS_STATIC_PEERS", "ROS_LOCALHOST_ONLY",
+                                                 "RMW_IMPLEMENTATION"))
+        with cls._shared_lock:
+            probe = cls._shared.get(key)
+            if probe is None:
+                probe = cls(f"bringup_probe_{os.getpid()}")
+                probe._keep = True
+                cls._shared[key] = probe
+            return probe
 
     def missing(self, readiness: Readiness) -> list[str]:
         """What of ``readiness`` the graph (and the file system) does not show yet."""
@@ -64,6 +89,8 @@ class GraphProbe:
             time.sleep(period)
 
     def close(self) -> None:
+        if self._keep:
+            return
         self.node.destroy_node()
         rclpy.try_shutdown(context=self.context)
 

@@ -260,7 +260,7 @@ class Robot:
         """Wait until every node is discovered with what it offers and its last check passes."""
         deadline = time.monotonic() + timeout + 1.0
         pending = list(self.nodes)
-        with GraphProbe(f"bringup_probe_{os.getpid()}") as probe:
+        with GraphProbe.shared() as probe:
             while pending:
                 still = []
                 for spec in pending:
