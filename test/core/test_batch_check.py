@@ -321,3 +321,24 @@ def test_joint_kinematics_are_pinocchios_for_every_axis():
         for j in range(1, nj):
             assert np.allclose(rot[j], data.oMi[j].rotation, atol=1e-12), model.names[j]
             assert np.allclose(trans[j], data.oMi[j].translation, atol=1e-12), model.names[j]
+
+
+def test_outer_spheres_hold_each_bodys_spheres_as_the_per_body_computation():
+    """_pack's bounding sphere per body, in one reduction over all bodies: the same values as the
+    per-body computation it replaced (bit for bit), and every sphere of a body inside its own."""
+    from mycobot_planning.core.collision_detection.batch_check import _outer_spheres
+
+    rng = np.random.default_rng(3)
+    for _ in range(500):
+        bodies = [(rng.normal(size=(m, 3)), rng.uniform(1e-3, 0.2, m)) for m in rng.integers(1, 12, rng.integers(1, 20))]
+        centres = np.vstack([c for c, _ in bodies])
+        radii = np.concatenate([r for _, r in bodies])
+        outer = _outer_spheres(centres, radii, np.array([len(r) for _, r in bodies]))
+        for (c, r), sphere in zip(bodies, outer):
+            middle = 0.5 * (np.min(c - r[:, None], axis=0) + np.max(c + r[:, None], axis=0))
+            radius = float(np.max(np.linalg.norm(c - middle, axis=1) + r)) * (1.0 + 1e-12)
+            assert np.array_equal(sphere, np.append(middle, radius))
+            assert np.all(np.linalg.norm(c - sphere[:3], axis=1) + r <= sphere[3])
+    assert _outer_spheres(np.zeros((0, 3)), np.zeros(0), np.zeros(0, dtype=np.int64)).shape == (0, 4)
+    with pytest.raises(ValueError, match="at least one sphere"):
+        _outer_spheres(np.zeros((1, 3)), np.ones(1), np.array([1, 0]))

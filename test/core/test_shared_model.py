@@ -15,7 +15,8 @@ import pytest
 
 from interfaces_py.msgs import CollisionObject, MoveItErrorCode
 from mycobot_planning.core import PlanningScene, RobotModel, RobotState
-from mycobot_planning.core.kinematics.ik_solver import IKSolver
+from mycobot_planning.core.kinematics import ik_solver
+from mycobot_planning.core.kinematics.ik_solver import IKSolver, thread_ik_solver
 from mycobot_planning.core.planners.cartesian.cartesian_path import compute_cartesian_path
 from mycobot_planning.core.planning_interface.planning_context import PlanningContext
 from mycobot_planning.core.planning_interface.planning_interface import JointGoal, MotionPlanRequest, PoseGoal
@@ -172,6 +173,41 @@ def test_concurrent_kinematics_match_the_single_threaded_answers(robot: str, req
                     assert a is b
                 else:
                     np.testing.assert_array_equal(a, b)
+
+
+def test_a_threads_kept_solver_is_its_own_and_answers_as_a_new_one(mycobot: RobotModel):
+    """thread_ik_solver: one solver per thread and arguments, reused there, never shared with
+    another thread, and its answers after other queries those of a solver built for the query."""
+    group = "arm"
+    tip = mycobot.group(group).tip_link
+    scene = PlanningScene(mycobot)
+    states = _valid_states(scene, group, 8, seed=11)
+    seed = RobotState(mycobot)
+    offset = make_pose([0.0, 0.0, 0.05])
+
+    def answers(get) -> list:
+        out = []
+        for state in states:
+            target = state.frame_pose(tip)
+            found = get(None).solve(target, seed=seed, rng=3, timeout=60.0, attempts=64)
+            refined = get(offset).refine(target @ offset, state)
+            out.append((found[0].positions if found else None, refined.positions if refined is not None else None))
+        return out
+
+    fresh = answers(lambda off: IKSolver(mycobot, group, None, off))
+    kept = answers(lambda off: thread_ik_solver(mycobot, group, None, off))
+    assert len(kept) == len(fresh) == 8 and all(found is not None for found, _ in fresh)
+    for pair, reference in zip(kept, fresh):
+        for a, b in zip(pair, reference):
+            assert (a is None and b is None) or np.array_equal(a, b)
+    assert thread_ik_solver(mycobot, group) is thread_ik_solver(mycobot, group)
+    assert thread_ik_solver(mycobot, group, None, offset) is not thread_ik_solver(mycobot, group)
+    mine = thread_ik_solver(mycobot, group)
+    others = _in_threads(4, lambda k: thread_ik_solver(mycobot, group))
+    assert len({id(s) for s in others} | {id(mine)}) == 5
+    for k in range(ik_solver.THREAD_SOLVERS_KEPT):  # the least recently used is dropped beyond the bound
+        thread_ik_solver(mycobot, group, None, make_pose([0.0, 0.0, 0.001 * (k + 1)]))
+    assert thread_ik_solver(mycobot, group) is not mine
 
 
 def test_concurrent_cartesian_paths_match_the_single_threaded_path(panda: RobotModel):

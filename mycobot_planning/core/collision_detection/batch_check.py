@@ -232,6 +232,24 @@ def build_batch_check(
     return check
 
 
+def _outer_spheres(centres: np.ndarray, radii: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    """Each body's bounding sphere (centre, radius) around its ``counts[k]`` consecutive spheres:
+    the centre of their bounding box, the radius reaching the farthest sphere's far side. One
+    reduction per quantity over all bodies (a loop per body cost ~20 us a body in NumPy calls)."""
+    outer = np.zeros((len(counts), 4))
+    if not len(counts):
+        return outer
+    if np.any(counts < 1):
+        raise ValueError("every covered body needs at least one sphere")
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    middle = 0.5 * (np.minimum.reduceat(centres - radii[:, None], starts, axis=0)
+                    + np.maximum.reduceat(centres + radii[:, None], starts, axis=0))
+    reach = np.linalg.norm(centres - np.repeat(middle, counts, axis=0), axis=1) + radii
+    outer[:, :3] = middle
+    outer[:, 3] = np.maximum.reduceat(reach, starts) * (1.0 + 1e-12)
+    return outer
+
+
 def _pack(parents, kinds, index, axes, placements, bodies, world_pairs, obstacles, self_pairs,
           margin) -> tuple[np.ndarray, np.ndarray]:
     """Every table in one int and one float array (a compiled call's cost grows with its
@@ -244,11 +262,7 @@ def _pack(parents, kinds, index, axes, placements, bodies, world_pairs, obstacle
     first = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
     centres = np.vstack([b[1] for b in bodies]) if bodies else np.zeros((0, 3))
     radii = np.concatenate([b[2] for b in bodies]) if bodies else np.zeros(0)
-    outer = np.zeros((len(bodies), 4))  # each body's bounding sphere: centre, radius
-    for k, (_, c, r) in enumerate(bodies):
-        middle = 0.5 * (np.min(c - r[:, None], axis=0) + np.max(c + r[:, None], axis=0))
-        outer[k, :3] = middle
-        outer[k, 3] = float(np.max(np.linalg.norm(c - middle, axis=1) + r)) * (1.0 + 1e-12)
+    outer = _outer_spheres(centres, radii, counts)
     world = np.asarray(world_pairs, dtype=np.int64).reshape(-1, 2)
     pairs = np.asarray(self_pairs, dtype=np.int64).reshape(-1, 2)
     obstacle_kinds = np.asarray([o[0] for o in obstacles], dtype=np.int64)

@@ -18,7 +18,7 @@ from interfaces_py.msgs import MoveItErrorCode
 
 from ..errors import PlanningError, TimeParameterizationError
 from ..kinematic_constraints.kinematic_constraints import CONSTRAINT_CHECK_STEP, dense_violation
-from ..kinematics.ik_solver import IKSolver
+from ..kinematics.ik_solver import thread_ik_solver
 from ..planning_scene.planning_scene import PlanningScene
 from ..robot_model.robot_model import JointModelGroup, RobotModel
 from ..robot_state.robot_state import RobotState
@@ -300,7 +300,7 @@ def goal_states(
     if not isinstance(goal, PoseGoal):
         raise failure(MoveItErrorCode.UNRECOGNIZED_GOAL_TYPE, f"unrecognised goal type {type(goal).__name__}")
     link, pose = check_pose_goal(model, jmg, goal)
-    solver = IKSolver(model, jmg.name, link, goal.ik_frame_offset)
+    solver = thread_ik_solver(model, jmg.name, link, goal.ik_frame_offset)
     # Bounded descents as well as time: a pose with fewer IK branches than max_states must not
     # spend the whole budget looking for branches that do not exist.
     attempts = solver.options.seed_neighbours + 4 * max_states + 8

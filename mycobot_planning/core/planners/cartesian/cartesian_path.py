@@ -18,7 +18,7 @@ from .cartesian_precision import CartesianPrecision, PrecisionCheck
 from .step_solver import ORIENTATION_TOLERANCE, POSITION_TOLERANCE, step_solver
 from ...errors import PlanningError
 from ...kinematic_constraints.kinematic_constraints import CONSTRAINT_CHECK_STEP
-from ...kinematics.ik_solver import IKSolver
+from ...kinematics.ik_solver import IKSolver, thread_ik_solver
 from ...planning_interface.planning_interface import (MotionPlanResponse, PlanningFailure, check_group, check_start_state,
                                                        failure, time_group_path)
 from ...planning_scene.planning_scene import PlanningScene
@@ -450,7 +450,7 @@ def _compute(
         """A longer descent from the previous solution only (no table seeds, no restarts): the
         path stays on the seed's IK branch or stops, it never hops to another branch."""
         if not fallback:
-            fallback.append(IKSolver(model, jmg.name, link))
+            fallback.append(thread_ik_solver(model, jmg.name, link))
         seed_positions = full.copy()
         seed_positions[idx] = previous
         target = np.eye(4)

@@ -56,7 +56,7 @@ from ...planning_interface.planning_interface import (
     time_group_path,
 )
 from ...errors import TimeParameterizationError
-from ...kinematics.ik_solver import IKSolver
+from ...kinematics.ik_solver import thread_ik_solver
 from ...planning_scene.planning_scene import PlanningScene
 from ...robot_model.robot_model import JointModelGroup
 from ...trajectory_processing.trajectory_validator import DEFAULT_RESOLUTION, halving_order, validate_trajectory
@@ -442,7 +442,7 @@ def _constrained_pose_goals(scene: PlanningScene, jmg: JointModelGroup, start: R
     again), nearest to the start first."""
     model = scene.robot_model
     link, pose = check_pose_goal(model, jmg, goal)
-    solver = IKSolver(model, jmg.name, link, goal.ik_frame_offset)
+    solver = thread_ik_solver(model, jmg.name, link, goal.ik_frame_offset)
     attempts = solver.options.seed_neighbours + 8 * max_states + 16
     solutions = solver.solve(pose, seed=start, timeout=timeout, max_solutions=max_states, min_solution_distance=0.1,
                              rng=rng, attempts=attempts,
