@@ -223,3 +223,42 @@ def test_a_free_straight_motion_is_the_plan_and_is_validated(mycobot: RobotModel
     bent = around.path - around.path[0]
     d = bent[-1]
     assert not np.allclose(bent, np.outer(bent @ d / (d @ d), d), atol=1e-3)  # not the straight line
+
+
+def test_a_path_through_the_wall_between_checks_is_mended_locally(mycobot: RobotModel, monkeypatch):
+    """When the timed path collides between OMPL's checks, the edges that are not valid at the
+    4x finer resolution are re-planned between their ends (the rest of the path kept) before the
+    whole motion is planned again: the mended path is valid densely, starts and ends where the
+    plan does, and keeps every edge of the first path that was valid."""
+    from mycobot_planning.core.planners.ompl import planner_manager
+    from mycobot_planning.core.planners.ompl.solve import straight_motion_valid
+
+    planner = OmplPlanner()
+    scene = fallback_scene(mycobot, with_box=True)
+    start = ready_with(mycobot, link1_to_link2=-TAU / 8)
+    goal = JointGoal(dict(mycobot.named_state("ready", "arm"), link1_to_link2=TAU / 8))
+    mends = []
+    mended = planner_manager.OmplPlanner._mended
+
+    def recorded(self, scene_, jmg, start_, path, validity, batch_free, lower, upper, fraction, *rest):
+        out = mended(self, scene_, jmg, start_, path, validity, batch_free, lower, upper, fraction, *rest)
+        mends.append((path.copy(), out, validity, lower, upper, fraction))
+        return out
+
+    monkeypatch.setattr(planner_manager.OmplPlanner, "_mended", recorded)
+    answers = []
+    for seed in range(1, 41):
+        mends.clear()
+        response = planner.plan(scene, MotionPlanRequest("arm", goal, start_state=start, seed=seed))
+        assert_valid(scene, response, "arm", start)
+        answers += [(response, m) for m in mends if m[1] is not None]
+    assert answers, "no seed's first path crossed the wall between checks: the case no longer tests mending"
+    for response, (first, (path, trajectory, report), validity, lower, upper, fraction) in answers:
+        assert report.valid
+        np.testing.assert_array_equal(path[0], first[0])
+        np.testing.assert_array_equal(path[-1], first[-1])
+        assert all(straight_motion_valid(a, b, validity, fraction, lower, upper) for a, b in zip(path[:-1], path[1:]))
+        kept = {tuple(q) for q in path}
+        for a, b in zip(first[:-1], first[1:]):
+            if straight_motion_valid(a, b, validity, fraction, lower, upper):
+                assert tuple(a) in kept and tuple(b) in kept
