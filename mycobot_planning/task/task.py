@@ -16,7 +16,7 @@ import numpy as np
 
 from interfaces_py.msgs import JointTrajectory, MoveItErrorCode, TaskDescription, TaskSolution, TaskStatistics
 
-from ..core.kinematics.ik_solver import IKSolver
+from ..core.kinematics.ik_solver import IKSolver, thread_ik_solver
 from ..core.planning_interface.planning_pipeline import PlanningPipeline
 from ..core.planning_scene.planning_scene import PlanningScene
 from ..core.robot_model.robot_model import RobotModel
@@ -69,7 +69,8 @@ def _write(text: str, stream: TextIO | None | object) -> str:
 
 class TaskContext:
     """What stages share while a task plans: the model, the random source, solution ids,
-    IK solvers (built once per group/link/offset) and the planning pipeline."""
+    IK solvers (the planning thread's, thread_ik_solver: built once per group/link/offset and
+    kept across tasks) and the planning pipeline."""
 
     def __init__(self, task: "Task") -> None:
         self.task = task
@@ -77,7 +78,6 @@ class TaskContext:
         self.root: ContainerBase = task.stages
         self._rng = None if task.seed is None else np.random.default_rng(task.seed)
         self._ids = itertools.count(1)
-        self._ik: dict[tuple, IKSolver] = {}
         self.reuse_plans = task.reuse_plans
         self.plan_cache: dict = {}
         self.plan_cache_size = 4096
@@ -102,12 +102,7 @@ class TaskContext:
         # np.allclose's test (atol 1e-12, rtol 1e-5) without its wrappers (~25 us a call, and
         # every IK stage asks for its solver on every computation)
         identity = bool(np.all(np.abs(np.asarray(offset, dtype=float) - _EYE4) <= _IDENTITY_TOLERANCE))
-        key = (group, link, None if identity else np.round(offset, 12).tobytes())
-        solver = self._ik.get(key)
-        if solver is None:
-            solver = IKSolver(self.robot_model, group, link, None if identity else offset)
-            self._ik[key] = solver
-        return solver
+        return thread_ik_solver(self.robot_model, group, link, None if identity else offset)
 
     def current_scene(self, timeout: float) -> PlanningScene:
         return self.task._current_scene(timeout)

@@ -340,3 +340,29 @@ def test_an_unreachable_object_fails_at_the_grasp_and_gives_nothing_to_execute(m
     assert "grasp pose IK" in explanation and "no IK found" in explanation
     assert "grasp pose IK" in code.message
     assert task.numSolutions() == 0 and task.solutions == []
+
+
+def test_a_seeded_plan_is_the_same_with_the_threads_kept_ik_solvers_and_in_a_new_thread(model):
+    """Tasks take their IK solvers from the planning thread (kept across tasks): the same seed
+    gives the same solutions again in this thread (solvers reused) and in a new thread (solvers
+    built afresh)."""
+    import threading
+
+    params = PickPlaceParameters()
+
+    def solutions() -> list:
+        task = build_pick_place_task(model, params, pick_place_scene(model, params), seed=7)
+        assert task.plan(3)
+        return [(s.cost, [sub.trajectory.positions for sub in s.sub_trajectories() if sub.trajectory is not None])
+                for s in task.solutions]
+
+    first, again = solutions(), solutions()
+    elsewhere: list = []
+    thread = threading.Thread(target=lambda: elsewhere.append(solutions()))
+    thread.start()
+    thread.join(120.0)
+    assert len(first) == 3 and elsewhere
+    for other in (again, elsewhere[0]):
+        assert [cost for cost, _ in other] == [cost for cost, _ in first]
+        for (_, mine), (_, reference) in zip(other, first):
+            assert len(mine) == len(reference) and all(np.array_equal(a, b) for a, b in zip(mine, reference))

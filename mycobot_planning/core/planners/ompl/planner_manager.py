@@ -234,7 +234,10 @@ class OmplPlanner:
         if len(mended) == len(path):
             return None  # every edge is valid at the finer fraction: the timing left the path
         waypoints = np.asarray(mended)
-        trajectory = time_group_path(scene.robot_model, jmg, waypoints, velocity_scaling, acceleration_scaling)
+        try:
+            trajectory = time_group_path(scene.robot_model, jmg, waypoints, velocity_scaling, acceleration_scaling)
+        except TimeParameterizationError:
+            return None  # the whole motion planned again, as before
         report = validate_trajectory(scene, trajectory, jmg.name, start, all_pairs=False)
         return (waypoints, trajectory, report) if report.valid else None
 
