@@ -10,9 +10,7 @@ converges quadratically near a solution and steps are clamped far from one.
 from __future__ import annotations
 
 import math
-import threading
 import time
-import weakref
 from dataclasses import dataclass
 from functools import cached_property
 from typing import Callable, Protocol
@@ -26,6 +24,7 @@ from ..errors import KinematicsError
 from .chain_kinematics import chain_tables
 from .compiled_descent import CompiledDescent
 from ..robot_model.robot_model import RobotModel
+from ..robot_model.thread_data import thread_store
 from ..robot_state.robot_state import RobotState
 from ..transforms import check_pose, inverse
 
@@ -617,7 +616,6 @@ class IKSolver:
         return None
 
 
-_THREAD_SOLVERS = threading.local()
 #: solvers a thread keeps per model (the least recently used beyond this are dropped)
 THREAD_SOLVERS_KEPT = 16
 
@@ -631,13 +629,7 @@ def thread_ik_solver(model: RobotModel, group: str, link: str | None = None,
     solver it serves one computation of its thread at a time."""
     offset = None if ik_frame_offset is None else np.asarray(ik_frame_offset, dtype=float)
     key = (group, link, None if offset is None else offset.tobytes(), options)
-    try:
-        table = _THREAD_SOLVERS.table
-    except AttributeError:
-        table = _THREAD_SOLVERS.table = weakref.WeakKeyDictionary()
-    kept = table.get(model)
-    if kept is None:
-        kept = table[model] = {}
+    kept = thread_store(model).setdefault("ik_solvers", {})
     solver = kept.pop(key, None)
     if solver is None:
         solver = IKSolver(model, group, link, offset, options)

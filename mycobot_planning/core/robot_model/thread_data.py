@@ -17,7 +17,7 @@ import pinocchio as pin
 if TYPE_CHECKING:  # pragma: no cover
     from .robot_model import RobotModel
 
-__all__ = ["thread_data"]
+__all__ = ["thread_data", "thread_store"]
 
 _LOCAL = threading.local()
 
@@ -34,14 +34,24 @@ def thread_data(model: "RobotModel") -> pin.Data:
     return _lookup(model)
 
 
-def _lookup(model: "RobotModel") -> pin.Data:
+def thread_store(model: "RobotModel") -> dict:
+    """The calling thread's dict for ``model``, dropped with the thread or the model: where code
+    keeps what it builds once per thread for a model (its Pinocchio data, IK solvers)."""
     local = _LOCAL
     try:
         table = local.table
     except AttributeError:
         table = local.table = weakref.WeakKeyDictionary()
-    data = table.get(model)
+    store = table.get(model)
+    if store is None:
+        store = table[model] = {}
+    return store
+
+
+def _lookup(model: "RobotModel") -> pin.Data:
+    store = thread_store(model)
+    data = store.get("pin_data")
     if data is None:
-        data = table[model] = model.pin_model.createData()
-    local.last = (weakref.ref(model), data)
+        data = store["pin_data"] = model.pin_model.createData()
+    _LOCAL.last = (weakref.ref(model), data)
     return data
