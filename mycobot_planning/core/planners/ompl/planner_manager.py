@@ -215,6 +215,7 @@ class OmplPlanner:
         detour costs a fraction of a whole new plan (~3x a plan, in one connect in five of the
         pick and place)."""
         mended = [path[0]]
+        replaced = 0
         for k, (a, b) in enumerate(zip(path[:-1], path[1:])):
             if straight_motion_valid(a, b, validity, fraction, lower, upper, batch_free):
                 mended.append(b)
@@ -231,7 +232,8 @@ class OmplPlanner:
             if not local.success:
                 return None
             mended.extend(local.path[1:])
-        if len(mended) == len(path):
+            replaced += 1
+        if not replaced:
             return None  # every edge is valid at the finer fraction: the timing left the path
         waypoints = np.asarray(mended)
         try:
