@@ -33,7 +33,7 @@ from .config import (
     resolve_planner_id,
 )
 from .planners import OmplConfigError, canonical_planner_type, validate_params
-from .solve import OmplResult, plan_joint_space, straight_motion_valid
+from .solve import OmplResult, plan_joint_space
 from ...kinematic_constraints.constraint_manifold import ConstraintManifold
 from ...kinematic_constraints.kinematic_constraints import CONSTRAINT_CHECK_STEP, dense_violation
 from ...robot_state.robot_state import RobotState
@@ -202,47 +202,6 @@ class OmplPlanner:
         except OmplConfigError as exc:
             raise failure(MoveItErrorCode.INVALID_MOTION_PLAN, str(exc)) from None
 
-    def _mended(self, scene: PlanningScene, jmg: JointModelGroup, start: RobotState, path: np.ndarray,
-                validity: Any, batch_free: Any, lower: np.ndarray, upper: np.ndarray, fraction: float,
-                resolved: Any, seed: int | None, deadline: float, cancel: Any, velocity_scaling: float,
-                acceleration_scaling: float) -> tuple[np.ndarray, Any, Any] | None:
-        """A path whose timed trajectory collided between OMPL's checks, mended: each of its
-        edges that is not valid at the finer ``fraction`` replaced by a path planned between the
-        edge's two (valid) ends at that fraction, then timed and validated again. (path,
-        trajectory, report) when that trajectory is valid, else None: the caller then plans the
-        whole motion again at the finer fraction, as before. Why: the colliding edges are a few
-        short ones near an obstacle (a gripper grazing the object it is to grasp); a local
-        detour costs a fraction of a whole new plan (~3x a plan, in one connect in five of the
-        pick and place)."""
-        mended = [path[0]]
-        replaced = 0
-        for k, (a, b) in enumerate(zip(path[:-1], path[1:])):
-            if straight_motion_valid(a, b, validity, fraction, lower, upper, batch_free):
-                mended.append(b)
-                continue
-            remaining = deadline - time.perf_counter()
-            if remaining <= 0 or (cancel is not None and cancel.is_set()):
-                return None
-            local = plan_joint_space(lower, upper, validity, a, [b], planner_type=resolved.type,
-                                     planner_params=resolved.params, timeout=remaining,
-                                     longest_valid_segment_fraction=fraction, simplify=True, interpolate_states=0,
-                                     seed=None if seed is None else seed + 7919 * (k + 1),
-                                     projection_dims=self._projection_dims(jmg, resolved),
-                                     stop_on_first_solution=True, cancel=cancel, batch_free=batch_free)
-            if not local.success:
-                return None
-            mended.extend(local.path[1:])
-            replaced += 1
-        if not replaced:
-            return None  # every edge is valid at the finer fraction: the timing left the path
-        waypoints = np.asarray(mended)
-        try:
-            trajectory = time_group_path(scene.robot_model, jmg, waypoints, velocity_scaling, acceleration_scaling)
-        except TimeParameterizationError:
-            return None  # the whole motion planned again, as before
-        report = validate_trajectory(scene, trajectory, jmg.name, start, all_pairs=False)
-        return (waypoints, trajectory, report) if report.valid else None
-
     @staticmethod
     def _projection_dims(jmg: JointModelGroup, resolved: ResolvedPlanner) -> list[int] | None:
         if not resolved.projection_evaluator:
@@ -374,12 +333,6 @@ class OmplPlanner:
                 # The plan's own check at the validator's resolution, on the scene's checker
                 # (proved equal to the plain check; the plain one costs ~10x: docs/ompl.md).
                 report = validate_trajectory(scene, trajectory, jmg.name, start, all_pairs=False)
-                if not report.valid and report.contacts and not constraints and replans < MAX_REPLANS:
-                    mended = self._mended(scene, jmg, start, result.path, validity, batch_free, lower, upper,
-                                          fraction / 4.0, resolved, seed, started + budget, request.cancel,
-                                          velocity_scaling, acceleration_scaling)
-                    if mended is not None:
-                        result.path, trajectory, report = mended
                 broken = None
                 if constraints and report.valid:  # the path, and the timed trajectory that follows it
                     broken = _path_violation(constraints, start, jmg, result.path) or \

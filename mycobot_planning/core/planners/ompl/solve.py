@@ -293,17 +293,6 @@ def _direct_motion(a: np.ndarray, b: np.ndarray, valid: Callable[[np.ndarray], b
     return _edge_valid(a, b, _edge_fractions(segments), valid, batch) == 2
 
 
-def straight_motion_valid(a: np.ndarray, b: np.ndarray, valid: Callable[[np.ndarray], bool],
-                          longest_valid_segment_fraction: float, lower: np.ndarray, upper: np.ndarray,
-                          batch_free: Callable[[np.ndarray], np.ndarray] | None = None) -> bool:
-    """Whether the straight motion a -> b is valid as plan_joint_space's motion validator checks
-    an edge at ``longest_valid_segment_fraction`` of the box [lower, upper]'s diagonal (the end,
-    then the interior by halving), with ``batch_free`` (never calls an invalid state free)
-    deciding first where given."""
-    resolution = float(longest_valid_segment_fraction) * float(np.linalg.norm(np.asarray(upper) - np.asarray(lower)))
-    return _direct_motion(np.asarray(a, dtype=float), np.asarray(b, dtype=float), valid, resolution, batch_free)
-
-
 class _EdgeValidator(ob.MotionValidator):
     """OMPL's DiscreteMotionValidator, with each edge's states made by NumPy and checked in one
     Python loop: the end state first, then the interior by repeated halving (the same states in
