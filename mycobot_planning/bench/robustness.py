@@ -19,9 +19,13 @@ For each case the runner checks what a user relies on:
   code other than SUCCESS with a message, a parameter refusal with a reason); an answer that
   leaks Python internals (``Traceback``, ``IndexError`` ...) counts as accepted_bad,
 * the planning scene and the robot are unchanged afterwards (else half_applied, unsafe_motion),
-  and every node is still alive: looked at 0.3 s after the answer for what reaches the
+  and every node is still alive: looked at SETTLE_S after the answer for what reaches the
   controllers or goes without an answer (action goals, topics), at once after move_group's
-  services, which command no motion and answer once their scene change is in place.
+  services, which command no motion and answer once their scene change is in place. The robot
+  is watched the whole run (every joint_states message against the position the case began
+  at), and each case's scene is compared with the one the case before left, so a motion or a
+  scene change that comes later than that is still seen, in the case it shows up in (its
+  detail says so), and after the last case the runner waits LATE_S and looks once more.
 
 Inputs without an answer (topics) are refused when the node stays alive and nothing changed.
 """
@@ -41,6 +45,9 @@ from .robustness_cases import Case
 from .robustness_cases import all_cases as all_cases  # re-exported: its public path before the split
 from .ros_scenarios import ARM_JOINTS, RobotProcesses, bench_domain_id
 
+SETTLE_S = 0.1  # after an answer to what may act later: a wrong motion shows up in this case
+LATE_S = 0.3  # after the last case: what a wrongly accepted input did late still shows up
+WATCHED_JOINTS = ARM_JOINTS + ["gripper_controller"]
 INTERNAL_WORDS = ("Traceback", "IndexError", "KeyError", "TypeError:", "AttributeError", "ZeroDivisionError",
                   "RecursionError", "UnicodeEncodeError", "NoneType")
 
@@ -96,6 +103,8 @@ class Prober:
         self.lock = threading.Lock()
         self.answers: dict[str, dict] = {}
         self.joints: dict[str, float] = {}
+        self._rest: dict[str, float] | None = None  # what watch() compares every joint_states message with
+        self._moved: list[str] | None = None  # the joints the first message off _rest had moved
         self.requests = self.node.create_publisher(String, "/planning_server/requests", RPC_QOS)
         self.node.create_subscription(String, "/planning_server/responses", self._on_answer, RPC_QOS)
         self.node.create_subscription(JointState, "/joint_states", self._on_joints, 10)
@@ -120,6 +129,18 @@ class Prober:
     def _on_joints(self, msg: Any) -> None:
         with self.lock:
             self.joints = dict(zip(msg.name, msg.position))
+            if self._rest is not None and self._moved is None:
+                self._moved = moved_joints(self._rest, self.joints) or None
+
+    def watch(self, rest: dict[str, float]) -> None:
+        """From now on, note the first joint_states message in which the robot is off ``rest``."""
+        with self.lock:
+            self._rest, self._moved = dict(rest), None
+
+    def motion(self) -> list[str] | None:
+        """The joints that had moved off watch()'s position in the first message that showed it."""
+        with self.lock:
+            return self._moved
 
     def wait_ready(self, timeout: float = 60.0) -> None:
         deadline = time.monotonic() + timeout
@@ -228,6 +249,11 @@ class Prober:
         rclpy.try_shutdown(context=self.context)
 
 
+def moved_joints(before: dict[str, float], now: dict[str, float]) -> list[str]:
+    """The watched joints of ``now`` more than 1e-4 off their position in ``before``."""
+    return [n for n in WATCHED_JOINTS if n in now and abs(now[n] - before.get(n, now[n])) > 1e-4]
+
+
 def _problem_text(text: str) -> str | None:
     """Why an answer's text is not a clear refusal, or None."""
     if not text or not text.strip():
@@ -245,6 +271,7 @@ class Runner:
         self.prober = prober
         self.processes = processes  # name -> subprocess.Popen
         self.log = log  # node name -> its log so far
+        self._left: tuple[Any, dict[str, float]] | None = None  # what the last refused case left
 
     def _dead(self) -> str | None:
         dead = [name for name, proc in self.processes.items() if proc.poll() is not None]
@@ -260,33 +287,39 @@ class Runner:
             joints = dict(self.prober.joints)
         return (world, attached, acm), joints
 
-    def _changed(self, before: tuple[Any, dict[str, float]]) -> tuple[str, str] | None:
-        """(verdict, what) when a refused input left something behind: the scene changed
-        (half_applied) or the robot moved (unsafe_motion)."""
-        scene, joints = self.snapshot()
-        if scene != before[0]:
-            return "half_applied", "the planning scene changed"
-        moved = [n for n in ARM_JOINTS + ["gripper_controller"]
-                 if n in joints and abs(joints[n] - before[1].get(n, joints[n])) > 1e-4]
-        return ("unsafe_motion", f"the robot moved ({moved})") if moved else None
+    def _changed(self, before: tuple[Any, dict[str, float]]
+                 ) -> tuple[tuple[str, str] | None, tuple[Any, dict[str, float]]]:
+        """((verdict, what) or None, the snapshot now): what a refused input left behind, the
+        scene changed (half_applied) or the robot moved (unsafe_motion), now or in any
+        joint_states message since watch()."""
+        now = self.snapshot()
+        if now[0] != before[0]:
+            return ("half_applied", "the planning scene changed"), now
+        moved = self.prober.motion() or moved_joints(before[1], now[1])
+        return (("unsafe_motion", f"the robot moved ({moved})") if moved else None), now
 
     def judge(self, case: Case) -> Outcome:
-        before = self.snapshot()
+        # compared with what the case before left (unless it failed), so that an earlier input's
+        # late change shows up here instead of falling between two snapshots
+        before, self._left = self._left or self.snapshot(), None
+        self.prober.watch(before[1])
         started = time.monotonic()
         verdict, detail = self._send(case)
         if verdict == "refused" and self._may_act_later(case):
-            time.sleep(0.3)  # let a wrongly accepted command show its effect
+            time.sleep(SETTLE_S)  # let a wrongly accepted command show its effect in this case
         dead = self._dead()
         if dead is not None:
             return Outcome(case, "crash", dead)
         if verdict != "refused":
             return Outcome(case, verdict, detail)
         try:
-            changed = self._changed(before)
+            changed, now = self._changed(before)
         except (TimeoutError, KeyError, TypeError) as exc:
             return Outcome(case, "hang", f"the planning_server stopped answering: {exc}")
         if changed is not None:
-            return Outcome(case, changed[0], f"{changed[1]}; answer: {detail}")
+            return Outcome(case, changed[0], f"{changed[1]} (in this case, or late after an earlier one); "
+                                             f"answer: {detail}")
+        self._left = now
         return Outcome(case, "refused", f"{detail} ({time.monotonic() - started:.2f} s)")
 
     @staticmethod
@@ -295,8 +328,8 @@ class Runner:
         controllers (their topics, move_group's and the controllers' action goals) or the scene
         without an answer (topics). A move_group service (plan, IK, FK, validity, Cartesian path,
         scene apply, planner parameters) commands no motion, and its scene change, if any, is in
-        place when it answers, so the check right after it is the whole check (saves 0.3 s on
-        each of ~160 cases)."""
+        place when it answers, so the check right after it is the whole check (saves SETTLE_S on
+        each of ~490 cases)."""
         if case.interface in ("controller", "topic"):
             return True
         return case.interface == "moveit" and case.payload.kind == "action"
@@ -429,6 +462,12 @@ class Runner:
                 progress(k, outcome)
             if outcome.verdict == "crash":
                 break  # the rest would only repeat it
+        last = report.outcomes[-1] if report.outcomes else None
+        if last is not None and last.verdict == "refused" and self._left is not None:
+            time.sleep(LATE_S)  # what the last input did late has no next case to show up in
+            changed, _ = self._changed(self._left)
+            if changed is not None:
+                report.outcomes[-1] = Outcome(last.case, changed[0], f"{changed[1]} after the answer; {last.detail}")
         return report
 
 
