@@ -20,13 +20,14 @@ from typing import Any, Callable, Sequence
 import rclpy
 import yaml
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
-from rclpy.executors import Executor, ExternalShutdownException, MultiThreadedExecutor, SingleThreadedExecutor
+from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.exceptions import ParameterException, ParameterUninitializedException
 from rclpy.parameter import Parameter
 from rclpy.signals import SignalHandlerOptions
 
 from mycobot_planning.paths import use_fast_discovery
+from mycobot_planning.ros.executors import MultiThreadedExecutor
 
 
 Validator = Callable[[Any], str | None]  # returns an error sentence, or None when the value is fine

@@ -24,7 +24,6 @@ from geometry_msgs.msg import Pose
 from moveit_msgs.action import MoveGroup
 from moveit_msgs.msg import CollisionObject, Constraints, JointConstraint
 from rclpy.context import Context
-from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile
 from sensor_msgs.msg import JointState
@@ -38,6 +37,7 @@ from interfaces_py.msgs import CollisionObject as SceneObject
 from mycobot_planning.core import PlanningScene, RobotModel, RobotState
 from mycobot_planning.core.transforms import make_pose
 from mycobot_planning.ros.demos.robot_demos import Demo, run_demo
+from mycobot_planning.ros.executors import MultiThreadedExecutor
 
 ARM = ["link1_to_link2", "link2_to_link3", "link3_to_link4", "link4_to_link5", "link5_to_link6",
        "link6_to_link6_flange"]
