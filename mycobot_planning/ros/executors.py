@@ -1,5 +1,6 @@
-"""rclpy's MultiThreadedExecutor without its busy loop (rclpy issue #1452, fixed upstream after
-the rclpy 7.1.x that Jazzy ships).
+"""rclpy's MultiThreadedExecutor without its busy loop: rclpy issue #1452, fixed upstream by
+rclpy PR #1547 (November 2025), not in the rclpy 7.1.5 that ros-jazzy-rclpy 7.1.6 (pinned in
+scripts/requirements.txt) installs.
 
 rclpy's executor yields a handler again while it waits in the thread pool's queue, not yet
 started (its loop re-yields every task that is "not executing and not done"), and hands it to
