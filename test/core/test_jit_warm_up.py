@@ -27,3 +27,18 @@ def test_warm_up_compiles_every_kernel():
     assert warm_up() > 0.0
     missing = [f"{module.__name__}.{name}" for module, name in KERNELS if not getattr(module, name).signatures]
     assert not missing, f"not reached by the warm-up: {missing}"
+
+
+def test_warm_up_of_a_robot_builds_its_per_model_tables_before_the_first_plan():
+    """What the planning_server runs before it says it is ready, on another robot than the
+    myCobot: each group's once-per-model work is done, so the first plan does not pay it."""
+    from mycobot_planning.core import RobotModel
+    from mycobot_planning.core.collision_detection.collision import RobotCollisionInfo
+    from mycobot_planning.paths import example_robot_data_dir
+
+    root = example_robot_data_dir() / "xarm_description"
+    model = RobotModel.from_files(root / "urdf" / "xarm7.urdf", root / "srdf" / "xarm7.srdf")  # group xarm7
+    assert RobotCollisionInfo.for_model(model)._link_covers is None
+    assert warm_up(model) > 0.0
+    covers = RobotCollisionInfo.for_model(model)._link_covers
+    assert covers is not None and len(covers) == len(RobotCollisionInfo.for_model(model).geometry_objects)

@@ -34,6 +34,7 @@ from mycobot_planning.capabilities.json_face import (
     goal_from_parameters,
 )
 from mycobot_planning.behavior_tree.behaviors.waypoints import WaypointStore
+from mycobot_planning.core.jit_warm_up import warm_up
 from mycobot_planning.core.planning_interface.planning_workers import PlanningSetup, PlanningWorkers
 from mycobot_planning.core.robot_model.robot_config import RobotConfig
 from mycobot_planning.core.robot_model.robot_model import RobotModel
@@ -235,6 +236,7 @@ class PlanningServer(Node):
                                            self._log)
         self.move_group.publish_scene()
         self._monitor_spin = BackgroundSpin(self._monitor_executor, name="state monitor")
+        self._warm_up(model)
         log.info(
             f"planning_server ready: robot '{model.name}', groups {model.group_names}, pipelines "
             f"{pipeline.pipeline_ids}, controllers "
@@ -242,6 +244,17 @@ class PlanningServer(Node):
         )
 
     # ------------------------------------------------------------------ set-up
+    def _warm_up(self, model: RobotModel) -> None:
+        """What the first plan would otherwise pay out of its allowed_planning_time (the compiled
+        kernels loaded, each group's once-per-model tables: core/jit_warm_up.py), done before
+        the server says it is ready."""
+        try:
+            seconds = warm_up(model)
+        except Exception as exc:  # a warm-up problem only costs the first request time
+            self.get_logger().warning(f"warm-up skipped ({type(exc).__name__}: {exc}): the first plan pays for it")
+            return
+        self.get_logger().info(f"warmed up in {seconds:.2f} s (compiled kernels, each group's tables)")
+
     def _config_path(self, parameter: str, config_key: str) -> str | None:
         """A file parameter's value, else the robot_config directory's file of that kind, else None
         (the package's default)."""
