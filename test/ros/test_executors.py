@@ -10,29 +10,23 @@ import threading
 from typing import Any, Iterator
 
 import pytest
-import rclpy
 from rclpy.callback_groups import ReentrantCallbackGroup
-from rclpy.context import Context
-from rclpy.node import Node
 from rclpy.qos import QoSProfile
 from rclpy.task import Future
 from std_msgs.msg import String
 
 from mycobot_planning.ros.executors import MultiThreadedExecutor
-from ros_testing import use_session_domain, wait_until
+from ros_testing import ProbeNode, use_session_domain, wait_until
 
 MESSAGES = 300
 
 
-class Spun:
-    """A node on the executor, spinning on a thread; every hand-over to the pool is recorded."""
+class Spun(ProbeNode):
+    """A probe node on the executor, spinning in the background; every hand-over to the pool is
+    recorded."""
 
     def __init__(self) -> None:
-        self.context = Context()
-        rclpy.init(context=self.context)
-        self.node = Node("executor_probe", context=self.context)
-        self.executor = MultiThreadedExecutor(num_threads=4, context=self.context)
-        self.executor.add_node(self.node)
+        super().__init__("executor_probe", executor=lambda context: MultiThreadedExecutor(num_threads=4, context=context))
         self.handed: list[Any] = []
         submit = self.executor._executor.submit
 
@@ -41,14 +35,7 @@ class Spun:
             return submit(fn, *args)
 
         self.executor._executor.submit = recorded
-        self.thread = threading.Thread(target=self.executor.spin, daemon=True)
-        self.thread.start()
-
-    def close(self) -> None:
-        self.executor.shutdown()
-        self.node.destroy_node()
-        rclpy.try_shutdown(context=self.context)
-        self.thread.join(5.0)
+        self.spin_in_background()
 
 
 @pytest.fixture
