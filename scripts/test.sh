@@ -19,5 +19,10 @@ status=0
 echo "[test] 1/2: the tests without ROS nodes, on 2 workers"
 "${PYTEST[@]}" -m "not ros" -n 2 --dist loadfile || status=$?
 echo "[test] 2/2: the ROS tests (the 25 slowest listed at the end: where the suite's time goes)"
+# Fast DDS keeps its shared-memory ports in /dev/shm, and those of processes that died unclean
+# (killed nodes, earlier runs) stay behind; one run here failed every test after a node could no
+# longer open such a port ("open_and_lock_file failed"). `fastdds shm clean` removes only the
+# files no live process holds.
+echo "[test] Fast DDS shared memory: $("$ROOT/.venv/bin/fastdds" shm clean 2>&1 | tail -3 | tr '\n' ' ')"
 "${PYTEST[@]}" -m ros --durations=25 || status=$((status > 0 ? status : $?))
 exit "$status"
